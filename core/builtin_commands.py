@@ -1,0 +1,1 @@
+"""Built-in plugin: the core ``armtree`` subcommands (check, show, plugins, schema)."""

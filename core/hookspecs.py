@@ -1,0 +1,149 @@
+"""Hook specifications: the whole contract between armtree and its plugins.
+
+This module is the reference for plugin authors. A plugin is a module (or
+object) with functions marked ``@armtree.hookimpl`` whose names match the hooks
+below. armtree finds plugins in three places: the ``armtree`` entry-point group
+of installed distributions, ``--plugin MODULE_OR_FILE`` on the command line, and
+a ``plugins:`` list in a tree or profile. ``-p no:NAME`` blocks one; setting
+``ARMTREE_DISABLE_PLUGIN_AUTOLOAD`` skips third-party entry points.
+
+A plugin implements only the hooks it needs. Argument names must match the
+specification (pluggy checks them when the plugin is registered).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import pluggy
+
+if TYPE_CHECKING:
+    from .rig import Rig, RigContext
+    from .runtime import Run, RunResult
+
+hookspec = pluggy.HookspecMarker("armtree")
+hookimpl = pluggy.HookimplMarker("armtree")
+
+# ---------------------------------------------------------------------------
+# Registration: called once when the plugin manager builds its registry.
+# Each returns ``{name: factory}``; the dicts of all plugins are merged and a
+# name registered by two plugins is an error naming both.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_behaviours() -> dict[str, Any]:
+    """Register behaviours usable as node types in tree files.
+
+    :return: ``{node_type: factory}`` where ``node_type`` is the snake_case key
+        used in YAML and ``factory`` is a :class:`armtree.Behaviour` subclass.
+        Its ``PARAMS`` (a tuple of :class:`armtree.Param`) declares every
+        parameter, so the loader validates trees before anything runs; its
+        docstring's first line is the description ``armtree plugins`` shows.
+
+    Called once per plugin-manager, when the registry is first needed.
+    """
+
+
+@hookspec
+def armtree_arms() -> dict[str, Any]:
+    """Register arm types for a profile's ``arm: {type: ...}``.
+
+    :return: ``{type: factory}``; ``factory(config, context)`` receives the
+        profile's ``arm`` mapping (validated against ``factory.PARAMS`` when the
+        factory declares them) and a :class:`armtree.rig.RigContext`, and returns
+        a connected-on-demand :class:`armtree.rig.ArmDriver`. A factory may also
+        offer ``factory.model(config)`` returning the arm's
+        :class:`armtree.kinematics.KinematicModel` without opening a port.
+    """
+
+
+@hookspec
+def armtree_cameras() -> dict[str, Any]:
+    """Register camera types for a profile's ``camera: {type: ...}``.
+
+    :return: ``{type: factory}``; ``factory(config, context)`` returns an
+        :class:`armtree.rig.Camera`.
+    """
+
+
+@hookspec
+def armtree_trackers() -> dict[str, Any]:
+    """Register marker trackers for a profile's ``tracker: {type: ...}``.
+
+    :return: ``{type: factory}``; ``factory(config, context)`` returns an
+        :class:`armtree.rig.Tracker`.
+    """
+
+
+@hookspec
+def armtree_planners() -> dict[str, Any]:
+    """Register motion planners for a profile's ``planner: {type: ...}``.
+
+    :return: ``{type: factory}``; ``factory(config, context, model, scene)``
+        returns an :class:`armtree.rig.Planner` for the arm ``model`` among the
+        obstacles of ``scene``.
+    """
+
+
+@hookspec
+def armtree_commands() -> dict[str, Any]:
+    """Add subcommands to the ``armtree`` command line.
+
+    :return: ``{name: command}``; ``command.help`` is a one-line summary,
+        ``command.configure(parser)`` adds arguments to an
+        :class:`argparse.ArgumentParser` and ``command.run(args)`` returns the
+        exit code (0 ok, 1 failed, 2 bad input, 3 hardware fault).
+    """
+
+
+@hookspec
+def armtree_rig_ready(rig: Rig, context: RigContext) -> None:
+    """Every component of a rig has been built; wire components that work together.
+
+    :param rig: the :class:`armtree.rig.Rig` about to be handed to the tree.
+    :param context: the :class:`armtree.rig.RigContext` its factories shared;
+        append to ``context.steppers`` to be advanced every tick.
+
+    The built-in simulation uses it to put the emulated arm into its world.
+    Called before any behaviour is set up and before the run starts.
+    """
+
+
+# ---------------------------------------------------------------------------
+# Run lifecycle: for loggers, monitors and scorers. Called by the runtime on
+# its own thread; an exception raised here is reported and the run goes on.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_run_started(run: Run) -> None:
+    """A run has validated its tree, built its rig and is about to tick.
+
+    :param run: the :class:`armtree.runtime.Run` (tree, rig, clock, log).
+    """
+
+
+@hookspec
+def armtree_tick(run: Run) -> None:
+    """The tree has just been ticked once; ``run.tick_count`` says which tick.
+
+    Keep it cheap: it is called at the tree's tick rate.
+    """
+
+
+@hookspec
+def armtree_interrupt(run: Run, reason: str) -> None:
+    """The run is being interrupted (signal, stop key, e-stop, lost link).
+
+    :param reason: a short text such as ``"SIGINT"`` or ``"link lost on /dev/ttyUSB0"``.
+        Called before running behaviours are halted.
+    """
+
+
+@hookspec
+def armtree_run_finished(run: Run, result: RunResult) -> None:
+    """The run has ended and its behaviours are halted; the log is still open.
+
+    :param result: the :class:`armtree.runtime.RunResult` about to be returned.
+    """

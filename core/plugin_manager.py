@@ -1,0 +1,237 @@
+"""Finding, loading and checking plugins, and the registry of what they provide.
+
+The only global state in armtree is the plugin manager a process builds; tests
+and embedding applications can make their own with :class:`PluginManager`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.metadata
+import importlib.util
+import os
+import sys
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pluggy
+
+from . import hookspecs
+from .errors import ConfigError, Mark
+
+ENTRY_POINT_GROUP = "armtree"
+DISABLE_AUTOLOAD_ENV = "ARMTREE_DISABLE_PLUGIN_AUTOLOAD"
+OWN_DISTRIBUTION = "armtree"
+
+#: Component kind -> registration hook.
+KINDS: dict[str, str] = {
+    "behaviour": "armtree_behaviours",
+    "arm": "armtree_arms",
+    "camera": "armtree_cameras",
+    "tracker": "armtree_trackers",
+    "planner": "armtree_planners",
+    "command": "armtree_commands",
+}
+
+
+@dataclass(frozen=True)
+class Component:
+    """One registered factory: its kind, name, and the plugin and distribution it came from."""
+
+    kind: str
+    name: str
+    factory: Any
+    plugin: str
+    distribution: str | None
+
+    @property
+    def summary(self) -> str:
+        """First line of the factory's docstring."""
+        doc = getattr(self.factory, "__doc__", None) or ""
+        return doc.strip().splitlines()[0] if doc.strip() else ""
+
+    @property
+    def params(self) -> tuple[Any, ...]:
+        """The factory's declared parameters (``PARAMS``), possibly empty."""
+        return tuple(getattr(self.factory, "PARAMS", ()))
+
+
+class PluginManager:
+    """pluggy's manager plus armtree's rules for finding and checking plugins.
+
+    ``blocked`` names plugins not to load (``-p no:NAME``); ``autoload=False``
+    (or the environment variable ``ARMTREE_DISABLE_PLUGIN_AUTOLOAD``) skips
+    entry points of other distributions, keeping armtree's own built-ins.
+    """
+
+    def __init__(self, blocked: Iterable[str] = (), autoload: bool | None = None) -> None:
+        self.pm = pluggy.PluginManager("armtree")
+        self.pm.add_hookspecs(hookspecs)
+        self.blocked = set(blocked)
+        if autoload is None:
+            autoload = not os.environ.get(DISABLE_AUTOLOAD_ENV)
+        self.autoload = autoload
+        self._distributions: dict[str, str | None] = {}
+        self._registry: Registry | None = None
+
+    @property
+    def hook(self) -> Any:
+        """pluggy's hook relay: ``manager.hook.armtree_tick(run=run)``."""
+        return self.pm.hook
+
+    def load_entry_points(self) -> None:
+        """Load every ``armtree`` entry point one by one, naming any that fails."""
+        for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+            dist = ep.dist.name if ep.dist is not None else None
+            if ep.name in self.blocked or self.pm.has_plugin(ep.name):
+                continue
+            if not self.autoload and dist != OWN_DISTRIBUTION:
+                continue
+            try:
+                plugin = ep.load()
+            except Exception as exc:  # noqa: BLE001 - any import failure is reported the same way
+                raise ConfigError(
+                    f"plugin {ep.name!r} (entry point {ep.value!r} of distribution "
+                    f"{dist or 'unknown'}) failed to import: {type(exc).__name__}: {exc}. "
+                    f"Fix or reinstall {dist or 'the distribution'}, or skip it with "
+                    f"-p no:{ep.name}",
+                    file=ep.value,
+                ) from exc
+            self.register(plugin, ep.name, dist)
+
+    def load(self, spec: str, where: Mark | None = None) -> None:
+        """Load a plugin given as a module name or a ``.py`` file path."""
+        name = Path(spec).stem if spec.endswith(".py") else spec
+        if name in self.blocked or self.pm.has_plugin(name):
+            return
+        try:
+            if spec.endswith(".py") or os.sep in spec:
+                path = Path(spec)
+                if not path.is_file():
+                    raise FileNotFoundError(f"no file {spec}")
+                mod_name = f"armtree_plugin_{path.stem}"
+                loader_spec = importlib.util.spec_from_file_location(mod_name, path)
+                assert loader_spec is not None and loader_spec.loader is not None
+                module = importlib.util.module_from_spec(loader_spec)
+                sys.modules[mod_name] = module
+                loader_spec.loader.exec_module(module)
+            else:
+                module = importlib.import_module(spec)
+        except Exception as exc:  # noqa: BLE001
+            raise ConfigError(
+                f"plugin {spec!r} failed to import: {type(exc).__name__}: {exc}. "
+                "Give an importable module name or a path to a .py file",
+                file=where.file if where else None,
+                line=where.line if where else None,
+                column=where.column if where else None,
+            ) from exc
+        self.register(module, name, None)
+
+    def register(self, plugin: Any, name: str, distribution: str | None = None) -> None:
+        """Register one plugin object, turning pluggy's validation errors into ConfigErrors."""
+        try:
+            self.pm.register(plugin, name=name)
+            self.pm.check_pending()
+        except pluggy.PluginValidationError as exc:
+            if self.pm.is_registered(plugin):
+                self.pm.unregister(plugin)
+            where = f" from distribution {distribution}" if distribution else ""
+            raise ConfigError(
+                f"plugin {name!r}{where} is invalid: {exc}. Hook names must be ones listed in "
+                "armtree.hookspecs and their arguments must match the specification",
+                file=getattr(plugin, "__file__", None),
+            ) from exc
+        self._distributions[name] = distribution
+        self._registry = None
+
+    @property
+    def registry(self) -> Registry:
+        """Every registered component, built on first use and after each new plugin."""
+        if self._registry is None:
+            self._registry = Registry(self._collect())
+        return self._registry
+
+    def _collect(self) -> dict[str, dict[str, Component]]:
+        found: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS}
+        for kind, hook_name in KINDS.items():
+            caller = getattr(self.pm.hook, hook_name)
+            for impl in caller.get_hookimpls():
+                plugin_name = self.pm.get_name(impl.plugin) or repr(impl.plugin)
+                result = impl.function()
+                if result is None:
+                    continue
+                if not isinstance(result, dict):
+                    raise ConfigError(
+                        f"plugin {plugin_name!r}: {hook_name}() must return a dict of "
+                        f"{{name: factory}}, got {type(result).__name__}"
+                    )
+                for name, factory in result.items():
+                    if name in found[kind]:
+                        other = found[kind][name]
+                        raise ConfigError(
+                            f"{kind} {name!r} is registered twice: by plugin {other.plugin!r} "
+                            f"({other.distribution or 'not installed'}) and by plugin "
+                            f"{plugin_name!r} ({self._distributions.get(plugin_name) or 'not installed'}). "
+                            f"Rename one, or block one with -p no:{plugin_name}"
+                        )
+                    found[kind][name] = Component(
+                        kind, name, factory, plugin_name, self._distributions.get(plugin_name)
+                    )
+        return found
+
+
+class Registry:
+    """Lookup of registered components by kind and name, with did-you-mean errors."""
+
+    def __init__(self, components: dict[str, dict[str, Component]]) -> None:
+        self._components = components
+
+    def names(self, kind: str) -> list[str]:
+        """Sorted names registered for ``kind``."""
+        return sorted(self._components[kind])
+
+    def all(self) -> list[Component]:
+        """Every component, sorted by kind then name."""
+        return [c for kind in KINDS for _, c in sorted(self._components[kind].items())]
+
+    def has(self, kind: str, name: str) -> bool:
+        """True when ``name`` is registered for ``kind``."""
+        return name in self._components[kind]
+
+    def get(self, kind: str, name: str, where: Mark | None = None) -> Component:
+        """The component, or a ConfigError with a did-you-mean suggestion at ``where``."""
+        try:
+            return self._components[kind][name]
+        except KeyError:
+            raise ConfigError(
+                f"unknown {kind} {name!r}{did_you_mean(name, self.names(kind))}",
+                file=where.file if where else None,
+                line=where.line if where else None,
+                column=where.column if where else None,
+            ) from None
+
+
+def did_you_mean(name: str, options: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest option, or a list of the choices."""
+    import difflib
+
+    options = sorted(options)
+    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    if len(options) <= 12:
+        return f"; choose one of: {', '.join(options)}" if options else ""
+    return ""
+
+
+def make_plugin_manager(
+    plugins: Iterable[str] = (), blocked: Iterable[str] = (), autoload: bool | None = None
+) -> PluginManager:
+    """A plugin manager with entry points loaded and ``plugins`` (modules or files) added."""
+    manager = PluginManager(blocked=blocked, autoload=autoload)
+    manager.load_entry_points()
+    for spec in plugins:
+        manager.load(spec)
+    return manager

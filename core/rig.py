@@ -1,0 +1,361 @@
+"""What a behaviour is handed: the rig (arm, camera, tracker, planner, tags, places).
+
+These are the interfaces plugins implement. A skill programs against them and
+never imports a plugin module, so the same tree drives the simulation and the
+bench. Units: millimetres and degrees; times in seconds on the run's clock.
+"""
+
+from __future__ import annotations
+
+import enum
+import threading
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .clock import Clock
+from .errors import HardwareFault, PlanningError, Unreachable
+from .kinematics import KinematicModel
+
+# ---------------------------------------------------------------------------
+# Motion
+# ---------------------------------------------------------------------------
+
+
+class MotionStatus(enum.Enum):
+    """Where a commanded motion is: queued, under way, finished, failed or stopped."""
+
+    PENDING = "pending"
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+    STOPPED = "stopped"
+
+
+class MotionHandle:
+    """Progress of one command to an arm, updated by the driver's thread.
+
+    A behaviour polls it from ``update()``; it never blocks. ``error`` holds the
+    :class:`HardwareFault` or refusal that ended a FAILED motion.
+    """
+
+    def __init__(self, description: str, target: np.ndarray | None = None) -> None:
+        self.description = description
+        self.target = target
+        self._status = MotionStatus.PENDING
+        self._progress = 0.0
+        self.error: Exception | None = None
+        self._lock = threading.Lock()
+        self._finished = threading.Event()
+
+    @property
+    def status(self) -> MotionStatus:
+        """The current :class:`MotionStatus`."""
+        with self._lock:
+            return self._status
+
+    @property
+    def progress(self) -> float:
+        """Fraction done, 0 to 1."""
+        with self._lock:
+            return self._progress
+
+    @property
+    def done(self) -> bool:
+        """True once the motion ended in any way."""
+        return self._finished.is_set()
+
+    def update(self, status: MotionStatus, progress: float | None = None,
+               error: Exception | None = None) -> None:
+        """Driver side: record new status; terminal statuses are final."""
+        with self._lock:
+            if self._finished.is_set():
+                return
+            self._status = status
+            if progress is not None:
+                self._progress = min(1.0, max(0.0, progress))
+            if error is not None:
+                self.error = error
+            if status in (MotionStatus.DONE, MotionStatus.FAILED, MotionStatus.STOPPED):
+                if status is MotionStatus.DONE:
+                    self._progress = 1.0
+                self._finished.set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until finished (for scripts and tests, never inside a tick)."""
+        return self._finished.wait(timeout)
+
+    def __repr__(self) -> str:
+        return f"<MotionHandle {self.description} {self.status.value} {self.progress:.0%}>"
+
+
+@dataclass
+class ToolState:
+    """The end effector as last reported: suction on/off, gripper opening (deg or mm)."""
+
+    suction: bool = False
+    gripper: float | None = None
+
+
+class ArmDriver(ABC):
+    """A connected arm. Serial I/O runs on the driver's own thread.
+
+    Every method returns at once. Targets are checked against the model's
+    limits and reachability before a byte is sent; a refused target gives a
+    FAILED handle whose ``error`` is an :class:`~armtree.errors.Unreachable`.
+    """
+
+    #: The arm's kinematic model.
+    model: KinematicModel
+    #: The port or device this driver talks to, for messages.
+    device: str = ""
+
+    @abstractmethod
+    def connect(self) -> None:
+        """Open the link and wait for the arm to report; raise :class:`HardwareFault`."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Stop and release the port. Safe to call twice."""
+
+    @abstractmethod
+    def joints(self) -> np.ndarray:
+        """Joint positions as last reported by the arm, degrees / mm."""
+
+    @abstractmethod
+    def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Move to joint target ``q`` (degrees / mm) at ``speed`` (fraction of maximum)."""
+
+    @abstractmethod
+    def move_to(self, xyz: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Move the tool centre to ``xyz`` (mm, base frame)."""
+
+    @abstractmethod
+    def set_suction(self, on: bool) -> MotionHandle:
+        """Switch the suction pump; DONE when the arm has acknowledged it."""
+
+    @abstractmethod
+    def stop(self) -> None:
+        """Stop motion at once (decelerating as the firmware does); keep the tool state."""
+
+    def set_gripper(self, opening: float) -> MotionHandle:
+        """Set the gripper opening (degrees of the gripper servo, or mm)."""
+        handle = MotionHandle("gripper")
+        handle.update(MotionStatus.FAILED, error=HardwareFault("this arm has no gripper",
+                                                                self.device))
+        return handle
+
+    def home(self) -> MotionHandle:
+        """Go to the model's home configuration (arms with end stops home on them)."""
+        return self.move_joints(self.model.home)
+
+    def pose(self) -> np.ndarray:
+        """Tool pose from the reported joints, 4x4, mm."""
+        return self.model.fk(self.joints())
+
+    @property
+    def tool(self) -> ToolState:
+        """The tool as last reported."""
+        return ToolState()
+
+    @property
+    def fault(self) -> HardwareFault | None:
+        """The fault that stopped the link, if any."""
+        return None
+
+
+# ---------------------------------------------------------------------------
+# Vision
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class Frame:
+    """One camera image with what is needed to measure in it.
+
+    ``image`` is ``HxWx3`` BGR or ``HxW`` grey uint8; ``camera_matrix`` is 3x3 in
+    pixels; ``distortion`` holds OpenCV's (k1, k2, p1, p2, k3); ``timestamp`` is
+    seconds on the run's clock.
+    """
+
+    image: np.ndarray
+    timestamp: float
+    camera_matrix: np.ndarray
+    distortion: np.ndarray
+    index: int = 0
+
+
+@dataclass
+class Detection:
+    """A marker found in a frame.
+
+    ``corners`` is ``(4, 2)`` pixels in OpenCV's order (top-left, top-right,
+    bottom-right, bottom-left of the marker as printed). ``rvec`` (Rodrigues,
+    radians) and ``tvec`` (mm) give the marker's pose in the camera frame when
+    its size is known. ``quality`` is the reprojection error in pixels (aruco)
+    or the number of bit errors corrected (hamming).
+    """
+
+    id: int
+    corners: np.ndarray
+    family: str = "aruco"
+    rvec: np.ndarray | None = None
+    tvec: np.ndarray | None = None
+    quality: float = 0.0
+    role: str = "unknown"
+    size_mm: float | None = None
+    ambiguous: bool = False
+
+
+class Camera(ABC):
+    """A source of frames. Capture runs on its own thread; :meth:`read` never blocks."""
+
+    #: ``"eye_in_hand"`` (on the tool) or ``"eye_to_hand"`` (fixed).
+    mount: str = "eye_to_hand"
+    #: Camera pose: in the tool frame (eye-in-hand) or base frame (eye-to-hand), 4x4 mm.
+    extrinsics: np.ndarray = np.eye(4)
+
+    @abstractmethod
+    def start(self) -> None:
+        """Open the device; raise :class:`HardwareFault` naming it if it cannot."""
+
+    @abstractmethod
+    def read(self) -> Frame | None:
+        """The newest frame, or None if none arrived since the last call."""
+
+    def close(self) -> None:  # noqa: B027 - optional for cameras with nothing to release
+        """Release the device."""
+
+
+class Tracker(ABC):
+    """Finds markers in a frame."""
+
+    @abstractmethod
+    def detect(self, frame: Frame) -> list[Detection]:
+        """Every marker in ``frame``, one detection per physical marker."""
+
+
+# ---------------------------------------------------------------------------
+# Planning
+# ---------------------------------------------------------------------------
+
+
+class Planner(ABC):
+    """Finds a collision-free joint path for the rig's arm (:attr:`model`)."""
+
+    model: KinematicModel
+
+    @abstractmethod
+    def plan(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """Waypoints ``(N, n)`` in degrees / mm from ``start`` to ``goal`` joints.
+
+        Raises :class:`~armtree.errors.PlanningError` with a reason when there is none.
+        """
+
+    def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+        """Waypoints to a Cartesian tool position (mm).
+
+        Inverse-kinematics solutions are tried nearest-first, as the UR5 report
+        (seed 002) sorts them; the last refusal is raised if none has a path.
+        """
+        start = np.asarray(start, dtype=float)
+        sols = self.model.ik_all(np.asarray(xyz, dtype=float))
+        sols = sols[np.all(np.isfinite(sols), axis=-1)]
+        if len(sols) == 0:
+            raise Unreachable(f"{self.model.name}: {np.round(xyz, 2).tolist()} mm is unreachable")
+        last: PlanningError | None = None
+        for q in sols[np.argsort(np.linalg.norm(sols - start, axis=-1))]:
+            try:
+                return self.plan(start, q)
+            except PlanningError as exc:
+                last = exc
+        assert last is not None
+        raise last
+
+
+# ---------------------------------------------------------------------------
+# The rig
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TagSpec:
+    """A marker role from the profile's ``tags:`` section."""
+
+    role: str
+    ids: tuple[int, ...]
+    size_mm: float
+
+
+@dataclass
+class RigContext:
+    """What a component factory receives besides its own configuration.
+
+    ``shared`` is scoped to one rig (for example the simulated world that the
+    sim arm and sim camera both use); ``interrupt`` lets a component halt the
+    tree (an e-stop, a lost link) from any thread.
+    """
+
+    profile: Any
+    clock: Clock
+    seed: int = 0
+    shared: dict[str, Any] = field(default_factory=dict)
+    interrupt: Callable[[str, HardwareFault | None], None] = lambda reason, fault=None: None
+    record_dir: Any = None
+    #: Called once per tick with the run's time, in order of registration (the sim's
+    #: emulators then its world). On a virtual clock a stepper returns only when its
+    #: component has caught up with that time, so runs are deterministic.
+    steppers: list[Callable[[float], None]] = field(default_factory=list)
+    #: Called when the rig closes, newest first.
+    closers: list[Callable[[], None]] = field(default_factory=list)
+
+
+@dataclass
+class Rig:
+    """The hardware a tree runs on, built from a profile. Handed to every behaviour."""
+
+    profile: Any
+    clock: Clock
+    arm: ArmDriver | None = None
+    camera: Camera | None = None
+    tracker: Tracker | None = None
+    planner: Planner | None = None
+    tags: dict[str, TagSpec] = field(default_factory=dict)
+    places: dict[str, list[float]] = field(default_factory=dict)
+    #: Per-tick hooks of components that must advance with the run (the sim).
+    steppers: list[Callable[[float], None]] = field(default_factory=list)
+    #: Things to close when the run ends, newest first.
+    closers: list[Callable[[], None]] = field(default_factory=list)
+
+    def role_of(self, marker_id: int) -> TagSpec | None:
+        """The tag spec whose ids include ``marker_id``."""
+        for spec in self.tags.values():
+            if marker_id in spec.ids:
+                return spec
+        return None
+
+    def step(self, now: float) -> None:
+        """Advance every stepping component to ``now`` (seconds); called once per tick."""
+        for stepper in self.steppers:
+            stepper(now)
+
+    def stop(self) -> None:
+        """Tell the arm to stop at once; never raises."""
+        if self.arm is not None:
+            try:
+                self.arm.stop()
+            except Exception:  # noqa: BLE001 - stopping must not fail the shutdown
+                pass
+
+    def close(self) -> None:
+        """Stop and release everything; never raises."""
+        self.stop()
+        while self.closers:
+            closer = self.closers.pop()
+            try:
+                closer()
+            except Exception:  # noqa: BLE001
+                pass

@@ -1,0 +1,48 @@
+"""A loaded tree: the py_trees root plus what the runtime needs to run and report it."""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import py_trees
+
+from .errors import Mark
+
+
+@dataclass(frozen=True)
+class NodeInfo:
+    """Where a node came from: its path in the tree (``"Load a ducky/pick"``),
+    its node type and the YAML position of its definition."""
+
+    path: str
+    type: str
+    mark: Mark | None
+
+
+@dataclass
+class Tree:
+    """A validated tree ready to run.
+
+    ``root`` is a py_trees behaviour; ``nodes`` maps each behaviour's ``id`` to
+    its :class:`NodeInfo`; ``profile`` is the validated hardware profile
+    (``None`` when the tree needs no rig); ``blackboard`` holds the initial
+    values (the file's plus ``--set`` overrides); ``tick_hz`` is the tick rate.
+    """
+
+    name: str
+    root: py_trees.behaviour.Behaviour
+    source: Path | None
+    tick_hz: float = 20.0
+    description: str = ""
+    blackboard: dict[str, Any] = field(default_factory=dict)
+    nodes: dict[uuid.UUID, NodeInfo] = field(default_factory=dict)
+    profile: Any = None
+    plugins: list[str] = field(default_factory=list)
+    manager: Any = None
+
+    def info(self, behaviour: py_trees.behaviour.Behaviour) -> NodeInfo | None:
+        """The source information of one behaviour of this tree."""
+        return self.nodes.get(behaviour.id)

@@ -1,0 +1,1 @@
+"""Registration of the built-in dh plugin (filled in as the components land)."""

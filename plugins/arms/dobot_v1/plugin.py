@@ -1,0 +1,1 @@
+"""Registration of the built-in dobot_v1 plugin (filled in as the components land)."""

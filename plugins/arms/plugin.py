@@ -1,0 +1,1 @@
+"""Commands shared by the arm plugins (``armtree emulate``)."""

@@ -1,0 +1,1 @@
+"""Registration of the built-in vicra plugin (filled in as the components land)."""

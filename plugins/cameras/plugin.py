@@ -1,0 +1,1 @@
+"""Registration of the built-in cameras plugin (filled in as the components land)."""

@@ -1,0 +1,1 @@
+"""Registration of the built-in sim plugin (filled in as the components land)."""
