@@ -7,6 +7,7 @@ bench. Units: millimetres and degrees; times in seconds on the run's clock.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import threading
 from abc import ABC, abstractmethod
@@ -68,8 +69,9 @@ class MotionHandle:
         """True once the motion ended in any way."""
         return self._finished.is_set()
 
-    def update(self, status: MotionStatus, progress: float | None = None,
-               error: Exception | None = None) -> None:
+    def update(
+        self, status: MotionStatus, progress: float | None = None, error: Exception | None = None
+    ) -> None:
         """Driver side: record new status; terminal statuses are final."""
         with self._lock:
             if self._finished.is_set():
@@ -144,8 +146,9 @@ class ArmDriver(ABC):
     def set_gripper(self, opening: float) -> MotionHandle:
         """Set the gripper opening (degrees of the gripper servo, or mm)."""
         handle = MotionHandle("gripper")
-        handle.update(MotionStatus.FAILED, error=HardwareFault("this arm has no gripper",
-                                                                self.device))
+        handle.update(
+            MotionStatus.FAILED, error=HardwareFault("this arm has no gripper", self.device)
+        )
         return handle
 
     def home(self) -> MotionHandle:
@@ -345,17 +348,13 @@ class Rig:
     def stop(self) -> None:
         """Tell the arm to stop at once; never raises."""
         if self.arm is not None:
-            try:
+            with contextlib.suppress(Exception):  # stopping must not fail the shutdown
                 self.arm.stop()
-            except Exception:  # noqa: BLE001 - stopping must not fail the shutdown
-                pass
 
     def close(self) -> None:
         """Stop and release everything; never raises."""
         self.stop()
         while self.closers:
             closer = self.closers.pop()
-            try:
+            with contextlib.suppress(Exception):
                 closer()
-            except Exception:  # noqa: BLE001
-                pass

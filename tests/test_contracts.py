@@ -27,9 +27,17 @@ def test_virtual_clock_only_moves_forward():
 
 @pytest.mark.parametrize(
     ("ptype", "value", "ok"),
-    [("int", 3, True), ("int", True, False), ("int", "3", False), ("float", 2, True),
-     ("float", float("nan"), False), ("vector", [1, 2.5], True), ("vector", [1, "a"], False),
-     ("bool", 1, False), ("str", "x", True)],
+    [
+        ("int", 3, True),
+        ("int", True, False),
+        ("int", "3", False),
+        ("float", 2, True),
+        ("float", float("nan"), False),
+        ("vector", [1, 2.5], True),
+        ("vector", [1, "a"], False),
+        ("bool", 1, False),
+        ("str", "x", True),
+    ],
 )
 def test_check_value_types(ptype, value, ok):
     param = Param("p", ptype)
