@@ -10,6 +10,7 @@ from .behaviour import Behaviour
 from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
 from .hookspecs import hookimpl, hookspec
 from .params import REQUIRED, Binding, Param
+from .runtime import Run, RunResult, run
 
 __version__ = "0.1.0"
 
@@ -21,7 +22,10 @@ __all__ = [
     "HardwareFault",
     "Param",
     "PlanningError",
+    "Run",
+    "RunResult",
     "Unreachable",
     "hookimpl",
     "hookspec",
+    "run",
 ]

@@ -10,6 +10,11 @@ Lifecycle is py_trees' own (see :class:`py_trees.behaviour.Behaviour`):
 * ``update()``: every tick; poll motion handles and frames, never block.
 * ``terminate(new_status)``: on SUCCESS, FAILURE or INVALID (halted); stop
   what this behaviour started.
+* ``halting()``: after a halt (``terminate(INVALID)``), return True while the
+  hardware this behaviour commanded is still reaching a safe state (an arm
+  decelerating, a pump releasing); the runtime keeps advancing the clock and
+  the rig, without ticking the tree, until every behaviour returns False or
+  the run's stop timeout expires. It must not block.
 
 A behaviour that commands the arm, the tool or a pan-tilt head lists them in
 :attr:`RESOURCES`; the runtime halts the previous owner before this one's
@@ -74,6 +79,10 @@ class Behaviour(py_trees.behaviour.Behaviour):
         if self.status != py_trees.common.Status.RUNNING and self.RESOURCES and self.runtime:
             self.runtime.claim(self, self.RESOURCES)
         yield from super().tick()
+
+    def halting(self) -> bool:
+        """True while still reaching a safe state after a halt; the default needs no time."""
+        return False
 
     def now(self) -> float:
         """Seconds on the run's clock."""

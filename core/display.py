@@ -1,0 +1,187 @@
+"""What a run shows in the terminal: a live tree, plain status lines, or nothing; and the summary.
+
+* :class:`LiveView`: a rich Live rendering of the tree with each node's status,
+  redrawn at most ``max_hz`` times per wall-clock second however fast the
+  virtual clock ticks;
+* :class:`PlainView`: one line per status change, for logs and pipes;
+* :class:`NullView`: ``--quiet``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, TextIO
+
+import py_trees
+from py_trees.common import Status
+from rich.console import Console
+from rich.live import Live
+from rich.text import Text
+from rich.tree import Tree as RichTree
+
+if TYPE_CHECKING:
+    from .runtime import Run, RunResult
+
+#: (symbol, rich style) of each status.
+STYLES: dict[Status, tuple[str, str]] = {
+    Status.SUCCESS: ("✓", "green"),
+    Status.FAILURE: ("✗", "red"),
+    Status.RUNNING: ("*", "yellow"),
+    Status.INVALID: ("-", "dim"),
+}
+
+#: A status change: (node path, old status name, new status name).
+Change = tuple[str, str, str]
+
+
+class NullView:
+    """Shows nothing (``--quiet``)."""
+
+    def start(self, run: Run) -> None:
+        """Called once before the first tick."""
+
+    def update(self, run: Run, changes: Sequence[Change]) -> None:
+        """Called after a tick that changed at least one status."""
+
+    def message(self, text: str) -> None:
+        """An event worth telling the user (interrupt, preemption, hook error)."""
+
+    def stop(self, run: Run) -> None:
+        """Called once after the tree has been halted."""
+
+
+class PlainView(NullView):
+    """One line per status change, for a stdout that is not a terminal."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self.stream = stream if stream is not None else sys.stdout
+
+    def start(self, run: Run) -> None:
+        """Print the tree's name and clock."""
+        kind = "virtual" if run.clock.virtual else "wall"
+        self._print(f"run {run.tree.name}: {run.tick_hz:g} Hz on the {kind} clock")
+
+    def update(self, run: Run, changes: Sequence[Change]) -> None:
+        """Print each change with the tick and the run time."""
+        head = f"tick {run.tick_count} t={run.clock.now():.3f}s"
+        self._print("\n".join(f"{head} {path}: {old} -> {new}" for path, old, new in changes))
+
+    def message(self, text: str) -> None:
+        """Print an event line."""
+        self._print(text)
+
+    def _print(self, text: str) -> None:
+        self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+class LiveView(NullView):
+    """The tree with statuses, redrawn in place at most ``max_hz`` times per second."""
+
+    def __init__(self, console: Console | None = None, max_hz: float = 10.0) -> None:
+        self.console = console or Console()
+        self.min_interval = 1.0 / max_hz
+        self._live: Live | None = None
+        self._last = 0.0
+        self._messages: list[str] = []
+
+    def start(self, run: Run) -> None:
+        """Start the live display."""
+        self._live = Live(
+            self._render(run), console=self.console, auto_refresh=False, transient=False
+        )
+        self._live.start(refresh=True)
+        self._last = time.monotonic()
+
+    def update(self, run: Run, changes: Sequence[Change]) -> None:
+        """Redraw if the last redraw is older than the refresh interval."""
+        now = time.monotonic()
+        if self._live is not None and now - self._last >= self.min_interval:
+            self._last = now
+            self._live.update(self._render(run), refresh=True)
+
+    def message(self, text: str) -> None:
+        """Keep the last few events under the tree."""
+        self._messages = (self._messages + [text])[-5:]
+
+    def stop(self, run: Run) -> None:
+        """Draw the final state and stop the live display."""
+        if self._live is not None:
+            self._live.update(self._render(run), refresh=True)
+            self._live.stop()
+            self._live = None
+
+    def _render(self, run: Run) -> Any:
+        header = Text(
+            f"{run.tree.name}  tick {run.tick_count}  t={run.clock.now():.2f}s"
+            f"  overruns {run.overruns}   (q or Ctrl-C to stop)",
+            style="bold",
+        )
+        tree = render_tree(run.tree.root, header)
+        if self._messages:
+            from rich.console import Group
+
+            return Group(tree, *(Text(m, style="magenta") for m in self._messages))
+        return tree
+
+
+def render_tree(root: py_trees.behaviour.Behaviour, label: Any = None) -> RichTree:
+    """A rich tree of ``root`` with each node's status symbol, name and type."""
+    top = RichTree(label if label is not None else _label(root))
+    stack: list[tuple[py_trees.behaviour.Behaviour, RichTree]] = []
+    if label is not None:
+        stack.append((root, top.add(_label(root))))
+    else:
+        stack.append((root, top))
+    while stack:
+        node, branch = stack.pop()
+        for child in node.children:
+            stack.append((child, branch.add(_label(child))))
+    return top
+
+
+def _label(node: py_trees.behaviour.Behaviour) -> Text:
+    symbol, style = STYLES.get(node.status, ("?", ""))
+    text = Text(f"{symbol} ", style=style)
+    text.append(node.name, style=style if node.status != Status.INVALID else "")
+    text.append(f"  [{type(node).__name__}]", style="dim")
+    return text
+
+
+def make_view(quiet: bool, stream: TextIO | None = None) -> NullView:
+    """The view for a run: none when quiet, live on a terminal, plain lines otherwise."""
+    stream = stream if stream is not None else sys.stdout
+    if quiet:
+        return NullView()
+    if stream.isatty():
+        return LiveView(Console(file=stream))
+    return PlainView(stream)
+
+
+def summary(result: RunResult) -> str:
+    """The end-of-run summary: result, ticks, virtual and wall time, overruns, why it failed."""
+    lines = [
+        f"result: {result.status}  (exit {result.exit_code})",
+        f"ticks: {result.ticks}  run time: {result.seconds:.3f} s  wall time: "
+        f"{result.wall_seconds:.3f} s  overruns: {result.overruns}",
+    ]
+    if result.failed_node:
+        lines.append(f"failed: {result.failed_node}")
+    if result.message:
+        lines.append(f"why: {result.message}")
+    if result.log_path is not None:
+        lines.append(f"log: {result.log_path}")
+    return "\n".join(lines)
+
+
+def print_summary(result: RunResult, stream: TextIO | None = None) -> None:
+    """Print :func:`summary`, coloured on a terminal."""
+    stream = stream if stream is not None else sys.stdout
+    style = {"SUCCESS": "green", "FAILURE": "red"}.get(result.status, "magenta")
+    console = Console(file=stream, highlight=False)
+    text = summary(result)
+    first, _, rest = text.partition("\n")
+    console.print(Text(first, style=f"bold {style}"))
+    console.print(Text(rest))

@@ -1,0 +1,163 @@
+"""Building a :class:`~armtree.rig.Rig` from a validated hardware profile.
+
+Components come from the plugin registry by ``type``: ``factory(config,
+context)`` for the arm, camera and tracker, ``factory(config, context, model,
+scene)`` for the planner (``model`` is the arm driver's kinematic model,
+``scene`` what :mod:`armtree.scene` makes of the profile's obstacles, or the raw
+``obstacles`` list when that module is absent). Then the ``armtree_rig_ready``
+hook lets plugins wire components together, the arm is connected, and the
+context's steppers and closers move into the rig. If anything fails, whatever
+was already built is closed before the error propagates.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from .clock import Clock
+from .errors import ConfigError, HardwareFault
+from .rig import Rig, RigContext, TagSpec
+
+#: Profile sections that name a component, in build order.
+COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
+#: Sections that stand for a physical device (the rest is software).
+DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera", "head", "tool")
+
+
+def profile_section(profile: Any, key: str) -> Any:
+    """One top-level section of a profile given as a mapping or a Profile object.
+
+    A Profile object may hold its data in ``.data`` (a mapping), offer ``.get``,
+    or carry sections as attributes; ``None`` when the section is absent.
+    """
+    if profile is None:
+        return None
+    if isinstance(profile, Mapping):
+        return profile.get(key)
+    data = getattr(profile, "data", None)
+    if isinstance(data, Mapping):
+        return data.get(key)
+    getter = getattr(profile, "get", None)
+    if callable(getter):
+        return getter(key)
+    return getattr(profile, key, None)
+
+
+def component_config(profile: Any, key: str) -> Any:
+    """A component's config with declared defaults filled in when the Profile offers that."""
+    component = getattr(profile, "component", None)
+    if callable(component):
+        return component(key)
+    return profile_section(profile, key)
+
+
+def _profile_file(profile: Any) -> str | None:
+    source = getattr(profile, "source", None) or getattr(profile, "path", None)
+    return str(source) if source is not None else None
+
+
+def uses_real_hardware(profile: Any) -> bool:
+    """True when any device section is neither on ``port: sim`` nor of ``type: sim``."""
+    for key in DEVICE_SECTIONS:
+        section = profile_section(profile, key)
+        if not isinstance(section, Mapping) or not section:
+            continue
+        if section.get("type") == "sim" or section.get("port") == "sim":
+            continue
+        if key == "camera" or "port" in section or "device" in section:
+            return True
+    return False
+
+
+def make_scene(profile: Any) -> Any:
+    """The planning scene of a profile: :mod:`armtree.scene`'s if present, else raw obstacles."""
+    obstacles = profile_section(profile, "obstacles") or []
+    if importlib.util.find_spec("armtree.scene") is None:
+        return obstacles
+    scene_module = importlib.import_module("armtree.scene")
+    scene_cls = getattr(scene_module, "Scene", None)
+    if scene_cls is not None and hasattr(scene_cls, "from_profile"):
+        return scene_cls.from_profile(profile)
+    factory = getattr(scene_module, "scene_from_profile", None)
+    if callable(factory):
+        return factory(profile)
+    return obstacles
+
+
+def parse_tags(tags: Any, file: str | None = None) -> dict[str, TagSpec]:
+    """``tags:`` of a profile (``{role: {id: N | ids: [...], size_mm: S}}``) as TagSpecs."""
+    found: dict[str, TagSpec] = {}
+    for role, spec in (tags or {}).items():
+        if isinstance(spec, TagSpec):
+            found[role] = spec
+            continue
+        if not isinstance(spec, Mapping) or "size_mm" not in spec:
+            raise ConfigError(f"tags.{role}: give id or ids, and size_mm", file=file)
+        ids = spec.get("ids", [spec["id"]] if "id" in spec else [])
+        found[role] = TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]))
+    return found
+
+
+def build_rig(
+    profile: Any,
+    manager: Any,
+    clock: Clock,
+    *,
+    seed: int = 0,
+    interrupt: Callable[[str, HardwareFault | None], None] | None = None,
+    record_dir: Any = None,
+) -> Rig:
+    """Build and connect every component the profile names; see the module docstring.
+
+    Raises :class:`ConfigError` for an unknown component type and lets a
+    factory's :class:`HardwareFault` through, after closing what was built.
+    """
+    file = _profile_file(profile)
+    context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record_dir)
+    if interrupt is not None:
+        context.interrupt = interrupt
+    rig = Rig(profile=profile, clock=clock)
+    registry = manager.registry
+    try:
+        for key in COMPONENT_SECTIONS:
+            config = component_config(profile, key)
+            if not config:
+                continue
+            factory = _factory(registry, key, config, file)
+            setattr(rig, key, factory(dict(config), context))
+        planner_config = component_config(profile, "planner")
+        if planner_config:
+            factory = _factory(registry, "planner", planner_config, file)
+            model = rig.arm.model if rig.arm is not None else None
+            rig.planner = factory(dict(planner_config), context, model, make_scene(profile))
+        rig.tags = parse_tags(profile_section(profile, "tags"), file)
+        rig.places = {k: list(v) for k, v in (profile_section(profile, "places") or {}).items()}
+        manager.hook.armtree_rig_ready(rig=rig, context=context)
+        rig.steppers.extend(context.steppers)
+        rig.closers.extend(context.closers)
+        context.steppers = rig.steppers
+        context.closers = rig.closers
+        # Closers run newest first: the camera and the arm close before whatever
+        # their factories registered (an emulator, the simulated world).
+        if rig.camera is not None:
+            rig.closers.append(rig.camera.close)
+        if rig.arm is not None:
+            rig.closers.append(rig.arm.close)
+            rig.arm.connect()
+    except BaseException:
+        rig.closers.extend(c for c in context.closers if c not in rig.closers)
+        for component in (rig.camera, rig.arm):
+            if component is not None and component.close not in rig.closers:
+                rig.closers.append(component.close)
+        rig.close()
+        raise
+    return rig
+
+
+def _factory(registry: Any, kind: str, config: Any, file: str | None) -> Any:
+    if not isinstance(config, Mapping) or "type" not in config:
+        raise ConfigError(f"{kind}: a mapping with a 'type' is required", file=file)
+    return registry.get(kind, config["type"]).factory

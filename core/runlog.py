@@ -1,0 +1,121 @@
+"""The run log: one JSON object per line, written as the run goes and flushed on every exit.
+
+Records (every one has ``tick`` and ``t``, seconds on the run's clock):
+
+* ``{"kind": "start", "tree": ..., "seed": ..., "tick_hz": ..., "clock": "virtual"|"wall", ...}``
+* ``{"kind": "status", "node": "Root/Child", "from": "INVALID", "to": "RUNNING"}``
+  for every status change of every node;
+* ``{"kind": "blackboard", "key": "/pose", "op": "WRITE", "client": ..., "value": ...}``
+  for blackboard writes (py_trees' activity stream);
+* ``{"kind": "event", "event": "preempt"|"interrupt"|"exception"|"hook_error"|..., ...}``;
+* ``{"kind": "result", "status": "SUCCESS"|"FAILURE"|"INTERRUPTED", ...}`` last.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any, TextIO
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+def default_run_dir(tree_name: str, base: Path | str = "runs") -> Path:
+    """A fresh ``runs/<tree>-<YYYYmmdd-HHMMSS>[-N]`` directory (created)."""
+    base = Path(base)
+    stem = f"{_UNSAFE.sub('_', tree_name) or 'tree'}-{time.strftime('%Y%m%d-%H%M%S')}"
+    candidate = base / stem
+    n = 1
+    while True:
+        try:
+            candidate.mkdir(parents=True, exist_ok=False)
+            return candidate
+        except FileExistsError:
+            n += 1
+            candidate = base / f"{stem}-{n}"
+
+
+def jsonable(value: Any, depth: int = 0) -> Any:
+    """``value`` made JSON-safe: containers kept, numpy arrays as lists, the rest as ``repr``."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else repr(value)
+    if depth < 4:
+        if isinstance(value, dict):
+            return {str(k): jsonable(v, depth + 1) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [jsonable(v, depth + 1) for v in value]
+        tolist = getattr(value, "tolist", None)
+        if callable(tolist):
+            try:
+                return jsonable(tolist(), depth + 1)
+            except Exception:  # noqa: BLE001 - fall back to repr for odd objects
+                pass
+    text = repr(value)
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+class RunLog:
+    """Append-only JSON-lines log of one run at ``path`` (``None``: keep nothing).
+
+    Status records are the hot path (one per node status change); they are
+    formatted from pre-encoded node paths rather than through :func:`json.dumps`.
+    """
+
+    def __init__(self, path: Path | None) -> None:
+        self.path = path
+        self._file: TextIO | None = None
+        self._quoted: dict[str, str] = {}
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = path.open("w", encoding="utf-8", buffering=1 << 16)
+
+    @property
+    def enabled(self) -> bool:
+        """True while records are being written."""
+        return self._file is not None
+
+    def write(self, record: dict[str, Any]) -> None:
+        """Append one record (made JSON-safe)."""
+        if self._file is not None:
+            self._file.write(json.dumps(jsonable(record)) + "\n")
+
+    def status_changes(self, tick: int, t: float, changes: Iterable[tuple[str, str, str]]) -> None:
+        """Append one ``status`` record per ``(node_path, from, to)``."""
+        if self._file is None:
+            return
+        quoted = self._quoted
+        head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '
+        lines = []
+        for path, old, new in changes:
+            q = quoted.get(path)
+            if q is None:
+                q = quoted[path] = json.dumps(path)
+            lines.append(f'{head}{q}, "from": "{old}", "to": "{new}"}}\n')
+        self._file.write("".join(lines))
+
+    def event(self, tick: int, t: float, event: str, **data: Any) -> None:
+        """Append an ``event`` record."""
+        self.write({"kind": "event", "tick": tick, "t": t, "event": event, **data})
+
+    def flush(self) -> None:
+        """Push everything written so far to the file system."""
+        if self._file is not None:
+            self._file.flush()
+
+    def close(self) -> None:
+        """Flush and close; safe to call twice."""
+        if self._file is not None:
+            self._file.flush()
+            self._file.close()
+            self._file = None
+
+
+def read_log(path: Path | str) -> list[dict[str, Any]]:
+    """Every record of a run log, in order."""
+    with Path(path).open(encoding="utf-8") as fh:
+        return [json.loads(line) for line in fh if line.strip()]

@@ -1,0 +1,706 @@
+"""The tick runtime: one run of a tree on a rig, from set-up to a guaranteed clean halt.
+
+:func:`run` is the public entry point; :class:`Run` holds one run's state and is
+what lifecycle hooks and behaviours (``self.runtime``) see.
+
+A run:
+
+1. picks a clock (virtual unless ``realtime`` or the profile names real
+   hardware), clears py_trees' process-wide blackboard and writes the tree's
+   initial values, builds the rig from the profile if none was given;
+2. sets every behaviour up with ``rig=``, ``clock=`` and ``runtime=``;
+3. ticks at ``tree.tick_hz``: advance the clock, ``rig.step(now)``, tick the
+   tree, log status changes and blackboard writes, call ``armtree_tick``;
+4. ends on the root's SUCCESS or FAILURE, ``timeout``/``max_ticks`` (FAILURE),
+   an exception inside a behaviour (FAILURE, with the node's path and YAML
+   position) or an interrupt (INTERRUPTED: signal, stop key, component event);
+5. halts: every RUNNING node is stopped with INVALID (py_trees' own shutdown
+   leaves them RUNNING), the arm is told to stop on an abnormal end, behaviours
+   whose ``halting()`` says they are still reaching a safe state get more clock
+   steps (bounded by ``stop_timeout``), the tree is shut down, the rig closed
+   and the log flushed, on every path.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import time
+import traceback as tb_module
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import py_trees
+from py_trees.blackboard import ActivityType, Blackboard
+from py_trees.common import Status
+
+from .clock import Clock, VirtualClock, WallClock
+from .display import NullView, make_view
+from .errors import HardwareFault
+from .interrupts import EXIT_INTERRUPTED, Interrupts, StopKey
+from .resources import Resources
+from .rig import Rig
+from .rig_builder import build_rig, uses_real_hardware
+from .runlog import RunLog, default_run_dir, jsonable
+
+EXIT_SUCCESS = 0
+EXIT_FAILURE = 1
+EXIT_HARDWARE = 3
+
+#: Blackboard activities written to the run log.
+_LOGGED_ACTIVITIES = frozenset(
+    {ActivityType.WRITE.value, ActivityType.INITIALISED.value, ActivityType.UNSET.value}
+)
+#: How often the stop key is polled, in wall seconds.
+_KEY_POLL_S = 0.05
+
+
+@dataclass
+class RunResult:
+    """How a run ended.
+
+    ``status`` is ``"SUCCESS"``, ``"FAILURE"`` or ``"INTERRUPTED"``; ``ticks``
+    the number of ticks; ``seconds`` the time on the run's clock (virtual in
+    simulation) and ``wall_seconds`` the real time it took; ``overruns`` the
+    ticks that started late on a wall clock; ``message`` says why it ended
+    when it was not a plain success; ``failed_node`` is the path of the node
+    that raised, or of the deepest failing node; ``running`` the leaves that
+    were RUNNING when the run was halted; ``exit_code`` follows the CLI's
+    convention (0, 1, 3 hardware fault, 130 interrupted).
+    """
+
+    status: str
+    ticks: int
+    seconds: float
+    wall_seconds: float = 0.0
+    overruns: int = 0
+    log_path: Path | None = None
+    message: str = ""
+    failed_node: str | None = None
+    exit_code: int = EXIT_SUCCESS
+    running: list[str] = field(default_factory=list)
+    reason: str | None = None
+    traceback: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        """True for SUCCESS."""
+        return self.status == "SUCCESS"
+
+
+class _End(Exception):
+    """Internal: the tick loop is over for the given status and message."""
+
+    def __init__(self, status: str, message: str = "", exit_code: int = EXIT_FAILURE) -> None:
+        super().__init__(message)
+        self.status = status
+        self.message = message
+        self.exit_code = exit_code
+
+
+class Run:
+    """One run of a tree: clock, rig, log, resources, interrupts and the tick loop.
+
+    Construct it and call :meth:`execute` once (or use :func:`run`). Behaviours
+    reach it as ``self.runtime``; hooks receive it as ``run``.
+    ``close_rig`` defaults to closing only a rig this run built itself.
+    """
+
+    def __init__(
+        self,
+        tree: Any,
+        rig: Rig | None = None,
+        *,
+        seed: int = 0,
+        realtime: bool = False,
+        record: Path | str | bool | None = None,
+        timeout: float | None = None,
+        max_ticks: int | None = None,
+        quiet: bool = True,
+        manager: Any = None,
+        stop_timeout: float = 2.0,
+        runs_dir: Path | str = "runs",
+        handle_signals: bool = True,
+        stop_key: bool = True,
+        view: Any = None,
+        close_rig: bool | None = None,
+        debug: bool = False,
+    ) -> None:
+        self.tree = tree
+        self.root: py_trees.behaviour.Behaviour = tree.root
+        self.tick_hz = float(getattr(tree, "tick_hz", 20.0) or 20.0)
+        self.period = 1.0 / self.tick_hz
+        self.seed = seed
+        self.timeout = timeout
+        self.max_ticks = max_ticks
+        self.stop_timeout = stop_timeout
+        self.debug = debug
+        self.manager = manager if manager is not None else getattr(tree, "manager", None)
+        self.rig = rig
+        self._own_rig = rig is None
+        self._close_rig = close_rig
+        profile = getattr(tree, "profile", None)
+        if rig is not None:
+            self.clock: Clock = rig.clock
+        elif realtime or (profile is not None and uses_real_hardware(profile)):
+            self.clock = WallClock()
+        else:
+            self.clock = VirtualClock()
+        self.tick_count = 0
+        self.overruns = 0
+        self.interrupts = Interrupts(force_exit=self._force_exit)
+        self.resources = Resources(halt=self._halt_owner)
+        self.view = view if view is not None else (NullView() if quiet else make_view(False))
+        self._handle_signals = handle_signals
+        self._stop_key = stop_key
+        self._record = record
+        self._runs_dir = Path(runs_dir)
+        self.log = RunLog(None)
+        self.record_dir: Path | None = None
+        self._nodes: list[py_trees.behaviour.Behaviour] = []
+        self._paths: list[str] = []
+        self._last: list[Status] = []
+        self._hook_impls: dict[str, list[Any]] = {}
+        self._hook_errors_reported: set[tuple[str, str]] = set()
+        self._executed = False
+        self._end_status = ""
+
+    # ------------------------------------------------------------------
+    # For behaviours and components
+    # ------------------------------------------------------------------
+
+    def claim(self, behaviour: py_trees.behaviour.Behaviour, names: Any) -> None:
+        """Give ``behaviour`` the resources ``names``, halting their running owner first."""
+        for preemption in self.resources.claim(behaviour, names):
+            self.log.event(
+                self.tick_count,
+                self.clock.now(),
+                "preempt",
+                resource=preemption.resource,
+                halted=self.path_of(preemption.previous),
+                owner=self.path_of(preemption.owner),
+            )
+
+    def interrupt(self, reason: str, fault: HardwareFault | None = None) -> None:
+        """Ask the run to halt within one tick; safe from any thread (a RigContext's interrupt)."""
+        self.interrupts.request(reason, fault)
+
+    def path_of(self, behaviour: py_trees.behaviour.Behaviour) -> str:
+        """The node's path in the tree (``"Root/Branch/Leaf"``), from the loader's NodeInfo if any."""
+        info = self._info(behaviour)
+        if info is not None and getattr(info, "path", None):
+            return info.path
+        names = []
+        node: Any = behaviour
+        while node is not None:
+            names.append(node.name)
+            node = node.parent
+        return "/".join(reversed(names))
+
+    def where(self, behaviour: py_trees.behaviour.Behaviour) -> str:
+        """``"path (file:line)"`` of a node, as far as it is known."""
+        info = self._info(behaviour)
+        mark = getattr(info, "mark", None) if info is not None else None
+        path = self.path_of(behaviour)
+        return f"{path} ({mark.file}:{mark.line})" if mark is not None else path
+
+    def _info(self, behaviour: py_trees.behaviour.Behaviour) -> Any:
+        nodes = getattr(self.tree, "nodes", None)
+        return nodes.get(behaviour.id) if nodes else None
+
+    # ------------------------------------------------------------------
+    # The run
+    # ------------------------------------------------------------------
+
+    def execute(self) -> RunResult:
+        """Run the tree to its end and return how it ended; the rig is stopped and closed."""
+        if self._executed:
+            raise RuntimeError("a Run executes once; make a new one")
+        self._executed = True
+        wall0 = time.monotonic()
+        bt = py_trees.trees.BehaviourTree(self.root)
+        result: RunResult | None = None
+        stop_key = StopKey() if self._stop_key else None
+        try:
+            with (
+                self.interrupts.signals(self._handle_signals),
+                stop_key if stop_key is not None else contextlib.nullcontext(),
+            ):
+                self._open_log()
+                self._prepare_blackboard()
+                try:
+                    if self.rig is None and getattr(self.tree, "profile", None) is not None:
+                        self.rig = build_rig(
+                            self.tree.profile,
+                            self._manager(),
+                            self.clock,
+                            seed=self.seed,
+                            interrupt=self.interrupt,
+                            record_dir=self.record_dir,
+                        )
+                    self._setup(bt)
+                    self._index_nodes()
+                    self._call_hook("armtree_run_started", run=self)
+                    self.view.start(self)
+                    end = self._loop(stop_key)
+                except _End as exc:
+                    end = exc
+                except HardwareFault as exc:
+                    end = _End("FAILURE", f"hardware fault: {exc}", EXIT_HARDWARE)
+                    self._end_traceback = tb_module.format_exc()
+                result = self._finish(end, bt, wall0)
+        finally:
+            self._cleanup()
+        return result
+
+    def _manager(self) -> Any:
+        if self.manager is None:
+            self.manager = getattr(getattr(self.tree, "profile", None), "manager", None)
+        if self.manager is None:
+            from . import plugin_manager
+
+            factory = getattr(
+                plugin_manager, "get_plugin_manager", plugin_manager.make_plugin_manager
+            )
+            self.manager = factory(getattr(self.tree, "plugins", ()) or ())
+        return self.manager
+
+    def _open_log(self) -> None:
+        if self._record is False:
+            return
+        if self._record in (None, True):
+            self.record_dir = default_run_dir(self.tree.name, self._runs_dir)
+        else:
+            self.record_dir = Path(self._record)
+        self.log = RunLog(self.record_dir / "run.jsonl")
+        self.log.write(
+            {
+                "kind": "start",
+                "tick": 0,
+                "t": 0.0,
+                "tree": self.tree.name,
+                "source": str(getattr(self.tree, "source", "") or ""),
+                "seed": self.seed,
+                "tick_hz": self.tick_hz,
+                "clock": "virtual" if self.clock.virtual else "wall",
+                "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "blackboard": dict(getattr(self.tree, "blackboard", None) or {}),
+            }
+        )
+
+    def _prepare_blackboard(self) -> None:
+        # py_trees' blackboard is process-wide: a run starts from the tree's own values
+        # only. Clients and key registrations made at load time are kept.
+        Blackboard.storage.clear()
+        for key, value in (getattr(self.tree, "blackboard", None) or {}).items():
+            Blackboard.set(key if key.startswith("/") else "/" + key, value)
+        if self.log.enabled:
+            Blackboard.enable_activity_stream(maximum_size=100_000)
+
+    def _setup(self, bt: py_trees.trees.BehaviourTree) -> None:
+        try:
+            bt.setup(rig=self.rig, clock=self.clock, runtime=self)
+        except Exception as exc:  # noqa: BLE001 - reported with the node it came from
+            raise self._behaviour_exception(exc, "setup") from exc
+
+    def _index_nodes(self) -> None:
+        self._nodes = list(self.root.iterate())
+        self._paths = [self.path_of(n) for n in self._nodes]
+        self._last = [n.status for n in self._nodes]
+
+    def _loop(self, stop_key: StopKey | None) -> _End:
+        clock, root, rig = self.clock, self.root, self.rig
+        virtual = clock.virtual
+        interrupts = self.interrupts
+        period = self.period
+        timeout, max_ticks = self.timeout, self.max_ticks
+        tick_hooks = bool(self._impls("armtree_tick"))
+        logging = self.log.enabled
+        next_key_poll = time.monotonic()
+        t0 = next_t = clock.now()
+        while True:
+            if interrupts.requested:
+                return self._interrupted()
+            if timeout is not None and clock.now() >= timeout - 1e-9:
+                return _End("FAILURE", f"timeout: {timeout:g} s on the run clock reached")
+            if max_ticks is not None and self.tick_count >= max_ticks:
+                return _End("FAILURE", f"max ticks: {max_ticks} ticks reached")
+            self.tick_count += 1
+            now = clock.now()
+            if rig is not None:
+                rig.step(now)
+            try:
+                for _ in root.tick():
+                    pass
+            except Exception as exc:  # noqa: BLE001 - reported with the node it came from
+                return self._behaviour_exception(exc, "tick")
+            self._track(now, logging)
+            if tick_hooks:
+                self._call_hook("armtree_tick", run=self)
+            if stop_key is not None and time.monotonic() >= next_key_poll:
+                next_key_poll = time.monotonic() + _KEY_POLL_S
+                if stop_key.pressed():
+                    interrupts.request("stop key")
+            status = root.status
+            if status == Status.SUCCESS:
+                return _End("SUCCESS", "", EXIT_SUCCESS)
+            if status == Status.FAILURE:
+                return _End("FAILURE", self._failure_message())
+            # Tick k starts at k periods; multiplying (not summing) keeps times exact-ish,
+            # and rounding to a nanosecond keeps logs free of float noise.
+            next_t = round(t0 + self.tick_count * period, 9) if virtual else next_t + period
+            if virtual:
+                clock.sleep_until(next_t)
+            else:
+                late = clock.now() - next_t
+                if late > 0:
+                    # The tick took longer than its period: count it and start the next
+                    # one now rather than bunching ticks to catch up.
+                    self.overruns += 1
+                    t0 = next_t = clock.now()
+                else:
+                    interrupts.wake.wait(-late)
+
+    def _track(self, now: float, logging: bool) -> None:
+        nodes, last = self._nodes, self._last
+        current = [n.status for n in nodes]
+        if current != last:
+            paths = self._paths
+            changes = [
+                (paths[i], last[i].value, s.value)
+                for i, s in enumerate(current)
+                if s is not last[i]
+            ]
+            self._last = current
+            if logging:
+                self.log.status_changes(self.tick_count, now, changes)
+            self.view.update(self, changes)
+        if logging:
+            stream = Blackboard.activity_stream
+            if stream is not None and stream.data:
+                self._log_blackboard(stream.data, now)
+                stream.clear()
+
+    def _log_blackboard(self, items: list[Any], now: float) -> None:
+        for item in items:
+            if item.activity_type in _LOGGED_ACTIVITIES:
+                self.log.write(
+                    {
+                        "kind": "blackboard",
+                        "tick": self.tick_count,
+                        "t": now,
+                        "key": item.key,
+                        "op": item.activity_type,
+                        "client": item.client_name,
+                        "value": jsonable(item.current_value),
+                    }
+                )
+
+    def _failure_message(self) -> str:
+        failed = self._deepest(Status.FAILURE)
+        self._failed_node = self.path_of(failed) if failed is not None else None
+        return f"the tree failed at {self.where(failed)}" if failed is not None else "FAILURE"
+
+    def _deepest(self, status: Status) -> py_trees.behaviour.Behaviour | None:
+        node = self.root
+        if node.status != status:
+            return None
+        while node.children:
+            nxt = next((c for c in reversed(node.children) if c.status == status), None)
+            if nxt is None:
+                break
+            node = nxt
+        return node
+
+    def _running_leaves(self) -> list[str]:
+        return [
+            self.path_of(n)
+            for n in self.root.iterate()
+            if n.status == Status.RUNNING and not n.children
+        ]
+
+    def _interrupted(self) -> _End:
+        reason = self.interrupts.reason or "interrupt"
+        fault = self.interrupts.fault
+        self._running = self._running_leaves()
+        self.log.event(
+            self.tick_count, self.clock.now(), "interrupt", reason=reason, running=self._running
+        )
+        self.view.message(f"interrupted: {reason}")
+        self._call_hook("armtree_interrupt", run=self, reason=reason)
+        where = ", ".join(self._running) if self._running else "no running behaviour"
+        message = f"interrupted by {reason} at tick {self.tick_count} (t={self.clock.now():.3f} s) in {where}"
+        if fault is not None:
+            return _End("INTERRUPTED", f"{message}: hardware fault: {fault}", EXIT_HARDWARE)
+        return _End("INTERRUPTED", message, EXIT_INTERRUPTED)
+
+    def _behaviour_exception(self, exc: BaseException, phase: str) -> _End:
+        node = _raising_behaviour(exc)
+        self._end_traceback = "".join(tb_module.format_exception(exc))
+        where = self.where(node) if node is not None else "the tree"
+        self._failed_node = self.path_of(node) if node is not None else None
+        self._raiser = node
+        message = f"{type(exc).__name__} in {phase} of {where}: {exc}"
+        self.log.event(
+            self.tick_count,
+            self.clock.now(),
+            "exception",
+            node=self._failed_node,
+            phase=phase,
+            error=f"{type(exc).__name__}: {exc}",
+            traceback=self._end_traceback,
+        )
+        code = EXIT_HARDWARE if isinstance(exc, HardwareFault) else EXIT_FAILURE
+        return _End("FAILURE", message, code)
+
+    # ------------------------------------------------------------------
+    # Stopping
+    # ------------------------------------------------------------------
+
+    def _halt_owner(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        behaviour.stop(Status.INVALID)
+        self._note_stopped(behaviour)
+
+    def _note_stopped(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        # A node halted between ticks must show up as a status change in the log.
+        if not self._nodes:
+            return
+        for n in behaviour.iterate():
+            with contextlib.suppress(ValueError):
+                i = self._nodes.index(n)
+                if self._last[i] is not n.status:
+                    self.log.status_changes(
+                        self.tick_count,
+                        self.clock.now(),
+                        [(self._paths[i], self._last[i].value, n.status.value)],
+                    )
+                    self._last[i] = n.status
+
+    def halt_tree(self) -> list[str]:
+        """Stop every RUNNING node with INVALID (calling its terminate); return errors raised.
+
+        The root is stopped first, so composites stop their children in order;
+        a sweep then stops any node left RUNNING by a tick cut short by an
+        exception, deepest first. Finished nodes keep their SUCCESS or FAILURE.
+        """
+        errors: list[str] = []
+        raiser = getattr(self, "_raiser", None)
+        raiser_running = raiser is not None and raiser.status == Status.RUNNING
+        candidates = [self.root, *self.root.iterate()]
+        for node in candidates:
+            if node.status != Status.RUNNING:
+                continue
+            try:
+                node.stop(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001 - halting continues past a broken terminate
+                errors.append(f"{self.where(node)}: {type(exc).__name__}: {exc}")
+        if raiser is not None and not raiser_running:
+            # The node that raised may have started something before it raised.
+            try:
+                raiser.terminate(Status.INVALID)
+            except Exception as exc:  # noqa: BLE001
+                errors.append(f"{self.where(raiser)}: {type(exc).__name__}: {exc}")
+        return errors
+
+    def _halting(self) -> list[py_trees.behaviour.Behaviour]:
+        pending = []
+        for node in self.root.iterate():
+            halting = getattr(node, "halting", None)
+            if halting is None:
+                continue
+            try:
+                if halting():
+                    pending.append(node)
+            except Exception:  # noqa: BLE001 - a broken halting() must not hold the stop
+                continue
+        return pending
+
+    def _settle(self) -> list[str]:
+        """Step the clock and rig while behaviours report ``halting()``, up to ``stop_timeout``."""
+        deadline = self.clock.now() + self.stop_timeout
+        pending = self._halting()
+        while pending and self.clock.now() < deadline - 1e-9:
+            target = self.clock.now() + self.period
+            if self.clock.virtual:
+                self.clock.sleep_until(target)
+            else:
+                self.interrupts.wake.clear()
+                self.interrupts.wake.wait(max(0.0, target - self.clock.now()))
+            if self.rig is not None:
+                try:
+                    self.rig.step(self.clock.now())
+                except Exception:  # noqa: BLE001 - keep stopping
+                    break
+            pending = self._halting()
+        return [self.path_of(n) for n in pending]
+
+    def _finish(self, end: _End, bt: py_trees.trees.BehaviourTree, wall0: float) -> RunResult:
+        self.interrupts.stopping = True
+        self._end_status = end.status
+        running = getattr(self, "_running", None)
+        if running is None:
+            running = self._running_leaves() if end.status != "SUCCESS" else []
+        errors = self.halt_tree()
+        if end.status != "SUCCESS" and self.rig is not None:
+            self.rig.stop()
+        unsafe = self._settle()
+        if self._nodes:
+            self._track(self.clock.now(), self.log.enabled)
+        with contextlib.suppress(Exception):
+            bt.shutdown()
+        message = end.message
+        for err in errors:
+            self.log.event(self.tick_count, self.clock.now(), "halt_error", error=err)
+        if unsafe:
+            message += ("; " if message else "") + (
+                f"not safe after the {self.stop_timeout:g} s stop timeout: {', '.join(unsafe)}"
+            )
+            self.log.event(self.tick_count, self.clock.now(), "stop_timeout", nodes=unsafe)
+        result = RunResult(
+            status=end.status,
+            ticks=self.tick_count,
+            seconds=self.clock.now(),
+            wall_seconds=time.monotonic() - wall0,
+            overruns=self.overruns,
+            log_path=self.log.path,
+            message=message,
+            failed_node=getattr(self, "_failed_node", None),
+            exit_code=end.exit_code,
+            running=running,
+            reason=self.interrupts.reason,
+            traceback=getattr(self, "_end_traceback", None),
+        )
+        self.view.stop(self)
+        self._call_hook("armtree_run_finished", run=self, result=result)
+        record = {
+            "kind": "result",
+            "tick": result.ticks,
+            "t": result.seconds,
+            "status": result.status,
+            "ticks": result.ticks,
+            "seconds": result.seconds,
+            "wall_seconds": result.wall_seconds,
+            "overruns": result.overruns,
+            "message": result.message,
+            "failed_node": result.failed_node,
+            "exit_code": result.exit_code,
+            "running": result.running,
+        }
+        self.log.write(record)
+        self.log.flush()
+        return result
+
+    def _cleanup(self) -> None:
+        self.interrupts.stopping = True
+        if not self._end_status:
+            # Left by an unexpected exception (or KeyboardInterrupt without our
+            # handlers): nothing may stay RUNNING, whatever went wrong.
+            with contextlib.suppress(Exception):
+                self.halt_tree()
+            if self.rig is not None:
+                self.rig.stop()
+        if Blackboard.activity_stream is not None and self.log.enabled:
+            Blackboard.disable_activity_stream()
+        self.resources.release_all()
+        close = self._own_rig if self._close_rig is None else self._close_rig
+        if self.rig is not None and close:
+            self.rig.close()
+        self.log.close()
+
+    def _force_exit(self) -> None:
+        with contextlib.suppress(Exception):
+            self.log.event(self.tick_count, self.clock.now(), "forced_exit")
+            self.log.close()
+        with contextlib.suppress(Exception):
+            if self.rig is not None:
+                self.rig.stop()
+        from .interrupts import _exit_now
+
+        _exit_now()
+
+    # ------------------------------------------------------------------
+    # Hooks
+    # ------------------------------------------------------------------
+
+    def _impls(self, name: str) -> list[Any]:
+        if name not in self._hook_impls:
+            if self.manager is None:
+                self._hook_impls[name] = []
+            else:
+                self._hook_impls[name] = list(getattr(self.manager.hook, name).get_hookimpls())
+        return self._hook_impls[name]
+
+    def _call_hook(self, name: str, **kwargs: Any) -> None:
+        """Call every implementation of ``name``; one that raises is reported and skipped."""
+        for impl in self._impls(name):
+            try:
+                impl.function(*[kwargs[a] for a in impl.argnames])
+            except Exception as exc:  # noqa: BLE001 - a plugin must not break the run
+                self.log.event(
+                    self.tick_count,
+                    self.clock.now(),
+                    "hook_error",
+                    hook=name,
+                    plugin=impl.plugin_name,
+                    error=f"{type(exc).__name__}: {exc}",
+                )
+                key = (name, impl.plugin_name)
+                if key not in self._hook_errors_reported:
+                    self._hook_errors_reported.add(key)
+                    text = f"plugin {impl.plugin_name!r}: {name} raised {type(exc).__name__}: {exc}"
+                    self.view.message(text)
+                    print(f"warning: {text} (the run goes on)", file=sys.stderr)
+
+
+def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:
+    """The deepest py_trees behaviour whose method is on the exception's traceback."""
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        candidate = tb.tb_frame.f_locals.get("self")
+        if isinstance(candidate, py_trees.behaviour.Behaviour):
+            found = candidate
+        tb = tb.tb_next
+    return found
+
+
+def run(
+    tree: Any,
+    rig: Rig | None = None,
+    seed: int = 0,
+    realtime: bool = False,
+    record: Path | str | bool | None = None,
+    timeout: float | None = None,
+    max_ticks: int | None = None,
+    quiet: bool = True,
+    manager: Any = None,
+    **options: Any,
+) -> RunResult:
+    """Run a loaded :class:`~armtree.tree.Tree` to its end and return a :class:`RunResult`.
+
+    ``rig``: a built rig to use (default: built from ``tree.profile``, and
+    closed at the end); ``seed``: for the simulation; ``realtime``: tick on
+    the wall clock (also chosen when the profile names real hardware);
+    ``record``: the run-log directory (default ``runs/<tree>-<time>/``,
+    ``False`` for no log); ``timeout`` (seconds on the run clock) and
+    ``max_ticks`` end the run as FAILURE; ``quiet=False`` shows the live view;
+    ``manager``: the plugin manager for the rig and the lifecycle hooks.
+    Further ``options`` go to :class:`Run` (``stop_timeout``, ``runs_dir``,
+    ``handle_signals``, ``stop_key``, ``view``, ``close_rig``, ``debug``).
+    """
+    return Run(
+        tree,
+        rig,
+        seed=seed,
+        realtime=realtime,
+        record=record,
+        timeout=timeout,
+        max_ticks=max_ticks,
+        quiet=quiet,
+        manager=manager,
+        **options,
+    ).execute()
+
+
+__all__ = ["Run", "RunResult", "run"]
