@@ -10,7 +10,10 @@ from .behaviour import Behaviour
 from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
 from .hookspecs import hookimpl, hookspec
 from .params import REQUIRED, Binding, Param
+from .profile import Profile, load_profile
 from .runtime import Run, RunResult, run
+from .tree import Tree
+from .tree_loader import load_tree
 
 __version__ = "0.1.0"
 
@@ -22,10 +25,14 @@ __all__ = [
     "HardwareFault",
     "Param",
     "PlanningError",
+    "Profile",
+    "Tree",
     "Run",
     "RunResult",
     "Unreachable",
     "hookimpl",
     "hookspec",
+    "load_profile",
+    "load_tree",
     "run",
 ]

@@ -75,6 +75,10 @@ class PluginManager:
         self.autoload = autoload
         self._distributions: dict[str, str | None] = {}
         self._registry: Registry | None = None
+        #: ``--plugin`` / ``plugins:`` specs loaded into this manager, in order.
+        self.specs: list[str] = []
+        #: True for managers shared through :func:`get_plugin_manager` (never mutated).
+        self.shared = False
 
     @property
     def hook(self) -> Any:
@@ -82,7 +86,13 @@ class PluginManager:
         return self.pm.hook
 
     def load_entry_points(self) -> None:
-        """Load every ``armtree`` entry point one by one, naming any that fails."""
+        """Load every ``armtree`` entry point one by one.
+
+        Every entry point that fails to import or to validate is named, with its
+        distribution and the fix, in one :class:`ConfigError` raised after the
+        others have been loaded.
+        """
+        failures: list[ConfigError] = []
         for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
             dist = ep.dist.name if ep.dist is not None else None
             if ep.name in self.blocked or self.pm.has_plugin(ep.name):
@@ -92,14 +102,22 @@ class PluginManager:
             try:
                 plugin = ep.load()
             except Exception as exc:  # noqa: BLE001 - any import failure is reported the same way
-                raise ConfigError(
-                    f"plugin {ep.name!r} (entry point {ep.value!r} of distribution "
-                    f"{dist or 'unknown'}) failed to import: {type(exc).__name__}: {exc}. "
-                    f"Fix or reinstall {dist or 'the distribution'}, or skip it with "
-                    f"-p no:{ep.name}",
-                    file=ep.value,
-                ) from exc
-            self.register(plugin, ep.name, dist)
+                failures.append(
+                    ConfigError(
+                        f"plugin {ep.name!r} (entry point {ep.value!r} of distribution "
+                        f"{dist or 'unknown'}) failed to import: {type(exc).__name__}: {exc}. "
+                        f"Fix or reinstall {dist or 'the distribution'}, or skip it with "
+                        f"-p no:{ep.name}",
+                        file=f"entry point {ep.name}",
+                    )
+                )
+                continue
+            try:
+                self.register(plugin, ep.name, dist)
+            except ConfigError as exc:
+                failures.append(exc)
+        if failures:
+            raise ConfigError(failures[0].message, file=failures[0].file, errors=failures)
 
     def load(self, spec: str, where: Mark | None = None) -> None:
         """Load a plugin given as a module name or a ``.py`` file path."""
@@ -128,6 +146,27 @@ class PluginManager:
                 column=where.column if where else None,
             ) from exc
         self.register(module, name, None)
+        self.specs.append(spec)
+
+    def extended(
+        self, plugins: Iterable[str], where: dict[str, Mark] | None = None
+    ) -> PluginManager:
+        """This manager with ``plugins`` added (module names or ``.py`` paths).
+
+        A shared manager is left as it is and the shared manager with the longer
+        plugin list is returned; a private one is extended in place. ``where``
+        maps a spec to its position in a tree or profile, for error messages.
+        """
+        new = [spec for spec in plugins if spec not in self.specs]
+        if not new:
+            return self
+        if self.shared:
+            return get_plugin_manager(
+                [*self.specs, *new], self.blocked, autoload=self.autoload, where=where
+            )
+        for spec in new:
+            self.load(spec, (where or {}).get(spec))
+        return self
 
     def register(self, plugin: Any, name: str, distribution: str | None = None) -> None:
         """Register one plugin object, turning pluggy's validation errors into ConfigErrors."""
@@ -140,7 +179,8 @@ class PluginManager:
             where = f" from distribution {distribution}" if distribution else ""
             raise ConfigError(
                 f"plugin {name!r}{where} is invalid: {exc}. Hook names must be ones listed in "
-                "armtree.hookspecs and their arguments must match the specification",
+                "armtree.hookspecs and their arguments must match the specification; "
+                f"fix the plugin or skip it with -p no:{name}",
                 file=getattr(plugin, "__file__", None),
             ) from exc
         self._distributions[name] = distribution
@@ -224,6 +264,44 @@ def did_you_mean(name: str, options: Iterable[str]) -> str:
     if len(options) <= 12:
         return f"; choose one of: {', '.join(options)}" if options else ""
     return ""
+
+
+#: Managers shared by the process, keyed by (plugins, blocked, autoload). This cache is
+#: the one piece of global state: loading entry points once per process keeps
+#: repeated loads (tests, benchmarks, includes) cheap.
+_SHARED: dict[tuple[tuple[str, ...], tuple[str, ...], bool], PluginManager] = {}
+
+
+def get_plugin_manager(
+    plugins: Iterable[str] = (),
+    blocked: Iterable[str] = (),
+    autoload: bool | None = None,
+    where: dict[str, Mark] | None = None,
+) -> PluginManager:
+    """The process-wide manager for these plugins and blocks, built on first use.
+
+    ``autoload=None`` reads ``ARMTREE_DISABLE_PLUGIN_AUTOLOAD`` now. Treat the
+    result as read-only: use :meth:`PluginManager.extended` to add plugins.
+    ``where`` positions import errors of ``plugins`` given in a file.
+    """
+    if autoload is None:
+        autoload = not os.environ.get(DISABLE_AUTOLOAD_ENV)
+    plugins = tuple(plugins)
+    key = (plugins, tuple(sorted(set(blocked))), bool(autoload))
+    manager = _SHARED.get(key)
+    if manager is None:
+        manager = PluginManager(blocked=key[1], autoload=autoload)
+        manager.load_entry_points()
+        for spec in plugins:
+            manager.load(spec, (where or {}).get(spec))
+        manager.shared = True
+        _SHARED[key] = manager
+    return manager
+
+
+def clear_plugin_managers() -> None:
+    """Forget the shared managers (for tests that install or change plugins)."""
+    _SHARED.clear()
 
 
 def make_plugin_manager(

@@ -1,0 +1,625 @@
+"""Hardware profiles: which arm, camera, tracker and planner a tree runs on.
+
+:func:`load_profile` finds a profile by path or name (working directory, then
+the shipped ``hardware/``), applies ``--set KEY=VALUE`` overrides and validates
+the whole file before returning, collecting every problem into one
+:class:`armtree.ConfigError` whose ``errors`` carry file, line and column:
+
+* known top-level sections only (did-you-mean); ``arm`` is required;
+* ``arm``/``camera``/``tracker``/``planner``: a mapping with a ``type`` that a
+  plugin registered (did-you-mean); when the factory declares ``PARAMS`` the
+  other keys are checked against them (unknown keys, types, required ones);
+* ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0}``, no id used twice;
+* ``places``: ``name: [x, y, z]`` in mm; ``obstacles``: a list of shapes
+  (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
+* ``world`` (simulation only, checked by the sim plugin) is a mapping;
+  ``plugins`` is a list of modules or ``.py`` files loaded before validation.
+
+Overrides use dotted keys and YAML-typed values: ``arm.type=vicra``,
+``camera.width=800``, ``places.home=[200, 0, 80]``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import ConfigError, Mark
+from .params import check_value
+from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
+from .resolve import available, resolve
+from .rig import TagSpec
+from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
+
+#: Profile section -> component kind in the plugin registry.
+COMPONENT_SECTIONS: dict[str, str] = {
+    "arm": "arm",
+    "camera": "camera",
+    "tracker": "tracker",
+    "planner": "planner",
+}
+#: Every top-level key a profile may have.
+PROFILE_KEYS = (
+    "profile",
+    "description",
+    *COMPONENT_SECTIONS,
+    "tags",
+    "places",
+    "obstacles",
+    "world",
+    "plugins",
+)
+#: Sections a profile must have.
+REQUIRED_SECTIONS = ("arm",)
+#: Sections a ``--set`` key may start with to address the profile rather than the blackboard.
+OVERRIDE_SECTIONS = frozenset(PROFILE_KEYS) - {"profile", "description"}
+#: Obstacle shapes and the keys each must have.
+OBSTACLE_SHAPES: dict[str, tuple[str, ...]] = {
+    "box": ("center", "size"),
+    "cylinder": ("center", "radius", "height"),
+    "sphere": ("center", "radius"),
+    "mesh": ("file",),
+}
+
+
+@dataclass(frozen=True)
+class Override:
+    """One ``--set KEY=VALUE``: the dotted key split into parts and the YAML-typed value."""
+
+    keys: tuple[str, ...]
+    value: Any
+    text: str
+
+    @property
+    def mark(self) -> Mark:
+        """A position naming the override itself, for error messages."""
+        return Mark(f"--set {self.text}", 1, len(".".join(self.keys)) + 2)
+
+
+def parse_override(text: str) -> Override:
+    """Parse ``KEY=VALUE`` (dotted key, YAML value); raise :class:`ConfigError` if malformed."""
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    parts = tuple(key.split("."))
+    if not sep or not key or any(not p.strip() for p in parts):
+        raise ConfigError(
+            f"expected KEY=VALUE with a dotted KEY (e.g. arm.type=vicra), got {text!r}",
+            file="--set",
+        )
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else ""
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"value of {key} is not valid YAML: {exc}", file="--set") from None
+    return Override(tuple(p.strip() for p in parts), value, text)
+
+
+def parse_overrides(texts: Iterable[str]) -> tuple[list[Override], list[ConfigError]]:
+    """Parse every override, collecting errors instead of stopping at the first."""
+    done: list[Override] = []
+    errors: list[ConfigError] = []
+    for text in texts:
+        try:
+            done.append(parse_override(text))
+        except ConfigError as exc:
+            errors.append(exc)
+    return done, errors
+
+
+def apply_override(data: MarkedDict, override: Override) -> None:
+    """Set ``override`` in ``data`` (creating mappings on the way), marking where it came from."""
+    node = data
+    mark = override.mark
+    for depth, part in enumerate(override.keys[:-1]):
+        child = node.get(part)
+        if child is None:
+            child = MarkedDict(mark=mark)
+            node[part] = child
+            node.key_marks[part] = node.value_marks[part] = mark
+        elif not isinstance(child, dict):
+            path = ".".join(override.keys[: depth + 1])
+            raise error_at(f"cannot set {'.'.join(override.keys)}: {path} is not a mapping", mark)
+        if not isinstance(child, MarkedDict):
+            child = MarkedDict(child, mark=mark)
+            node[part] = child
+        node = child
+    last = override.keys[-1]
+    node[last] = _marked_copy(override.value, mark)
+    node.key_marks[last] = node.value_marks[last] = mark
+
+
+def _marked_copy(value: Any, mark: Mark) -> Any:
+    if isinstance(value, dict):
+        out = MarkedDict(mark=mark)
+        for k, v in value.items():
+            out[k] = _marked_copy(v, mark)
+            out.key_marks[k] = out.value_marks[k] = mark
+        return out
+    if isinstance(value, list):
+        items = MarkedList([_marked_copy(v, mark) for v in value], mark=mark)
+        items.item_marks = [mark] * len(items)
+        return items
+    return value
+
+
+@dataclass
+class Profile:
+    """A validated hardware profile.
+
+    ``data`` is the file's content after overrides (plain mappings and lists);
+    ``marks`` maps dotted paths (``"arm.port"``, ``"tags.ducky.id"``) to where
+    each value was written, so a component can report a bad value precisely
+    with :meth:`error`. Lengths are mm.
+    """
+
+    name: str
+    source: Path | None
+    data: dict[str, Any]
+    marks: dict[str, Mark] = field(default_factory=dict)
+    plugins: list[str] = field(default_factory=list)
+    manager: Any = None
+
+    @property
+    def description(self) -> str:
+        """The profile's one-line description."""
+        return str(self.data.get("description") or "")
+
+    def mark(self, path: str) -> Mark | None:
+        """Where the value at dotted ``path`` (or its nearest written parent) came from."""
+        while path:
+            if path in self.marks:
+                return self.marks[path]
+            path = path.rpartition(".")[0]
+        return self.marks.get("")
+
+    def error(self, path: str, message: str) -> ConfigError:
+        """A :class:`ConfigError` about the value at dotted ``path``, at its position."""
+        return error_at(f"{path}: {message}", self.mark(path), str(self.source or self.name))
+
+    def section(self, name: str) -> dict[str, Any] | None:
+        """A top-level section as given, or ``None``."""
+        value = self.data.get(name)
+        return value if isinstance(value, dict) else None
+
+    def component(self, section: str) -> dict[str, Any] | None:
+        """The ``arm``/``camera``/``tracker``/``planner`` config with declared defaults filled in.
+
+        ``None`` when the profile has no such section.
+        """
+        config = self.section(section)
+        if config is None:
+            return None
+        out = dict(config)
+        registry = (self.manager or get_plugin_manager()).registry
+        kind = COMPONENT_SECTIONS[section]
+        if registry.has(kind, out.get("type", "")):
+            for param in registry.get(kind, out["type"]).params:
+                if param.name in out:
+                    out[param.name] = check_value(param, out[param.name])
+                elif not param.required:
+                    out[param.name] = param.default
+        return out
+
+    def tags(self) -> dict[str, TagSpec]:
+        """Marker roles by name."""
+        out: dict[str, TagSpec] = {}
+        for role, spec in (self.section("tags") or {}).items():
+            ids = (spec["id"],) if "id" in spec else tuple(spec["ids"])
+            out[str(role)] = TagSpec(str(role), tuple(int(i) for i in ids), float(spec["size_mm"]))
+        return out
+
+    def places(self) -> dict[str, list[float]]:
+        """Named places, ``[x, y, z]`` in mm in the arm's base frame."""
+        return {
+            str(k): [float(v) for v in xyz] for k, xyz in (self.section("places") or {}).items()
+        }
+
+    def obstacles(self) -> list[dict[str, Any]]:
+        """The obstacle shapes as given (mm)."""
+        return list(self.data.get("obstacles") or [])
+
+    def with_overrides(
+        self, overrides: Iterable[str | Override], manager: PluginManager | None = None
+    ) -> Profile:
+        """A new, re-validated profile with ``overrides`` applied."""
+        data = copy.deepcopy(self.data)
+        marked = _remark(data, self.marks, "")
+        return _finish(marked, self.source, list(overrides), manager or self.manager, None)
+
+
+def load_profile(
+    path_or_name: str | Path,
+    overrides: Iterable[str] = (),
+    *,
+    manager: PluginManager | None = None,
+    base: Path | None = None,
+    where: Mark | None = None,
+) -> Profile:
+    """Find, read, override and validate a hardware profile.
+
+    ``path_or_name`` is a path or a name looked up in the working directory,
+    then ``base`` (the directory of a tree naming the profile), then the shipped
+    ``hardware/``; ``.yaml`` may be left out. ``overrides`` are ``KEY=VALUE``
+    strings. ``where`` is the position of the reference (a tree's ``rig:``) for
+    the not-found error. Raises :class:`ConfigError` listing every problem.
+    """
+    path = resolve(path_or_name, "profile", base)
+    if path is None:
+        shipped = available("profile")
+        raise error_at(
+            f"no hardware profile {str(path_or_name)!r} in the working directory"
+            f"{' or next to the tree' if base else ''} or among the shipped profiles"
+            f"{did_you_mean(Path(str(path_or_name)).stem, shipped)}",
+            where,
+            str(path_or_name),
+        )
+    data = load_yaml_file(path)
+    return _finish(data, path, list(overrides), manager, path.stem)
+
+
+def _finish(
+    data: Any,
+    source: Path | None,
+    overrides: list[str | Override],
+    manager: PluginManager | None,
+    default_name: str | None,
+) -> Profile:
+    file = str(source) if source else "<profile>"
+    errors: list[ConfigError] = []
+    if data is None:
+        data = MarkedDict(mark=Mark(file, 1, 1))
+    if not isinstance(data, MarkedDict):
+        raise error_at("a profile must be a mapping of sections", getattr(data, "mark", None), file)
+    for item in overrides:
+        try:
+            override = parse_override(item) if isinstance(item, str) else item
+            apply_override(data, override)
+        except ConfigError as exc:
+            errors.append(exc)
+    manager = manager or get_plugin_manager()
+    plugins = _plugins(data, source, errors)
+    if plugins:
+        try:
+            manager = manager.extended([p for p, _ in plugins], dict(plugins))
+        except ConfigError as exc:
+            errors.append(exc)
+    if not errors:
+        _validate(data, manager, errors)
+    if errors:
+        raise ConfigError(
+            errors[0].message, errors[0].file, errors[0].line, errors[0].column, errors
+        )
+    name = data.get("profile") or default_name or "profile"
+    return Profile(
+        name=str(name),
+        source=source,
+        data=_plain(data),
+        marks=_flatten_marks(data),
+        plugins=[p for p, _ in plugins],
+        manager=manager,
+    )
+
+
+def _plugins(
+    data: MarkedDict, source: Path | None, errors: list[ConfigError]
+) -> list[tuple[str, Mark]]:
+    specs = data.get("plugins")
+    if specs is None:
+        return []
+    if not isinstance(specs, list) or not all(isinstance(s, str) for s in specs):
+        errors.append(
+            error_at(
+                "plugins: expected a list of module names or .py files", data.value_mark("plugins")
+            )
+        )
+        return []
+    out = []
+    for i, spec in enumerate(specs):
+        if spec.endswith(".py") and source is not None and not Path(spec).is_absolute():
+            spec = str((source.parent / spec).resolve())
+        out.append((spec, specs.item_mark(i)))
+    return out
+
+
+def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError]) -> None:
+    for key in data:
+        if key not in PROFILE_KEYS:
+            errors.append(
+                error_at(
+                    f"unknown profile section {key!r}{did_you_mean(str(key), PROFILE_KEYS)}",
+                    data.key_mark(key),
+                )
+            )
+    for key in REQUIRED_SECTIONS:
+        if key not in data:
+            errors.append(error_at(f"the profile has no {key!r} section", data.mark))
+    for key in ("profile", "description"):
+        if key in data and not isinstance(data[key], str):
+            errors.append(error_at(f"{key}: expected a string", data.value_mark(key)))
+    try:
+        registry = manager.registry
+    except ConfigError as exc:
+        errors.append(exc)
+        return
+    for section, kind in COMPONENT_SECTIONS.items():
+        if data.get(section) is not None:
+            _check_component(data, section, kind, registry, errors)
+    _check_tags(data, errors)
+    _check_places(data, errors)
+    _check_obstacles(data, errors)
+    if data.get("world") is not None and not isinstance(data["world"], dict):
+        errors.append(error_at("world: expected a mapping", data.value_mark("world")))
+
+
+def _check_component(
+    data: MarkedDict, section: str, kind: str, registry: Any, errors: list[ConfigError]
+) -> None:
+    config = data[section]
+    if not isinstance(config, MarkedDict):
+        errors.append(
+            error_at(
+                f"{section}: expected a mapping with a type, e.g. {{type: NAME}}",
+                data.value_mark(section),
+            )
+        )
+        return
+    ctype = config.get("type")
+    if not isinstance(ctype, str):
+        errors.append(
+            error_at(
+                f"{section}: needs a type (one of: {', '.join(registry.names(kind))})", config.mark
+            )
+        )
+        return
+    if not registry.has(kind, ctype):
+        errors.append(
+            error_at(
+                f"{section}: unknown {kind} type {ctype!r}{did_you_mean(ctype, registry.names(kind))}",
+                config.value_mark("type"),
+            )
+        )
+        return
+    params = {p.name: p for p in registry.get(kind, ctype).params}
+    if not params:
+        return
+    for key, value in config.items():
+        if key == "type":
+            continue
+        param = params.get(key)
+        if param is None:
+            errors.append(
+                error_at(
+                    f"{section}: {ctype} has no parameter {key!r}{did_you_mean(str(key), params)}",
+                    config.key_mark(key),
+                )
+            )
+            continue
+        try:
+            check_value(param, value)
+        except ValueError as exc:
+            errors.append(error_at(f"{section}.{key}: {exc}", config.value_mark(key)))
+    for name, param in params.items():
+        if param.required and name not in config:
+            errors.append(
+                error_at(f"{section}: {ctype} needs parameter {name!r} ({param.doc})", config.mark)
+            )
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _is_id(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
+def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
+    tags = data.get("tags")
+    if tags is None:
+        return
+    if not isinstance(tags, MarkedDict):
+        errors.append(
+            error_at("tags: expected a mapping of role: {id, size_mm}", data.value_mark("tags"))
+        )
+        return
+    owner: dict[int, str] = {}
+    for role, spec in tags.items():
+        where = tags.value_mark(role)
+        if not isinstance(spec, MarkedDict):
+            errors.append(error_at(f"tags.{role}: expected {{id: N, size_mm: S}}", where))
+            continue
+        for key in spec:
+            if key not in ("id", "ids", "size_mm", "family"):
+                errors.append(
+                    error_at(
+                        f"tags.{role}: unknown key {key!r}{did_you_mean(str(key), ['id', 'ids', 'size_mm', 'family'])}",
+                        spec.key_mark(key),
+                    )
+                )
+        ids: list[tuple[int, Mark | None]] = []
+        if ("id" in spec) == ("ids" in spec):
+            errors.append(error_at(f"tags.{role}: give either id or ids", spec.mark))
+        elif "id" in spec:
+            if _is_id(spec["id"]):
+                ids.append((spec["id"], spec.value_mark("id")))
+            else:
+                errors.append(
+                    error_at(
+                        f"tags.{role}.id: expected a marker id >= 0, got {spec['id']!r}",
+                        spec.value_mark("id"),
+                    )
+                )
+        else:
+            given = spec["ids"]
+            if not isinstance(given, MarkedList) or not given:
+                errors.append(
+                    error_at(
+                        f"tags.{role}.ids: expected a non-empty list of marker ids",
+                        spec.value_mark("ids"),
+                    )
+                )
+            else:
+                for i, v in enumerate(given):
+                    if _is_id(v):
+                        ids.append((v, given.item_mark(i)))
+                    else:
+                        errors.append(
+                            error_at(
+                                f"tags.{role}.ids: expected marker ids >= 0, got {v!r}",
+                                given.item_mark(i),
+                            )
+                        )
+        for marker, mark in ids:
+            if marker in owner:
+                errors.append(
+                    error_at(
+                        f"tags.{role}: marker id {marker} is already used by tag {owner[marker]!r}",
+                        mark,
+                    )
+                )
+            else:
+                owner[marker] = str(role)
+        size = spec.get("size_mm")
+        if "size_mm" not in spec:
+            errors.append(
+                error_at(f"tags.{role}: needs size_mm (the printed marker's side, mm)", spec.mark)
+            )
+        elif not _is_number(size) or size <= 0:
+            errors.append(
+                error_at(
+                    f"tags.{role}.size_mm: expected a number > 0 (mm), got {size!r}",
+                    spec.value_mark("size_mm"),
+                )
+            )
+
+
+def _vector(value: Any, n: int = 3) -> bool:
+    return isinstance(value, list) and len(value) == n and all(_is_number(v) for v in value)
+
+
+def _check_places(data: MarkedDict, errors: list[ConfigError]) -> None:
+    places = data.get("places")
+    if places is None:
+        return
+    if not isinstance(places, MarkedDict):
+        errors.append(
+            error_at(
+                "places: expected a mapping of name: [x, y, z] (mm)", data.value_mark("places")
+            )
+        )
+        return
+    for name, xyz in places.items():
+        if not _vector(xyz):
+            errors.append(
+                error_at(
+                    f"places.{name}: expected [x, y, z] in mm, got {xyz!r}", places.value_mark(name)
+                )
+            )
+
+
+def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:
+    obstacles = data.get("obstacles")
+    if obstacles is None:
+        return
+    if not isinstance(obstacles, MarkedList):
+        errors.append(
+            error_at("obstacles: expected a list of shapes", data.value_mark("obstacles"))
+        )
+        return
+    for i, item in enumerate(obstacles):
+        where = obstacles.item_mark(i)
+        shapes = [k for k in item if k in OBSTACLE_SHAPES] if isinstance(item, dict) else []
+        if len(shapes) != 1:
+            errors.append(
+                error_at(
+                    f"obstacles[{i}]: expected one shape ({', '.join(OBSTACLE_SHAPES)}), e.g. "
+                    "{box: {center: [x, y, z], size: [dx, dy, dz]}}",
+                    where,
+                )
+            )
+            continue
+        shape = shapes[0]
+        spec = item[shape]
+        if not isinstance(spec, MarkedDict):
+            errors.append(
+                error_at(f"obstacles[{i}].{shape}: expected a mapping", item.value_mark(shape))
+            )
+            continue
+        for key in OBSTACLE_SHAPES[shape]:
+            if key not in spec:
+                errors.append(error_at(f"obstacles[{i}].{shape}: needs {key}", spec.mark))
+        for key in ("center", "size"):
+            if key in spec and not _vector(spec[key]):
+                errors.append(
+                    error_at(
+                        f"obstacles[{i}].{shape}.{key}: expected 3 numbers (mm)",
+                        spec.value_mark(key),
+                    )
+                )
+        if shape == "box" and _vector(spec.get("size")) and min(spec["size"]) <= 0:
+            errors.append(
+                error_at(f"obstacles[{i}].box.size: sizes must be > 0 mm", spec.value_mark("size"))
+            )
+        for key in ("radius", "height"):
+            if key in spec and (not _is_number(spec[key]) or spec[key] <= 0):
+                errors.append(
+                    error_at(
+                        f"obstacles[{i}].{shape}.{key}: expected a number > 0 (mm)",
+                        spec.value_mark(key),
+                    )
+                )
+
+
+def _flatten_marks(
+    data: Any, prefix: str = "", out: dict[str, Mark] | None = None
+) -> dict[str, Mark]:
+    out = {} if out is None else out
+    if isinstance(data, MarkedDict):
+        if data.mark is not None and prefix not in out:
+            out[prefix] = data.mark
+        for key, value in data.items():
+            path = f"{prefix}.{key}" if prefix else str(key)
+            mark = data.value_mark(key)
+            if mark is not None:
+                out[path] = mark
+            _flatten_marks(value, path, out)
+    elif isinstance(data, MarkedList):
+        for i, value in enumerate(data):
+            path = f"{prefix}.{i}"
+            mark = data.item_mark(i)
+            if mark is not None:
+                out[path] = mark
+            _flatten_marks(value, path, out)
+    return out
+
+
+def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
+    """Rebuild marked containers from plain data and a path->mark table."""
+    if isinstance(data, dict):
+        out = MarkedDict(mark=marks.get(prefix))
+        for key, value in data.items():
+            path = f"{prefix}.{key}" if prefix else str(key)
+            out[key] = _remark(value, marks, path)
+            if path in marks:
+                out.key_marks[key] = out.value_marks[key] = marks[path]
+        return out
+    if isinstance(data, list):
+        items = MarkedList(
+            [_remark(v, marks, f"{prefix}.{i}") for i, v in enumerate(data)], mark=marks.get(prefix)
+        )
+        items.item_marks = [marks.get(f"{prefix}.{i}") for i in range(len(data))]
+        return items
+    return data
+
+
+def _plain(data: Any) -> Any:
+    if isinstance(data, dict):
+        return {k: _plain(v) for k, v in data.items()}
+    if isinstance(data, list):
+        return [_plain(v) for v in data]
+    return data

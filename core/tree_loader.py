@@ -1,0 +1,809 @@
+"""Loading tree files: validate everything, then build the py_trees behaviours.
+
+Format (see DESIGN.md "Tree files")::
+
+    # yaml-language-server: $schema=tree.schema.json
+    tree: load_ducky                 # name (default: the file's stem)
+    description: ...
+    rig: sim_dobot                   # default hardware profile; load_tree(rig=...) overrides
+    tick_hz: 20                      # ticks per second (> 0)
+    plugins: [my_skills, ./extra.py] # loaded before the nodes are checked
+    params: {tag: {doc: marker role}, clean_up: {default: false}}
+    blackboard: {clean_up: true}     # initial blackboard values
+    root: NODE
+
+A NODE is a mapping with exactly one key, its type:
+
+* composite (``sequence``, ``selector``, ``parallel``): a list of children, or a
+  mapping with ``children`` and options (``name``, ``memory``; a parallel's
+  ``policy``: success_on_all | success_on_one | success_on_selected, with
+  ``synchronise`` and ``selected``);
+* decorator (``inverter``, ``retry``, ``timeout``, ...): a mapping with ``child``
+  and its options;
+* leaf: a mapping of its declared parameters (or nothing);
+* ``subtree: {file: search.yaml, with: {tag: duckybot}, name: ...}``: include
+  another tree file's ``root``.
+
+Every node takes an optional ``name`` (default: its type).
+
+**Blackboard bindings.** A parameter value written ``"{key}"`` is bound to
+blackboard key ``key`` (read for an input parameter, written for an output).
+The blackboard is shared by the whole tree, included files too: what a subtree
+writes (a found pose) is what its parent reads. The loader checks that every key
+read is written by some output parameter, by a node that sets blackboard
+variables, by a ``blackboard:`` section or by an override; otherwise it is an
+error at the binding.
+
+**Subtree parameters.** ``with: {tag: duckybot}`` substitutes the included
+file's ``{tag}`` references at load time, before anything else: a value that is
+exactly ``"{tag}"`` becomes the given value (any YAML type, or another binding
+such as ``"{clean_up}"``, which remaps one key to another as BehaviorTree XML
+ports do), and ``{tag}`` inside a longer string is replaced by its text, so
+``"{{tag}_pose}"`` becomes the binding ``"{duckybot_pose}"``. References that are
+not parameters stay blackboard bindings. A file's ``params:`` declares the
+parameters it takes (``default`` makes one optional); ``with`` keys must then be
+declared, and required ones given. For the top-level tree, ``--set NAME=VALUE``
+gives a declared parameter. Include paths are relative to the including file,
+then the working directory, then the shipped trees; cycles are errors.
+
+**Errors.** Everything is checked before anything is built: unknown node types
+and parameters (with did-you-mean), wrong types, missing required parameters,
+nodes that are not one-key mappings, unbound blackboard keys, missing include
+files and include cycles, bad ``plugins:``, and the hardware profile. All the
+problems found are raised together as one :class:`armtree.ConfigError` whose
+``errors`` each carry file, line and column.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import py_trees
+
+from .behaviour import Behaviour
+from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
+from .errors import ConfigError, Mark
+from .params import REQUIRED, Binding, Param, check_value
+from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
+from .profile import OVERRIDE_SECTIONS, Override, Profile, load_profile, parse_overrides
+from .resolve import available, resolve
+from .tree import NodeInfo, Tree
+from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
+
+#: Every top-level key a tree file may have.
+TREE_KEYS = ("tree", "description", "rig", "tick_hz", "plugins", "params", "blackboard", "root")
+#: Keys of a ``subtree`` node.
+SUBTREE_KEYS = ("file", "with", "name")
+DEFAULT_TICK_HZ = 20.0
+
+BINDING = re.compile(r"^\{(/?[A-Za-z_][\w./]*)\}$")
+PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
+
+
+def load_tree(
+    path_or_name: str | Path,
+    rig: str | Path | Profile | None = None,
+    overrides: Iterable[str] = (),
+    *,
+    manager: PluginManager | None = None,
+) -> Tree:
+    """Find, validate and build a tree file.
+
+    ``path_or_name``: a path, or a name looked up in the working directory, then
+    among the shipped trees (``.yaml`` optional). ``rig``: a profile name, path or
+    :class:`Profile` used instead of the tree's ``rig:``. ``overrides``:
+    ``KEY=VALUE`` strings; a key whose first part is a profile section (arm,
+    camera, tracker, planner, tags, places, obstacles, world, plugins) overrides
+    the profile, a declared tree parameter is given, any other key sets an
+    initial blackboard value (dotted keys make nested mappings). ``manager``: the
+    plugin manager to use (default: the process-wide one).
+
+    Raises :class:`ConfigError` listing every problem found, each with its position.
+    """
+    path = resolve(path_or_name, "tree")
+    if path is None:
+        raise ConfigError(
+            f"no tree {str(path_or_name)!r} in the working directory or among the shipped "
+            f"trees{did_you_mean(Path(str(path_or_name)).stem, available('tree'))}",
+            file=str(path_or_name),
+        )
+    return _Loader(manager or get_plugin_manager()).load(path, rig, list(overrides))
+
+
+@dataclass
+class _Context:
+    """Where the loader is: the file, its parameters and the include chain."""
+
+    file: Path
+    params: dict[str, Any] = field(default_factory=dict)
+    stack: tuple[Path, ...] = ()
+    included_from: Mark | None = None
+
+
+@dataclass
+class _Node:
+    """What is known about one node while checking it."""
+
+    type: str
+    mark: Mark | None
+    name: str
+    path: str
+
+
+class _Loader:
+    """One load: collects errors, blackboard reads and writes, and node info."""
+
+    def __init__(self, manager: PluginManager) -> None:
+        self.manager = manager
+        self.registry: Any = None
+        self.errors: list[ConfigError] = []
+        self.files: dict[Path, Any] = {}
+        self.nodes: dict[Any, NodeInfo] = {}
+        self.reads: list[tuple[str, Mark | None, Mark | None]] = []
+        self.writes: set[str] = set()
+        self.blackboard: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ errors
+
+    def error(self, message: str, mark: Mark | None, ctx: _Context | None = None) -> None:
+        if ctx is not None and ctx.included_from is not None:
+            message = f"{message} (included from {ctx.included_from})"
+        self.errors.append(error_at(message, mark, str(ctx.file) if ctx else None))
+
+    def fail(self) -> ConfigError:
+        """One error listing all, ordered by file (as loaded), line and column."""
+        order = {str(path): i for i, path in enumerate(self.files)}
+        errors = sorted(
+            self.errors,
+            key=lambda e: (order.get(e.file or "", len(order)), e.line or 0, e.column or 0),
+        )
+        first = errors[0]
+        return ConfigError(first.message, first.file, first.line, first.column, errors)
+
+    # ------------------------------------------------------------------ files
+
+    def parse(self, path: Path) -> Any:
+        """Parse a file once per load; a file that fails to parse records its error once."""
+        if path not in self.files:
+            try:
+                self.files[path] = load_yaml_file(path)
+            except ConfigError as exc:
+                self.errors.extend(exc.errors)
+                self.files[path] = None
+        return self.files[path]
+
+    def load(self, path: Path, rig: Any, overrides: list[str]) -> Tree:
+        data = self.parse(path)
+        if data is None and not self.errors:
+            self.error(
+                "the tree file is empty; it needs at least a root node", Mark(str(path), 1, 1)
+            )
+        if data is not None and not isinstance(data, MarkedDict):
+            self.error(
+                "a tree file must be a mapping with a root node", getattr(data, "mark", None)
+            )
+        if self.errors:
+            raise self.fail()
+        ctx = _Context(file=path, stack=(path,))
+        self.check_keys(data, ctx)
+        parsed, bad = parse_overrides(overrides)
+        self.errors.extend(bad)
+        profile_overrides = [o for o in parsed if o.keys[0] in OVERRIDE_SECTIONS]
+        other = [o for o in parsed if o.keys[0] not in OVERRIDE_SECTIONS]
+        self.load_plugins(data, ctx)
+        profile = self.load_profile(data, ctx, rig, profile_overrides)
+        try:
+            self.registry = self.manager.registry
+        except ConfigError as exc:
+            self.errors.extend(exc.errors)
+            raise self.fail() from None
+        declared = self.declared_params(data, ctx)
+        given = {o.keys[0]: o for o in other if len(o.keys) == 1 and o.keys[0] in (declared or {})}
+        ctx.params = self.bind_params(declared, {k: o.value for k, o in given.items()}, None, ctx)
+        self.initial_blackboard(data, ctx)
+        for o in other:
+            if o.keys[0] not in given:
+                _set_nested(self.blackboard, o.keys, o.value)
+                self.writes.add(_root_key(o.keys[0]))
+        tick_hz = self.tick_hz(data, ctx)
+        root = None
+        if "root" in data:
+            root = self.build(data["root"], data.value_mark("root"), ctx, "", Counter())
+        else:
+            self.error("the tree has no root node", data.mark, ctx)
+        self.check_reads()
+        if self.errors:
+            raise self.fail()
+        assert root is not None
+        name = data.get("tree") if isinstance(data.get("tree"), str) else path.stem
+        return Tree(
+            name=name,
+            root=root,
+            source=path,
+            tick_hz=tick_hz,
+            description=str(data.get("description") or ""),
+            blackboard=self.blackboard,
+            nodes=self.nodes,
+            profile=profile,
+            plugins=list(self.manager.specs),
+            manager=self.manager,
+        )
+
+    def check_keys(self, data: MarkedDict, ctx: _Context) -> None:
+        for key in data:
+            if key not in TREE_KEYS:
+                self.error(
+                    f"unknown tree key {key!r}{did_you_mean(str(key), TREE_KEYS)}",
+                    data.key_mark(key),
+                    ctx,
+                )
+        for key in ("tree", "description", "rig"):
+            if data.get(key) is not None and not isinstance(data[key], str):
+                self.error(
+                    f"{key}: expected a string, got {data[key]!r}", data.value_mark(key), ctx
+                )
+        if data.get("blackboard") is not None and not isinstance(data["blackboard"], dict):
+            self.error(
+                "blackboard: expected a mapping of key: value", data.value_mark("blackboard"), ctx
+            )
+
+    def load_plugins(self, data: MarkedDict, ctx: _Context) -> None:
+        specs = data.get("plugins")
+        if specs is None:
+            return
+        if not isinstance(specs, MarkedList) or not all(isinstance(s, str) for s in specs):
+            self.error(
+                "plugins: expected a list of module names or .py files",
+                data.value_mark("plugins"),
+                ctx,
+            )
+            return
+        where: dict[str, Mark] = {}
+        resolved = []
+        for i, spec in enumerate(specs):
+            if spec.endswith(".py") and not Path(spec).is_absolute():
+                spec = str((ctx.file.parent / spec).resolve())
+            resolved.append(spec)
+            mark = specs.item_mark(i)
+            if mark is not None:
+                where[spec] = mark
+        try:
+            self.manager = self.manager.extended(resolved, where)
+        except ConfigError as exc:
+            self.errors.extend(exc.errors)
+
+    def load_profile(
+        self, data: MarkedDict, ctx: _Context, rig: Any, overrides: list[Override]
+    ) -> Profile | None:
+        try:
+            if isinstance(rig, Profile):
+                profile = rig.with_overrides(overrides, self.manager) if overrides else rig
+            elif rig is not None:
+                profile = load_profile(rig, overrides, manager=self.manager)
+            elif isinstance(data.get("rig"), str):
+                profile = load_profile(
+                    data["rig"],
+                    overrides,
+                    manager=self.manager,
+                    base=ctx.file.parent,
+                    where=data.value_mark("rig"),
+                )
+            else:
+                for o in overrides:
+                    self.error(
+                        f"{'.'.join(o.keys)} sets a profile value but the tree names no rig; "
+                        "give one with --rig PROFILE",
+                        o.mark,
+                    )
+                return None
+        except ConfigError as exc:
+            self.errors.extend(exc.errors)
+            return None
+        if profile.manager is not None:
+            self.manager = profile.manager
+        return profile
+
+    def tick_hz(self, data: MarkedDict, ctx: _Context) -> float:
+        value = data.get("tick_hz", DEFAULT_TICK_HZ)
+        try:
+            hz = check_value(Param("tick_hz", "float"), value)
+        except ValueError as exc:
+            self.error(f"tick_hz: {exc}", data.value_mark("tick_hz"), ctx)
+            return DEFAULT_TICK_HZ
+        if hz <= 0:
+            self.error(
+                f"tick_hz: expected a rate > 0 Hz, got {value!r}", data.value_mark("tick_hz"), ctx
+            )
+            return DEFAULT_TICK_HZ
+        return hz
+
+    def initial_blackboard(self, data: MarkedDict, ctx: _Context) -> None:
+        values = data.get("blackboard")
+        if not isinstance(values, MarkedDict):
+            return
+        for key, value in values.items():
+            if not isinstance(key, str) or not BINDING.match("{" + key + "}"):
+                self.error(
+                    f"blackboard: {key!r} is not a valid key (letters, digits, _ . /)",
+                    values.key_mark(key),
+                    ctx,
+                )
+                continue
+            self.blackboard.setdefault(key, _plain(_substitute(value, ctx.params)))
+            self.writes.add(_root_key(key))
+
+    # ------------------------------------------------------------ parameters
+
+    def declared_params(
+        self, data: MarkedDict, ctx: _Context
+    ) -> dict[str, tuple[Any, Mark | None]] | None:
+        """A file's ``params:`` as ``{name: (default or REQUIRED, mark)}``; None when undeclared."""
+        spec = data.get("params")
+        if spec is None:
+            return None
+        out: dict[str, tuple[Any, Mark | None]] = {}
+        if isinstance(spec, MarkedList) and all(isinstance(p, str) for p in spec):
+            return {p: (REQUIRED, spec.item_mark(i)) for i, p in enumerate(spec)}
+        if not isinstance(spec, MarkedDict):
+            self.error(
+                "params: expected a mapping of name: {default: V, doc: TEXT} or a list of names",
+                data.value_mark("params"),
+                ctx,
+            )
+            return None
+        for name, info in spec.items():
+            if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_]\w*", name):
+                self.error(
+                    f"params: {name!r} is not a valid parameter name", spec.key_mark(name), ctx
+                )
+                continue
+            if info is None:
+                out[name] = (REQUIRED, spec.key_mark(name))
+            elif isinstance(info, MarkedDict) and set(info) <= {"default", "doc"}:
+                out[name] = (
+                    info.get("default", REQUIRED) if "default" in info else REQUIRED,
+                    spec.key_mark(name),
+                )
+            else:
+                self.error(
+                    f"params.{name}: expected {{default: V, doc: TEXT}} (both optional)",
+                    spec.value_mark(name),
+                    ctx,
+                )
+        return out
+
+    def bind_params(
+        self,
+        declared: dict[str, tuple[Any, Mark | None]] | None,
+        given: dict[str, Any],
+        given_marks: MarkedDict | None,
+        ctx: _Context,
+        where: Mark | None = None,
+    ) -> dict[str, Any]:
+        """The parameter values of one file instance: given ones, else declared defaults."""
+        if declared is None:
+            return dict(given)
+        values: dict[str, Any] = {}
+        for name, value in given.items():
+            if name not in declared:
+                mark = given_marks.key_mark(name) if given_marks is not None else where
+                self.error(
+                    f"{ctx.file.name} has no parameter {name!r}{did_you_mean(name, declared)}",
+                    mark,
+                )
+                continue
+            values[name] = value
+        for name, (default, _) in declared.items():
+            if name in values:
+                continue
+            if default is REQUIRED:
+                how = (
+                    "with: {" + name + ": ...}"
+                    if given_marks is not None or where
+                    else f"--set {name}=VALUE"
+                )
+                self.error(
+                    f"{ctx.file.name} needs parameter {name!r}: give it with {how}",
+                    where or _file_mark(ctx),
+                )
+            else:
+                values[name] = default
+        return values
+
+    # ------------------------------------------------------------------ nodes
+
+    def build(
+        self,
+        value: Any,
+        mark: Mark | None,
+        ctx: _Context,
+        parent: str,
+        siblings: Counter,
+        name: str | None = None,
+    ) -> py_trees.behaviour.Behaviour | None:
+        """Check one node and, when it and its children are valid, build it."""
+        if not isinstance(value, MarkedDict) or len(value) != 1:
+            shown = list(value) if isinstance(value, dict) else value
+            self.error(
+                "a node is a mapping with exactly one key, its type (e.g. `success: {}` or "
+                f"`sequence: [...]`); got {shown!r}",
+                getattr(value, "mark", None) or mark,
+                ctx,
+            )
+            return None
+        ntype = next(iter(value))
+        spec = value[ntype]
+        type_mark = value.key_mark(ntype)
+        spec_mark = value.value_mark(ntype)
+        if ntype == "subtree":
+            return self.include(spec, type_mark, spec_mark, ctx, parent, siblings, name)
+        if not isinstance(ntype, str) or not self.registry.has("behaviour", ntype):
+            options = self.registry.names("behaviour") + ["subtree"]
+            self.error(
+                f"unknown node type {ntype!r}{did_you_mean(str(ntype), options)}", type_mark, ctx
+            )
+            self.check_orphans(spec, spec_mark, ctx, parent)
+            return None
+        factory = self.registry.get("behaviour", ntype).factory
+        kind = node_kind(factory)
+        children_spec: Any = None
+        children_mark = spec_mark
+        if kind == COMPOSITE and isinstance(spec, MarkedList):
+            options: MarkedDict = MarkedDict(mark=spec_mark)
+            children_spec = spec
+        elif spec is None and kind == LEAF:
+            options = MarkedDict(mark=spec_mark)
+        elif isinstance(spec, MarkedDict):
+            options = MarkedDict(spec, mark=spec.mark)
+            options.key_marks, options.value_marks = spec.key_marks, spec.value_marks
+            if kind == COMPOSITE:
+                if "children" not in spec:
+                    self.error(f"{ntype} needs children: a list of nodes", spec_mark, ctx)
+                children_spec = options.pop("children", MarkedList(mark=spec_mark))
+                children_mark = spec.value_mark("children")
+            elif kind == DECORATOR:
+                if "child" not in spec:
+                    self.error(f"{ntype} needs a child node (child: {{...}})", spec_mark, ctx)
+                children_spec = options.pop("child", None)
+                children_mark = spec.value_mark("child")
+        else:
+            what = {
+                COMPOSITE: "a list of children or a mapping with children",
+                DECORATOR: "a mapping with child and its options",
+                LEAF: "a mapping of its parameters",
+            }[kind]
+            self.error(f"{ntype} takes {what}; got {spec!r}", spec_mark, ctx)
+            return None
+        node_name = name or self.node_name(options, ntype, ctx)
+        options.pop("name", None)
+        siblings[node_name] += 1
+        path = f"{parent}/{node_name}" if parent else node_name
+        if siblings[node_name] > 1:
+            path += f"#{siblings[node_name]}"
+        node = _Node(ntype, type_mark, node_name, path)
+        params = self.check_params(factory, options, node, ctx)
+        built_children: Any = None
+        if kind == COMPOSITE:
+            built_children = self.build_children(children_spec, children_mark, ctx, path)
+        elif kind == DECORATOR and children_spec is not None:
+            built_children = self.build(children_spec, children_mark, ctx, path, Counter())
+        if params is None or (kind != LEAF and built_children is None):
+            return None
+        if kind == COMPOSITE:
+            params["children"] = built_children
+        elif kind == DECORATOR:
+            params["child"] = built_children
+        try:
+            behaviour = factory(node_name, **params)
+        except Exception as exc:  # noqa: BLE001 - a plugin's constructor error is shown at the node
+            self.error(f"{ntype} {node_name!r}: {exc}", type_mark, ctx)
+            return None
+        self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark)
+        return behaviour
+
+    def node_name(self, options: MarkedDict, ntype: str, ctx: _Context) -> str:
+        if "name" not in options:
+            return ntype
+        raw = options.pop("name")
+        value = _substitute(raw, ctx.params)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = str(value)
+        if not isinstance(value, str) or not value:
+            self.error(
+                f"name: expected a non-empty string, got {raw!r}", options.value_mark("name"), ctx
+            )
+            return ntype
+        if "/" in value:
+            self.error(
+                f"name: {value!r} may not contain '/' (it separates paths)",
+                options.value_mark("name"),
+                ctx,
+            )
+        return value
+
+    def build_children(self, spec: Any, mark: Mark | None, ctx: _Context, path: str) -> list | None:
+        if not isinstance(spec, MarkedList):
+            self.error(f"children: expected a list of nodes, got {spec!r}", mark, ctx)
+            return None
+        siblings: Counter = Counter()
+        built = [
+            self.build(child, spec.item_mark(i), ctx, path, siblings)
+            for i, child in enumerate(spec)
+        ]
+        return None if any(b is None for b in built) else built
+
+    def check_orphans(self, spec: Any, mark: Mark | None, ctx: _Context, parent: str) -> None:
+        """Check the children of a node of unknown type, so their errors are reported too."""
+        if isinstance(spec, MarkedList):
+            self.build_children(spec, mark, ctx, parent)
+        elif isinstance(spec, MarkedDict):
+            if isinstance(spec.get("children"), MarkedList):
+                self.build_children(spec["children"], spec.value_mark("children"), ctx, parent)
+            if isinstance(spec.get("child"), MarkedDict):
+                self.build(spec["child"], spec.value_mark("child"), ctx, parent, Counter())
+
+    def check_params(
+        self, factory: Any, options: MarkedDict, node: _Node, ctx: _Context
+    ) -> dict[str, Any] | None:
+        """Validated parameters with defaults filled in, or None after recording errors."""
+        declared = {p.name: p for p in getattr(factory, "PARAMS", ())}
+        bindable = is_bindable(factory)
+        writes = set(getattr(factory, "writes", ()))
+        before = len(self.errors)
+        params: dict[str, Any] = {}
+        for key, raw in options.items():
+            mark = options.value_mark(key)
+            param = declared.get(key)
+            if param is None:
+                hint = did_you_mean(str(key), [*declared, "name"])
+                if not hint and not declared:
+                    hint = f"; {node.type} takes no parameters"
+                self.error(
+                    f"{node.type} has no parameter {key!r}{hint}", options.key_mark(key), ctx
+                )
+                continue
+            value = _substitute(raw, ctx.params)
+            binding = BINDING.match(value) if isinstance(value, str) else None
+            if binding and param.type != "str" or binding and bindable:
+                if not bindable:
+                    self.error(
+                        f"{node.type}.{key} cannot be bound to the blackboard; give a value",
+                        mark,
+                        ctx,
+                    )
+                    continue
+                key_name = binding.group(1)
+                params[key] = Binding(key_name)
+                if param.io in ("out", "inout"):
+                    self.writes.add(_root_key(key_name))
+                if param.io in ("in", "inout"):
+                    self.reads.append((_root_key(key_name), mark, ctx.included_from))
+                continue
+            if param.io == "out":
+                self.error(
+                    f'{node.type}.{key} is an output: give the blackboard key to write as "{{key}}"',
+                    mark,
+                    ctx,
+                )
+                continue
+            if value is None and not param.required and param.default is None:
+                params[key] = None
+                continue
+            try:
+                params[key] = check_value(param, _plain(value))
+            except ValueError as exc:
+                self.error(f"{node.type}.{key}: {exc}", mark, ctx)
+                continue
+            if key in writes and isinstance(value, str):
+                self.writes.add(_root_key(value))
+        for pname, param in declared.items():
+            if pname in params or pname in options:
+                continue
+            if param.required:
+                doc = f" ({param.doc})" if param.doc else ""
+                self.error(f"{node.type} needs parameter {pname!r}{doc}", node.mark, ctx)
+            else:
+                params[pname] = param.default
+        return params if len(self.errors) == before else None
+
+    # --------------------------------------------------------------- includes
+
+    def include(
+        self,
+        spec: Any,
+        type_mark: Mark | None,
+        spec_mark: Mark | None,
+        ctx: _Context,
+        parent: str,
+        siblings: Counter,
+        name: str | None,
+    ) -> py_trees.behaviour.Behaviour | None:
+        if not isinstance(spec, MarkedDict):
+            self.error(
+                "subtree takes {file: TREE.yaml, with: {param: value}, name: ...}", spec_mark, ctx
+            )
+            return None
+        ok = True
+        for key in spec:
+            if key not in SUBTREE_KEYS:
+                self.error(
+                    f"subtree has no option {key!r}{did_you_mean(str(key), SUBTREE_KEYS)}",
+                    spec.key_mark(key),
+                    ctx,
+                )
+                ok = False
+        file = _substitute(spec.get("file"), ctx.params)
+        file_mark = spec.value_mark("file")
+        if not isinstance(file, str) or not file:
+            self.error("subtree needs file: the tree file to include", spec.mark, ctx)
+            return None
+        given = spec.get("with") or MarkedDict(mark=spec_mark)
+        if not isinstance(given, MarkedDict):
+            self.error(
+                "subtree with: expected a mapping of parameter: value", spec.value_mark("with"), ctx
+            )
+            return None
+        path = resolve(file, "tree", ctx.file.parent, base_first=True)
+        if path is None:
+            self.error(
+                f"subtree file {file!r} not found next to {ctx.file.name}, in the working "
+                f"directory or among the shipped trees{did_you_mean(Path(file).stem, available('tree'))}",
+                file_mark,
+                ctx,
+            )
+            return None
+        if path in ctx.stack:
+            cycle = " -> ".join(p.name for p in (*ctx.stack[ctx.stack.index(path) :], path))
+            self.error(f"include cycle: {cycle}", file_mark, ctx)
+            return None
+        data = self.parse(path)
+        if data is None:
+            return None
+        inner = _Context(file=path, stack=(*ctx.stack, path), included_from=type_mark)
+        if not isinstance(data, MarkedDict):
+            self.error(
+                "an included tree file must be a mapping with a root node",
+                getattr(data, "mark", None),
+                inner,
+            )
+            return None
+        self.check_keys(data, inner)
+        self.load_plugins(data, inner)
+        try:
+            self.registry = self.manager.registry
+        except ConfigError as exc:
+            self.errors.extend(exc.errors)
+            return None
+        values = {k: _substitute(v, ctx.params) for k, v in given.items()}
+        declared = self.declared_params(data, inner)
+        if declared is None:
+            used = _placeholders(data.get("root"))
+            for key in given:
+                if key not in used:
+                    self.error(
+                        f"{path.name} does not use parameter {key!r} (no {{{key}}} in it)",
+                        given.key_mark(key),
+                        ctx,
+                    )
+                    ok = False
+        inner.params = self.bind_params(declared, values, given, inner, type_mark)
+        self.initial_blackboard(data, inner)
+        if name is None and "name" in spec:
+            holder = MarkedDict({"name": spec["name"]}, mark=spec.mark)
+            holder.value_marks["name"] = spec.value_mark("name")
+            name = self.node_name(holder, "subtree", ctx)
+        if "root" not in data:
+            self.error("the included tree has no root node", data.mark, inner)
+            return None
+        root = self.build(data["root"], data.value_mark("root"), inner, parent, siblings, name)
+        return root if ok else None
+
+    # -------------------------------------------------------------- blackboard
+
+    def check_reads(self) -> None:
+        for key, mark, included_from in self.reads:
+            if key not in self.writes:
+                message = (
+                    f"blackboard key {key!r} is read here but nothing writes it: bind an output "
+                    f'parameter to "{{{key}}}", give it in blackboard:, or --set {key}=VALUE'
+                )
+                if included_from is not None:
+                    message += f" (included from {included_from})"
+                self.errors.append(error_at(message, mark))
+
+
+def node_kind(factory: Any) -> str:
+    """``"leaf"``, ``"composite"`` or ``"decorator"`` for a registered behaviour factory."""
+    kind = getattr(factory, "KIND", None)
+    if kind in (LEAF, COMPOSITE, DECORATOR):
+        return kind
+    if isinstance(factory, type):
+        if issubclass(factory, py_trees.decorators.Decorator):
+            return DECORATOR
+        if issubclass(factory, py_trees.composites.Composite):
+            return COMPOSITE
+    return LEAF
+
+
+def is_bindable(factory: Any) -> bool:
+    """True when the factory reads ``"{key}"`` bindings (armtree behaviours do)."""
+    flag = getattr(factory, "bindable", None)
+    if isinstance(flag, bool):
+        return flag
+    return isinstance(factory, type) and issubclass(factory, Behaviour)
+
+
+def _root_key(key: str) -> str:
+    return key.lstrip("/").split(".")[0]
+
+
+def _file_mark(ctx: _Context) -> Mark:
+    return Mark(str(ctx.file), 1, 1)
+
+
+def _substitute(value: Any, params: dict[str, Any]) -> Any:
+    """Replace ``{param}`` references by parameter values (see the module docstring)."""
+    if not params:
+        return value
+    if isinstance(value, str):
+        if "{" not in value:
+            return value
+        whole = PLACEHOLDER.fullmatch(value)
+        if whole and whole.group(1) in params:
+            return params[whole.group(1)]
+
+        def text(m: re.Match) -> str:
+            v = params.get(m.group(1), m)
+            if v is m or isinstance(v, (dict, list)):
+                return m.group(0)
+            return str(v).lower() if isinstance(v, bool) else str(v)
+
+        return PLACEHOLDER.sub(text, value)
+    if isinstance(value, MarkedDict):
+        out = MarkedDict(mark=value.mark)
+        for k, v in value.items():
+            out[k] = _substitute(v, params)
+        out.key_marks, out.value_marks = value.key_marks, value.value_marks
+        return out
+    if isinstance(value, MarkedList):
+        items = MarkedList([_substitute(v, params) for v in value], mark=value.mark)
+        items.item_marks = value.item_marks
+        return items
+    return value
+
+
+def _placeholders(value: Any, found: set[str] | None = None) -> set[str]:
+    """Every ``{name}`` referenced anywhere in ``value``."""
+    found = set() if found is None else found
+    if isinstance(value, str):
+        found.update(PLACEHOLDER.findall(value))
+    elif isinstance(value, dict):
+        for v in value.values():
+            _placeholders(v, found)
+    elif isinstance(value, list):
+        for v in value:
+            _placeholders(v, found)
+    return found
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _set_nested(target: dict[str, Any], keys: tuple[str, ...], value: Any) -> None:
+    for key in keys[:-1]:
+        child = target.get(key)
+        if not isinstance(child, dict):
+            child = {}
+            target[key] = child
+        target = child
+    target[keys[-1]] = value
