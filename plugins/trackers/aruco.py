@@ -1,0 +1,184 @@
+"""The ``aruco`` tracker: OpenCV's ArucoDetector, any predefined dictionary by name.
+
+Seed 000 tracks its marker with ArUco; seed 004 solves the marker pose with
+solvePnP. Sub-pixel corner refinement is on by default. When the profile's
+preprocessing binarises the image (seed 004's threshold and blur), markers
+are found in the preprocessed image and their corners refined on the grey
+one, where the edges still carry sub-pixel information.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Mapping
+from typing import Any
+
+import cv2
+import numpy as np
+
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.rig import Detection, Frame, RigContext, Tracker
+
+from .common import TagRoles, check_config, finish_detection, positive_size, profile_file, tag_table
+from .preprocess import Preprocessing, to_gray
+
+FAMILY = "aruco"
+DEFAULT_DICTIONARY = "4x4_50"
+
+
+def dictionary_names() -> dict[str, int]:
+    """Short dictionary name (``4x4_50``, ``apriltag_36h11``, ...) -> OpenCV's constant."""
+    names: dict[str, int] = {}
+    for attr in dir(cv2.aruco):
+        if attr.startswith("DICT_"):
+            names.setdefault(attr[5:].lower(), getattr(cv2.aruco, attr))
+    return names
+
+
+def get_dictionary(name: str, file: str | None = None) -> cv2.aruco.Dictionary:
+    """OpenCV's predefined dictionary called ``name`` (``4x4_50``, ``DICT_6X6_250``, ...).
+
+    An unknown name is a :class:`ConfigError` with a did-you-mean.
+    """
+    names = dictionary_names()
+    key = str(name).strip().lower()
+    key = key.removeprefix("dict_")
+    if key not in names:
+        close = difflib.get_close_matches(key, list(names), n=1, cutoff=0.5)
+        hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(sorted(names))}"
+        raise ConfigError(f"unknown ArUco dictionary {name!r}{hint}", file=file)
+    return cv2.aruco.getPredefinedDictionary(names[key])
+
+
+_REFINEMENT = {
+    "none": cv2.aruco.CORNER_REFINE_NONE,
+    "subpix": cv2.aruco.CORNER_REFINE_SUBPIX,
+    "contour": cv2.aruco.CORNER_REFINE_CONTOUR,
+    "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
+}
+
+
+def detector_parameters(overrides: Mapping[str, Any] | None, file: str | None = None) -> Any:
+    """``cv2.aruco.DetectorParameters`` with sub-pixel refinement and the profile's overrides.
+
+    Keys are OpenCV's attribute names (``adaptiveThreshWinSizeMin``, ...);
+    ``cornerRefinementMethod`` also takes ``none``, ``subpix``, ``contour`` or
+    ``apriltag``. An unknown key or a value of the wrong type is a ConfigError.
+    """
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    known = [a for a in dir(params) if not a.startswith("_") and not callable(getattr(params, a))]
+    for key, value in (overrides or {}).items():
+        if key not in known:
+            close = difflib.get_close_matches(str(key), known, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(f"tracker.detector: unknown ArUco parameter {key!r}{hint}", file=file)
+        if key == "cornerRefinementMethod" and isinstance(value, str):
+            if value.lower() not in _REFINEMENT:
+                raise ConfigError(
+                    f"tracker.detector.cornerRefinementMethod: one of {', '.join(_REFINEMENT)}, "
+                    f"got {value!r}",
+                    file=file,
+                )
+            value = _REFINEMENT[value.lower()]
+        current = getattr(params, key)
+        if isinstance(current, bool) != isinstance(value, bool) or not isinstance(
+            value, (int, float)
+        ):
+            raise ConfigError(
+                f"tracker.detector.{key}: expected {type(current).__name__}, got {value!r}",
+                file=file,
+            )
+        try:
+            setattr(params, key, type(current)(value))
+        except (TypeError, ValueError, cv2.error) as exc:
+            raise ConfigError(f"tracker.detector.{key}: {exc}", file=file) from None
+    return params
+
+
+class ArucoTracker(Tracker):
+    """ArUco (and AprilTag) markers through ``cv2.aruco.ArucoDetector``."""
+
+    family = FAMILY
+
+    def __init__(
+        self,
+        dictionary: str = DEFAULT_DICTIONARY,
+        parameters: Any = None,
+        preprocessing: Preprocessing | None = None,
+        roles: TagRoles | None = None,
+        *,
+        only_registered: bool = False,
+        file: str | None = None,
+    ) -> None:
+        self.dictionary_name = dictionary
+        self.dictionary = get_dictionary(dictionary, file)
+        params = parameters if parameters is not None else detector_parameters(None)
+        self.preprocessing = preprocessing or Preprocessing()
+        self.roles = roles or TagRoles({})
+        self.only_registered = only_registered
+        # Refine on the grey image ourselves when the detector sees a binarised one.
+        self._refine_on_gray = (
+            not self.preprocessing.identity
+            and params.cornerRefinementMethod == cv2.aruco.CORNER_REFINE_SUBPIX
+        )
+        if self._refine_on_gray:
+            self._win = int(params.cornerRefinementWinSize)
+            self._criteria = (
+                cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER,
+                int(params.cornerRefinementMaxIterations),
+                float(params.cornerRefinementMinAccuracy),
+            )
+            params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
+        self.parameters = params
+        self.detector = cv2.aruco.ArucoDetector(self.dictionary, params)
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known."""
+        gray = to_gray(frame.image)
+        image = gray if self.preprocessing.identity else self.preprocessing.apply(gray)
+        corners, ids, _ = self.detector.detectMarkers(image)
+        if ids is None or len(ids) == 0:
+            return []
+        detections = []
+        registered = self.roles.ids
+        for marker_corners, marker_id in zip(corners, ids.reshape(-1), strict=True):
+            if self.only_registered and int(marker_id) not in registered:
+                continue
+            c = np.asarray(marker_corners, dtype=np.float32).reshape(4, 2)
+            if self._refine_on_gray:
+                c = cv2.cornerSubPix(
+                    gray, c.reshape(-1, 1, 2), (self._win, self._win), (-1, -1), self._criteria
+                ).reshape(4, 2)
+            det = Detection(id=int(marker_id), corners=c, family=FAMILY)
+            detections.append(finish_detection(det, self.roles, frame, pose_quality=True))
+        return detections
+
+
+def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
+    """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
+    file = profile_file(context.profile)
+    values = check_config(config, aruco_factory.PARAMS, "tracker", file)
+    roles = TagRoles(
+        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", file)
+    )
+    return ArucoTracker(
+        values["dictionary"],
+        detector_parameters(values["detector"], file),
+        Preprocessing.from_config(values["preprocess"], file),
+        roles,
+        only_registered=values["only_registered"],
+        file=file,
+    )
+
+
+aruco_factory.PARAMS = (
+    Param(
+        "dictionary", "str", DEFAULT_DICTIONARY, doc="4x4_50, 5x5_100, 6x6_250, apriltag_36h11, ..."
+    ),
+    Param("detector", "dict", {}, doc="cv2.aruco.DetectorParameters overrides by attribute name"),
+    Param("preprocess", "dict", {}, doc="threshold, adaptive, block_px, offset, blur"),
+    Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
+    Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
+)

@@ -1,0 +1,208 @@
+"""What both trackers share: config checking, the profile's tag roles, marker pose.
+
+Poses follow seed 004 ("Marker Location"): OpenCV's PnP on the four corners
+of a marker whose frame is at its centre, in millimetres; here with the
+square-marker solver (``SOLVEPNP_IPPE_SQUARE``). The marker frame has x to
+the right and y up as printed, z out of the paper towards the viewer, so a
+marker facing the camera has its z axis pointing back at it.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from armtree.errors import ConfigError
+from armtree.params import Param, check_value
+from armtree.rig import Detection, Frame, TagSpec
+
+
+def profile_file(profile: Any) -> str | None:
+    """The file a profile was loaded from, for error messages (None when unknown)."""
+    source = getattr(profile, "source", None) or getattr(profile, "path", None)
+    return str(source) if source is not None else None
+
+
+def profile_section(profile: Any, key: str) -> Any:
+    """One top-level section of a profile given as a mapping or a Profile object."""
+    if profile is None:
+        return None
+    if isinstance(profile, Mapping):
+        return profile.get(key)
+    data = getattr(profile, "data", None)
+    if isinstance(data, Mapping):
+        return data.get(key)
+    getter = getattr(profile, "get", None)
+    if callable(getter):
+        return getter(key)
+    return getattr(profile, key, None)
+
+
+def check_config(
+    config: Any, params: tuple[Param, ...], section: str, file: str | None = None
+) -> dict[str, Any]:
+    """A component's mapping checked against its PARAMS, defaults filled in.
+
+    ``type`` (the registry key) is ignored; an unknown key gets a did-you-mean,
+    a wrong type names the key. Raises :class:`ConfigError`.
+    """
+    if config is None:
+        config = {}
+    if not isinstance(config, Mapping):
+        raise ConfigError(f"{section}: expected a mapping, got {config!r}", file=file)
+    known = {p.name: p for p in params}
+    values = {p.name: p.default for p in params}
+    for key, value in config.items():
+        if key == "type":
+            continue
+        if key not in known:
+            close = difflib.get_close_matches(str(key), list(known), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(known)}"
+            raise ConfigError(f"{section}: unknown key {key!r}{hint}", file=file)
+        if value is None and known[key].default is None:
+            values[key] = None
+            continue
+        try:
+            values[key] = check_value(known[key], value)
+        except ValueError as exc:
+            raise ConfigError(f"{section}.{key}: {exc}", file=file) from None
+    return values
+
+
+def tag_table(profile: Any) -> dict[int, TagSpec]:
+    """Marker id -> its :class:`TagSpec` from the profile's ``tags:`` (empty without one).
+
+    Uses ``profile.tags()`` when the profile offers it, else reads the raw
+    ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``). A size
+    that is not a positive number, or an id given to two roles, is a ConfigError.
+    """
+    file = profile_file(profile)
+    tags_method = getattr(profile, "tags", None)
+    raw = tags_method() if callable(tags_method) else profile_section(profile, "tags")
+    table: dict[int, TagSpec] = {}
+    for role, spec in (raw or {}).items():
+        if not isinstance(spec, TagSpec):
+            spec = _parse_tag(role, spec, file)
+        if not spec.size_mm > 0:
+            raise ConfigError(
+                f"tags.{role}.size_mm: a marker size must be positive, got {spec.size_mm}",
+                file=file,
+            )
+        for marker_id in spec.ids:
+            if marker_id in table and table[marker_id].role != spec.role:
+                raise ConfigError(
+                    f"tags: id {marker_id} is given to both {table[marker_id].role!r} "
+                    f"and {spec.role!r}",
+                    file=file,
+                )
+            table[marker_id] = spec
+    return table
+
+
+def _parse_tag(role: str, spec: Any, file: str | None) -> TagSpec:
+    if (
+        not isinstance(spec, Mapping)
+        or "size_mm" not in spec
+        or not ("id" in spec or "ids" in spec)
+    ):
+        raise ConfigError(f"tags.{role}: give id (or ids) and size_mm", file=file)
+    ids = spec["ids"] if "ids" in spec else [spec["id"]]
+    if isinstance(ids, (str, bytes)) or not isinstance(ids, (list, tuple)):
+        raise ConfigError(f"tags.{role}.ids: a list of marker ids, got {ids!r}", file=file)
+    for marker_id in ids:
+        if isinstance(marker_id, bool) or not isinstance(marker_id, int) or marker_id < 0:
+            raise ConfigError(
+                f"tags.{role}: marker ids are integers >= 0, got {marker_id!r}", file=file
+            )
+    size = spec["size_mm"]
+    if isinstance(size, bool) or not isinstance(size, (int, float)):
+        raise ConfigError(f"tags.{role}.size_mm: a number of millimetres, got {size!r}", file=file)
+    return TagSpec(str(role), tuple(int(i) for i in ids), float(size))
+
+
+def object_points(size_mm: float) -> np.ndarray:
+    """The corners of a square marker of side ``size_mm`` in its own frame, OpenCV's order."""
+    h = size_mm / 2.0
+    return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class MarkerPose:
+    """A marker pose in the camera frame: ``rvec`` radians, ``tvec`` mm, RMS reprojection px."""
+
+    rvec: np.ndarray
+    tvec: np.ndarray
+    reprojection_px: float
+
+
+def solve_marker_pose(
+    corners: np.ndarray, size_mm: float, camera_matrix: np.ndarray, distortion: np.ndarray | None
+) -> MarkerPose | None:
+    """Pose of a square marker from its four image corners (pixels, OpenCV's order).
+
+    Uses ``cv2.solvePnP`` with ``SOLVEPNP_IPPE_SQUARE`` (seed 004, "Marker
+    Location"); None when OpenCV finds no solution.
+    """
+    obj = object_points(size_mm)
+    img = np.asarray(corners, dtype=np.float64).reshape(4, 1, 2)
+    dist = np.zeros(5) if distortion is None else np.asarray(distortion, dtype=np.float64)
+    ok, rvec, tvec = cv2.solvePnP(obj, img, camera_matrix, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+    if not ok:
+        return None
+    projected, _ = cv2.projectPoints(obj, rvec, tvec, camera_matrix, dist)
+    err = float(
+        np.sqrt(np.mean(np.sum((projected.reshape(4, 2) - img.reshape(4, 2)) ** 2, axis=1)))
+    )
+    return MarkerPose(rvec.reshape(3), tvec.reshape(3), err)
+
+
+class TagRoles:
+    """Roles and sizes of the profile's registered markers, and the default size of others."""
+
+    def __init__(self, table: dict[int, TagSpec], default_size_mm: float | None = None) -> None:
+        self.table = table
+        self.default_size_mm = default_size_mm
+
+    @property
+    def ids(self) -> frozenset[int]:
+        """Every registered id."""
+        return frozenset(self.table)
+
+    def describe(self, marker_id: int) -> tuple[str, float | None]:
+        """``(role, size_mm)`` of a marker id: ``"unknown"`` and the default size if unregistered."""
+        spec = self.table.get(marker_id)
+        if spec is None:
+            return "unknown", self.default_size_mm
+        return spec.role, spec.size_mm
+
+
+def finish_detection(
+    det: Detection, roles: TagRoles, frame: Frame, pose_quality: bool
+) -> Detection:
+    """Fill in role, size and (when the frame has intrinsics and the size is known) the pose.
+
+    With ``pose_quality`` the detection's quality becomes the pose's RMS
+    reprojection error in pixels (the aruco convention).
+    """
+    det.role, det.size_mm = roles.describe(det.id)
+    if det.size_mm is not None and frame.camera_matrix is not None:
+        pose = solve_marker_pose(det.corners, det.size_mm, frame.camera_matrix, frame.distortion)
+        if pose is not None:
+            det.rvec, det.tvec = pose.rvec, pose.tvec
+            if pose_quality:
+                det.quality = pose.reprojection_px
+    return det
+
+
+def positive_size(value: float | None, name: str, file: str | None = None) -> float | None:
+    """``value`` unless it is given and not a positive number of mm (ConfigError)."""
+    if value is not None and not value > 0:
+        raise ConfigError(
+            f"{name}: a marker size must be positive millimetres, got {value}", file=file
+        )
+    return value

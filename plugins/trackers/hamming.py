@@ -1,0 +1,283 @@
+"""The ``hamming`` tracker: Hampy-format markers (seed 004), our own detector.
+
+Pipeline per frame: grey, the profile's preprocessing (seed 004: threshold at
+40 % of full scale, slight blur), outer contours of dark regions that are
+convex quadrilaterals, the 9x9 cells read through each quad's homography (all
+candidates in one ``cv2.remap``), a black/white split per marker (Otsu on the
+cell means, so a marker in shade reads like one in light), then Hamming(7,4)
+decoding of the four rotations at once.
+
+Unlike Hampy, which reports every rotation that decodes, a marker here gets
+exactly one id and one orientation: the rotation needing the fewest bit
+corrections wins, ties go to an id registered in the profile, and a tie
+that remains is reported once with ``ambiguous=True`` (smallest id first).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from armtree.params import Param
+from armtree.rig import Detection, Frame, RigContext, Tracker
+
+from .common import TagRoles, check_config, finish_detection, positive_size, profile_file, tag_table
+from .hamming_code import BITS, GRID, decode_bits
+from .preprocess import Preprocessing, to_gray
+
+FAMILY = "hamming"
+#: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
+SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
+
+# Sample offsets inside a cell (in cells): the centre and four points around it.
+_OFFSETS = np.array([[0.5, 0.5], [0.3, 0.3], [0.7, 0.3], [0.7, 0.7], [0.3, 0.7]])
+_CELL_UV = (
+    np.stack(np.meshgrid(np.arange(GRID), np.arange(GRID)), axis=-1).reshape(-1, 1, 2) + _OFFSETS
+).reshape(-1, 2)
+_BORDER = np.ones((GRID, GRID), dtype=bool)
+_BORDER[1:-1, 1:-1] = False
+_BORDER_FLAT = _BORDER.ravel()
+_UNIT_SQUARE = np.array([[0, 0], [GRID, 0], [GRID, GRID], [0, GRID]], dtype=np.float32)
+
+
+@dataclass
+class _Reading:
+    """One decoded candidate: printed-order corners, id, bits corrected, ambiguity."""
+
+    corners: np.ndarray
+    marker_id: int
+    corrected: int
+    ambiguous: bool
+
+
+class HammingTracker(Tracker):
+    """Finds Hampy-format Hamming markers; one detection per physical marker.
+
+    ``max_corrected_bits`` bounds the corrections over the seven rows (each
+    row corrects at most one, as Hamming(7,4) allows); ``max_border_errors``
+    how many of the 32 border cells may read white; ``only_registered``
+    drops ids the profile does not list.
+    """
+
+    family = FAMILY
+
+    def __init__(
+        self,
+        preprocessing: Preprocessing | None = None,
+        roles: TagRoles | None = None,
+        *,
+        min_side_px: float = 12.0,
+        max_corrected_bits: int = 2,
+        max_border_errors: int = 1,
+        min_contrast: float = 20.0,
+        only_registered: bool = False,
+        refine: bool = True,
+    ) -> None:
+        self.preprocessing = preprocessing or Preprocessing(**SEED_PREPROCESS)
+        self.roles = roles or TagRoles({})
+        self.min_side_px = float(min_side_px)
+        self.max_corrected_bits = int(max_corrected_bits)
+        self.max_border_errors = int(max_border_errors)
+        self.min_contrast = float(min_contrast)
+        self.only_registered = bool(only_registered)
+        self.refine = bool(refine)
+
+    # -- the Tracker contract -------------------------------------------------
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        """Every Hamming marker in ``frame``; poses when its size and intrinsics are known."""
+        gray = to_gray(frame.image)
+        quads = self.candidates(gray)
+        readings = self.decode(gray, quads)
+        if self.refine and readings:
+            self._refine(gray, readings)
+        detections = []
+        for r in readings:
+            det = Detection(
+                id=r.marker_id,
+                corners=r.corners,
+                family=FAMILY,
+                quality=float(r.corrected),
+                ambiguous=r.ambiguous,
+            )
+            detections.append(finish_detection(det, self.roles, frame, pose_quality=False))
+        return detections
+
+    # -- stages (public so benchmarks and tests can look inside) ----------------
+
+    def candidates(self, gray: np.ndarray) -> np.ndarray:
+        """Convex dark quadrilaterals ``(N, 4, 2)`` float32, clockwise on screen."""
+        processed = self.preprocessing.apply(gray)
+        if self.preprocessing.binarises:
+            _, dark = cv2.threshold(processed, 127, 255, cv2.THRESH_BINARY_INV)
+        else:
+            _, dark = cv2.threshold(processed, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+        contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
+        if hierarchy is None:
+            return np.zeros((0, 4, 2), np.float32)
+        min_perimeter = 4.0 * self.min_side_px
+        h, w = gray.shape
+        quads = []
+        for contour, link in zip(contours, hierarchy[0], strict=True):
+            # Holes (level two of RETR_CCOMP) are the inner edges of dark rings.
+            if link[3] != -1 or len(contour) < 4:
+                continue
+            perimeter = cv2.arcLength(contour, True)
+            if perimeter < min_perimeter or perimeter > 2.0 * (w + h):
+                continue
+            approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
+            if len(approx) != 4 or not cv2.isContourConvex(approx):
+                continue
+            quad = approx.reshape(4, 2).astype(np.float32)
+            sides = np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)
+            if sides.min() < self.min_side_px:
+                continue
+            if _shoelace(quad) < 0:
+                quad = quad[::-1].copy()
+            quads.append(quad)
+        if not quads:
+            return np.zeros((0, 4, 2), np.float32)
+        return np.stack(quads)
+
+    def sample_cells(self, gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
+        """Mean grey level of each of the 81 cells of every quad, ``(N, 81)``.
+
+        The cells are read in the quad's corner order: row 0 runs from
+        ``quad[0]`` to ``quad[1]``, column 0 from ``quad[0]`` to ``quad[3]``.
+        """
+        n = len(quads)
+        homographies = np.stack([cv2.getPerspectiveTransform(_UNIT_SQUARE, q) for q in quads])
+        uv1 = np.concatenate([_CELL_UV, np.ones((len(_CELL_UV), 1))], axis=1)
+        xyw = homographies @ uv1.T  # (N, 3, P)
+        xy = (xyw[:, :2] / xyw[:, 2:3]).transpose(0, 2, 1).astype(np.float32)  # (N, P, 2)
+        flat = xy.reshape(-1, 1, 2)
+        values = cv2.remap(
+            gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        )
+        return values.reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
+
+    def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
+        """Read, check and decode every candidate; one reading per accepted marker."""
+        if len(quads) == 0:
+            return []
+        cells = self.sample_cells(gray, quads)
+        threshold, contrast = _otsu(cells)
+        white = cells > threshold[:, None]
+        border_white = white[:, _BORDER_FLAT].sum(axis=1)
+        keep = (contrast >= self.min_contrast) & (border_white <= self.max_border_errors)
+        grids = white.reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
+        inner = grids.reshape(len(grids), -1).sum(axis=1)
+        # Hampy rejects all-black and all-white insides; so do we.
+        keep &= (inner > 0) & (inner < BITS * BITS)
+        if not keep.any():
+            return []
+        quads, grids = quads[keep], grids[keep]
+        # rot90(grid, k) is the marker as printed when its top-left corner is quads[k].
+        rotated = np.stack([np.rot90(grids, k, axes=(1, 2)) for k in range(4)], axis=1)
+        ids, corrected = decode_bits(rotated)  # (M, 4)
+        readings = []
+        for quad, quad_ids, quad_corr in zip(quads, ids, corrected, strict=True):
+            reading = self._choose(quad, quad_ids, quad_corr)
+            if reading is not None:
+                readings.append(reading)
+        return _dedupe(readings)
+
+    def _choose(self, quad: np.ndarray, ids: np.ndarray, corrected: np.ndarray) -> _Reading | None:
+        registered = self.roles.ids
+        options = []
+        for k in range(4):
+            marker_id, corr = int(ids[k]), int(corrected[k])
+            if corr > self.max_corrected_bits:
+                continue
+            if self.only_registered and marker_id not in registered:
+                continue
+            options.append(((corr, marker_id not in registered), marker_id, k))
+        if not options:
+            return None
+        options.sort()
+        best_key, best_id, best_k = options[0]
+        ties = [o for o in options if o[0] == best_key]
+        corners = np.roll(quad, -best_k, axis=0).astype(np.float32)
+        return _Reading(corners, best_id, best_key[0], ambiguous=len(ties) > 1)
+
+    def _refine(self, gray: np.ndarray, readings: list[_Reading]) -> None:
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01)
+        for r in readings:
+            side = float(np.linalg.norm(r.corners - np.roll(r.corners, -1, axis=0), axis=1).min())
+            # Half a window must stay inside the border cell next to the corner.
+            half = int(np.clip(round(0.6 * side / GRID), 1, 5))
+            refined = cv2.cornerSubPix(
+                gray, r.corners.reshape(-1, 1, 2).copy(), (half, half), (-1, -1), criteria
+            )
+            r.corners = refined.reshape(4, 2)
+
+
+def _shoelace(quad: np.ndarray) -> float:
+    """Twice the signed area; positive when the corners run clockwise on screen (y down)."""
+    x, y = quad[:, 0], quad[:, 1]
+    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _otsu(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row Otsu split of ``(N, K)`` values: thresholds ``(N,)`` and class-mean gaps ``(N,)``."""
+    v = np.sort(values, axis=1)
+    n, k = v.shape
+    csum = np.cumsum(v, axis=1)[:, :-1]
+    counts = np.arange(1, k)
+    mean_low = csum / counts
+    mean_high = (v.sum(axis=1, keepdims=True) - csum) / (k - counts)
+    between = counts * (k - counts) * (mean_high - mean_low) ** 2
+    split = between.argmax(axis=1)
+    rows = np.arange(n)
+    threshold = (v[rows, split] + v[rows, split + 1]) / 2.0
+    return threshold, mean_high[rows, split] - mean_low[rows, split]
+
+
+def _dedupe(readings: list[_Reading]) -> list[_Reading]:
+    """Keep the larger of two readings whose centres are within half a side of each other."""
+    if len(readings) < 2:
+        return readings
+    sizes = [float(cv2.contourArea(r.corners)) for r in readings]
+    order = np.argsort(sizes)[::-1]
+    kept: list[_Reading] = []
+    for i in order:
+        r = readings[i]
+        centre = r.corners.mean(axis=0)
+        half_side = np.sqrt(sizes[i]) / 2.0
+        if all(np.linalg.norm(centre - o.corners.mean(axis=0)) > half_side for o in kept):
+            kept.append(r)
+    return kept
+
+
+def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
+    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
+    file = profile_file(context.profile)
+    values = check_config(config, hamming_factory.PARAMS, "tracker", file)
+    roles = TagRoles(
+        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", file)
+    )
+    return HammingTracker(
+        Preprocessing.from_config(values["preprocess"], file),
+        roles,
+        min_side_px=values["min_side_px"],
+        max_corrected_bits=values["max_corrected_bits"],
+        max_border_errors=values["max_border_errors"],
+        min_contrast=values["min_contrast"],
+        only_registered=values["only_registered"],
+        refine=values["refine"],
+    )
+
+
+hamming_factory.PARAMS = (
+    Param("preprocess", "dict", SEED_PREPROCESS, doc="threshold, adaptive, block_px, offset, blur"),
+    Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
+    Param("min_side_px", "float", 12.0, unit="px", doc="smallest marker side looked for"),
+    Param("max_corrected_bits", "int", 2, doc="bit corrections allowed per marker, one per row"),
+    Param("max_border_errors", "int", 1, doc="border cells allowed to read white"),
+    Param("min_contrast", "float", 20.0, doc="grey levels between a marker's black and white"),
+    Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
+    Param("refine", "bool", True, doc="sub-pixel corner refinement"),
+)

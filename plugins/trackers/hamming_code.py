@@ -1,0 +1,110 @@
+"""The Hampy marker format: a 9x9 grid, black border, seven Hamming(7,4) rows, 28-bit id.
+
+This is the format the Dobot report used (seed 004, ref. [10]) as PyPI hampy
+1.4.2's ``detect_markers`` reads it:
+
+* the outer ring of cells is black; inside it a 7x7 grid where a white cell
+  is a 1 bit;
+* the id is written MSB first as 28 bits, cut into seven 4-bit nibbles, one
+  per row from the top;
+* each row is the Hamming(7,4) code word of its nibble ``(d1, d2, d3, d4)``,
+  laid out left to right as ``(p1, p2, d1, p3, d2, d3, d4)`` with
+  ``p1 = d1^d2^d4``, ``p2 = d1^d3^d4``, ``p3 = d2^d3^d4``.
+
+Hamming(7,4) is a perfect code: every 7-bit word is at most one bit from
+exactly one code word, so a row always "decodes"; what tells a right reading
+from a wrong one is how many bits had to be corrected. The decoding tables
+here return that count with the nibble.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Cells along one side of a marker, border included.
+GRID = 9
+#: Data cells along one side (one code word per row).
+BITS = 7
+#: Bits of an id, and the first id that does not fit.
+ID_BITS = 28
+MAX_ID = 1 << ID_BITS
+
+# Generator and parity-check matrices in hampy's bit order (p1 p2 d1 p3 d2 d3 d4).
+GENERATOR = np.array(
+    [
+        [1, 1, 0, 1],
+        [1, 0, 1, 1],
+        [1, 0, 0, 0],
+        [0, 1, 1, 1],
+        [0, 1, 0, 0],
+        [0, 0, 1, 0],
+        [0, 0, 0, 1],
+    ],
+    dtype=np.uint8,
+)
+PARITY_CHECK = np.array(
+    [[0, 0, 0, 1, 1, 1, 1], [0, 1, 1, 0, 0, 1, 1], [1, 0, 1, 0, 1, 0, 1]], dtype=np.uint8
+)
+#: Positions of the data bits d1..d4 inside a code word.
+DATA_POSITIONS = (2, 4, 5, 6)
+#: Weights that turn a row of 7 bits (left to right) into an integer word, MSB first.
+_ROW_WEIGHTS = 1 << np.arange(BITS - 1, -1, -1)
+
+
+def _codeword(nibble: int) -> np.ndarray:
+    data = np.array([(nibble >> (3 - i)) & 1 for i in range(4)], dtype=np.uint8)
+    return (GENERATOR.astype(int) @ data) % 2
+
+
+#: Code word (7 bits, left to right) of each nibble 0..15.
+CODEWORDS = np.array([_codeword(n) for n in range(16)], dtype=np.uint8)
+
+
+def _decode_tables() -> tuple[np.ndarray, np.ndarray]:
+    words = (np.arange(128)[:, None] >> np.arange(BITS - 1, -1, -1)) & 1
+    dist = (words[:, None, :] != CODEWORDS[None, :, :]).sum(axis=2)
+    nibble = dist.argmin(axis=1)
+    return nibble.astype(np.int64), dist.min(axis=1).astype(np.int64)
+
+
+#: For each 7-bit word (as an integer, left bit most significant): the nearest
+#: code word's nibble, and the bits corrected to reach it (0 or 1).
+WORD_NIBBLE, WORD_ERRORS = _decode_tables()
+
+
+def check_id(marker_id: int) -> int:
+    """``marker_id`` as an int, or ``ValueError`` unless ``0 <= id < 2**28``."""
+    if isinstance(marker_id, bool) or not isinstance(marker_id, (int, np.integer)):
+        raise ValueError(f"a Hamming marker id is an integer, got {marker_id!r}")
+    if not 0 <= int(marker_id) < MAX_ID:
+        raise ValueError(f"a Hamming marker id must be 0 <= id < 2**28, got {marker_id}")
+    return int(marker_id)
+
+
+def encode_id(marker_id: int) -> np.ndarray:
+    """The 7x7 data bits of ``marker_id`` (row r carries nibble r from the MSB end)."""
+    marker_id = check_id(marker_id)
+    nibbles = [(marker_id >> (4 * (BITS - 1 - r))) & 0xF for r in range(BITS)]
+    return CODEWORDS[nibbles].copy()
+
+
+def marker_grid(marker_id: int) -> np.ndarray:
+    """The 9x9 cells of a marker as printed, 1 for white and 0 for black."""
+    grid = np.zeros((GRID, GRID), dtype=np.uint8)
+    grid[1:-1, 1:-1] = encode_id(marker_id)
+    return grid
+
+
+def decode_bits(bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Decode data grids ``(..., 7, 7)`` of 0/1 read row by row as printed.
+
+    Returns ``(ids, corrected)``, each of shape ``(...)``: the id of the nearest
+    code words, and the number of bits corrected to reach them (at most one per
+    row, as Hamming(7,4) allows, so also the number of rows in error).
+    """
+    words = (np.asarray(bits, dtype=np.int64) * _ROW_WEIGHTS).sum(axis=-1)
+    nibbles = WORD_NIBBLE[words]
+    errors = WORD_ERRORS[words]
+    shifts = 4 * np.arange(BITS - 1, -1, -1)
+    ids = (nibbles << shifts).sum(axis=-1)
+    return ids, errors.sum(axis=-1)

@@ -1,0 +1,218 @@
+"""The Hampy marker format, pinned by golden code words, and the hamming tracker on synthetic frames."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from armtree.clock import VirtualClock
+from armtree.errors import ConfigError
+from armtree.plugins.trackers import hamming_code as hc
+from armtree.plugins.trackers import synthetic as syn
+from armtree.plugins.trackers.common import TagRoles
+from armtree.plugins.trackers.hamming import HammingTracker, hamming_factory
+from armtree.rig import Frame, RigContext, TagSpec
+
+# Hamming(7,4) code words of nibbles 0..15 in hampy 1.4.2's bit order
+# (p1 p2 d1 p3 d2 d3 d4), as hampy.hamming.encode writes them.
+GOLDEN_CODEWORDS = [
+    "0000000", "1101001", "0101010", "1000011", "1001100", "0100101", "1100110", "0001111",
+    "1110000", "0011001", "1011010", "0110011", "0111100", "1010101", "0010110", "1111111",
+]  # fmt: skip
+# HammingMarker(id).hamming_code of hampy 1.4.2, one string per row from the top.
+GOLDEN_GRIDS = {
+    1: ["0000000"] * 6 + ["1101001"],
+    0x0ABCDEF: ["0000000", "1011010", "0110011", "0111100", "1010101", "0010110", "1111111"],
+    228337701: ["1010101", "0011001", "0111100", "0101010", "1110000", "0101010", "0100101"],
+}
+
+K = syn.nominal_camera()
+
+
+def rows(bits):
+    return ["".join(str(int(b)) for b in row) for row in bits]
+
+
+def test_codewords_match_hampy():
+    assert rows(hc.CODEWORDS) == GOLDEN_CODEWORDS
+
+
+@pytest.mark.parametrize("marker_id", sorted(GOLDEN_GRIDS))
+def test_grids_match_hampy(marker_id):
+    assert rows(hc.encode_id(marker_id)) == GOLDEN_GRIDS[marker_id]
+    grid = hc.marker_grid(marker_id)
+    assert grid.shape == (9, 9)
+    border = np.ones((9, 9), bool)
+    border[1:-1, 1:-1] = False
+    assert not grid[border].any(), "the border is black"
+    assert rows(grid[1:-1, 1:-1]) == GOLDEN_GRIDS[marker_id], "a white cell is a 1 bit"
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, hc.MAX_ID - 1))
+def test_encode_decode_round_trip(marker_id):
+    ids, corrected = hc.decode_bits(hc.encode_id(marker_id))
+    assert int(ids) == marker_id and int(corrected) == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(0, hc.MAX_ID - 1),
+    st.lists(st.integers(0, 6), min_size=7, max_size=7),
+    st.integers(1, 7),
+)
+def test_one_bit_per_row_is_corrected(marker_id, columns, n_rows):
+    bits = hc.encode_id(marker_id)
+    for r in range(n_rows):
+        bits[r, columns[r]] ^= 1
+    ids, corrected = hc.decode_bits(bits)
+    assert int(ids) == marker_id and int(corrected) == n_rows
+
+
+def test_two_bits_in_a_row_decode_to_another_id():
+    bits = hc.encode_id(0x0ABCDEF)
+    bits[3, [0, 4]] ^= 1
+    ids, corrected = hc.decode_bits(bits)
+    assert int(ids) != 0x0ABCDEF and int(corrected) == 1
+
+
+@pytest.mark.parametrize("bad", [-1, hc.MAX_ID, 2.0, True])
+def test_ids_out_of_range_are_refused(bad):
+    with pytest.raises(ValueError):
+        hc.encode_id(bad)
+
+
+def scene(ids, effects=None, seed=0, distance=300.0, size_mm=25.0, spin=None):
+    rng = np.random.default_rng(seed)
+    offsets = [(-60.0, -20.0), (0.0, 30.0), (60.0, -20.0)]
+    placements = []
+    for i, marker_id in enumerate(ids):
+        rvec, tvec = syn.look_at_pose(
+            distance,
+            tilt_deg=rng.uniform(-30, 30),
+            spin_deg=rng.uniform(0, 360) if spin is None else spin,
+            offset_mm=offsets[i],
+        )
+        placements.append(syn.Placement(marker_id, size_mm, rvec, tvec))
+    image, truth = syn.render_markers("hamming", placements, K, effects=effects)
+    return Frame(image, 0.0, K, np.zeros(5)), truth, placements
+
+
+def test_three_markers_found_with_corners_and_poses():
+    frame, truth, placements = scene([1, 0x0ABCDEF, 228337701], syn.Effects(noise=2.0, seed=1))
+    tracker = HammingTracker(roles=TagRoles({}, default_size_mm=25.0))
+    dets = tracker.detect(frame)
+    assert sorted(d.id for d in dets) == sorted(truth)
+    for det in dets:
+        assert det.family == "hamming" and not det.ambiguous and det.quality == 0
+        assert np.abs(det.corners - truth[det.id]).max() < 0.5
+        placement = next(p for p in placements if p.marker_id == det.id)
+        assert np.linalg.norm(det.tvec - placement.tvec) < 3.0
+        assert det.role == "unknown" and det.size_mm == 25.0
+
+
+@pytest.mark.parametrize("spin", [0.0, 90.0, 180.0, 270.0])
+def test_each_rotation_gives_one_id_and_printed_corner_order(spin):
+    frame, truth, _ = scene([0x0ABCDEF], spin=spin)
+    dets = HammingTracker().detect(frame)
+    assert len(dets) == 1 and dets[0].id == 0x0ABCDEF
+    # corners[0] is the top-left of the marker as printed, wherever it is in the image
+    assert np.abs(dets[0].corners - truth[0x0ABCDEF]).max() < 0.5
+    assert dets[0].tvec is None, "no size known, so no pose"
+
+
+def test_marker_that_reads_as_two_ids_is_one_ambiguous_detection():
+    # hampy.detect_markers returns ids 2 and 2 << 24 for this one marker
+    frame, _, _ = scene([2])
+    dets = HammingTracker().detect(frame)
+    assert [(d.id, d.ambiguous) for d in dets] == [(2, True)]
+
+
+def test_registered_id_settles_an_ambiguous_marker():
+    roles = TagRoles({2 << 24: TagSpec("duckybot", (2 << 24,), 25.0)})
+    frame, _, _ = scene([2])
+    dets = HammingTracker(roles=roles).detect(frame)
+    assert [(d.id, d.ambiguous, d.role) for d in dets] == [(2 << 24, False, "duckybot")]
+
+
+def flip_cells(marker_id, cells):
+    grid = hc.marker_grid(marker_id)
+    for r, c in cells:
+        grid[r + 1, c + 1] ^= 1
+    return grid
+
+
+def render_grid(grid, side=180):
+    import cv2
+
+    img = np.full((480, 640), 200, np.uint8)
+    square = cv2.resize(grid * np.uint8(200) + 30, (side, side), interpolation=cv2.INTER_NEAREST)
+    img[100 : 100 + side, 200 : 200 + side] = square
+    return Frame(img, 0.0, K, np.zeros(5))
+
+
+def test_single_bit_errors_are_corrected_and_counted():
+    marker_id = 228337701
+    frame = render_grid(flip_cells(marker_id, [(0, 3), (5, 6)]))
+    dets = HammingTracker().detect(frame)
+    assert [(d.id, d.quality) for d in dets] == [(marker_id, 2.0)]
+
+
+def test_too_many_errors_are_rejected():
+    frame = render_grid(flip_cells(228337701, [(0, 3), (2, 2), (5, 6)]))
+    assert HammingTracker().detect(frame) == []
+    assert len(HammingTracker(max_corrected_bits=3).detect(frame)) == 1
+
+
+def test_plain_squares_and_noise_give_nothing():
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (480, 640), dtype=np.uint8)
+    img[50:150, 50:150] = 20  # a black square: all-black inside, rejected as hampy does
+    img[200:300, 300:400] = 20
+    img[220:280, 320:380] = 230  # a black frame around a white square
+    assert HammingTracker().detect(Frame(img, 0.0, K, np.zeros(5))) == []
+
+
+def test_only_registered_drops_other_ids():
+    frame, _, _ = scene([1, 0x0ABCDEF])
+    roles = TagRoles({1: TagSpec("ducky", (1,), 25.0)})
+    dets = HammingTracker(roles=roles, only_registered=True).detect(frame)
+    assert [(d.id, d.role, d.size_mm) for d in dets] == [(1, "ducky", 25.0)]
+    assert dets[0].tvec is not None
+
+
+def context(profile):
+    return RigContext(profile=profile, clock=VirtualClock())
+
+
+def test_factory_reads_tags_and_preprocessing():
+    profile = {"tags": {"ducky": {"id": 1, "size_mm": 25}, "trash": {"ids": [5, 6], "size_mm": 30}}}
+    tracker = hamming_factory(
+        {"type": "hamming", "preprocess": {"adaptive": True, "blur": 3}}, context(profile)
+    )
+    assert tracker.preprocessing.adaptive and tracker.preprocessing.blur == 3
+    assert tracker.roles.describe(6) == ("trash", 30.0)
+    assert hamming_factory({}, context(None)).preprocessing.threshold == 0.4  # seed 004
+
+
+@pytest.mark.parametrize(
+    ("config", "profile", "message"),
+    [
+        ({"max_corected_bits": 1}, None, "did you mean 'max_corrected_bits'"),
+        ({"preprocess": {"threshold": 40}}, None, "between 0 and 1"),
+        ({"preprocess": {"blur": 4}}, None, "odd"),
+        ({"size_mm": 0}, None, "positive"),
+        ({}, {"tags": {"ducky": {"id": 1, "size_mm": 0}}}, "positive"),
+        ({}, {"tags": {"ducky": {"id": 1}}}, "size_mm"),
+        ({"min_side_px": "big"}, None, "min_side_px"),
+    ],
+)
+def test_factory_config_errors(config, profile, message):
+    with pytest.raises(ConfigError, match=message):
+        hamming_factory(config, context(profile))
+
+
+def test_wrong_image_type_is_a_value_error():
+    frame = Frame(np.zeros((48, 64), np.float32), 0.0, K, np.zeros(5))
+    with pytest.raises(ValueError, match="8-bit"):
+        HammingTracker().detect(frame)
