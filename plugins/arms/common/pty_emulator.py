@@ -1,0 +1,304 @@
+"""Pseudo-terminal plumbing every arm firmware emulator shares.
+
+A subclass of :class:`PtyEmulator` writes only the firmware: what to do with
+bytes received (:meth:`PtyEmulator.on_bytes`), which timed events it has
+(:meth:`PtyEmulator.next_event_time` / :meth:`PtyEmulator.on_timer`, e.g. a
+status frame every 50 ms or a 20 ms step slot), and its tool state. This base
+opens the pty, keeps the slave side raw, sends and receives on the master fd,
+runs the deterministic step loop, injects faults and integrates joint motion
+(:attr:`PtyEmulator.joints`).
+
+Step loop (``step(now)``): bytes the driver wrote since the last step are
+handled at the previous time; then every timed event up to ``now`` fires in
+order, and after each one the emulator waits (through
+:class:`~.barrier.StepBarrier`) until the driver has handled what was sent and
+answers have been read; finally the tick ``now`` is announced to the driver
+and the same settling is repeated. On a wall clock (``armtree emulate``,
+``--realtime``) a service thread steps the emulator every few milliseconds and
+the barrier is never used.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import fcntl
+import os
+import select
+import threading
+import time
+import tty
+from abc import abstractmethod
+
+import numpy as np
+
+from armtree.clock import Clock
+from armtree.emulation import FirmwareEmulator
+from armtree.kinematics import KinematicModel
+
+from .barrier import StepBarrier
+from .motion import JointState
+
+#: Faults :meth:`PtyEmulator.inject` understands.
+FAULTS = ("corrupt", "drop", "cut", "missed_steps")
+
+
+class PtyEmulator(FirmwareEmulator):
+    """Base of every firmware emulator: a pseudo-terminal, the step loop and fault injection.
+
+    ``model`` gives the joints' limits, speeds and accelerations; ``clock`` is
+    the run's clock (virtual: the runtime steps the emulator; wall: a service
+    thread does); ``seed`` drives fault injection; ``q0`` is the power-up pose
+    (default ``model.home``), degrees / mm.
+    """
+
+    #: Wall seconds between service-thread steps on a wall clock.
+    service_period = 0.002
+
+    def __init__(
+        self,
+        model: KinematicModel,
+        clock: Clock,
+        *,
+        seed: int = 0,
+        q0: np.ndarray | None = None,
+    ) -> None:
+        self.model = model
+        self.clock = clock
+        self.barrier = StepBarrier()
+        self.joints = JointState(
+            model.home if q0 is None else q0,
+            np.array([j.max_speed for j in model.joints]),
+            np.array([j.max_accel for j in model.joints]),
+        )
+        self.path: str | None = None
+        #: ``(time, "rx" | "tx", bytes)`` of the last few thousand exchanges, for tests and logs.
+        self.transcript: collections.deque[tuple[float, str, bytes]] = collections.deque(
+            maxlen=4096
+        )
+        self.halted_reason: str | None = None
+        self._time = clock.now()
+        self._rng = np.random.default_rng(seed)
+        self._lock = threading.RLock()
+        self._master: int | None = None
+        self._slave: int | None = None
+        self._silent = False
+        self._corrupt_rate = 0.0
+        self._corrupt_count = 0
+        self._drop_rate = 0.0
+        self._drop_count = 0
+        self._service: threading.Thread | None = None
+        self._stop = threading.Event()
+
+    # ------------------------------------------------------------------ firmware hooks
+
+    @abstractmethod
+    def on_bytes(self, data: bytes, t: float) -> None:
+        """Handle bytes received from the host at time ``t`` (reply with :meth:`send`)."""
+
+    def next_event_time(self) -> float | None:
+        """Time of the next timed event (strictly after those already handled), or None."""
+        return None
+
+    def on_timer(self, t: float) -> None:  # noqa: B027 - firmware without timed events
+        """Handle every timed event due at or before ``t``."""
+
+    def on_start(self) -> None:  # noqa: B027 - firmware with nothing to do at power-up
+        """Power-up: called once the pty is open, before the first step."""
+
+    # ------------------------------------------------------------------ FirmwareEmulator
+
+    @property
+    def time(self) -> float:
+        """The emulator's current time, seconds on the run clock."""
+        return self._time
+
+    def start(self) -> str:
+        """Open the pseudo-terminal and return the slave's device path (e.g. ``/dev/pts/7``)."""
+        with self._lock:
+            if self.path is not None:
+                return self.path
+            master, slave = os.openpty()
+            tty.setraw(slave)
+            flags = fcntl.fcntl(master, fcntl.F_GETFL)
+            fcntl.fcntl(master, fcntl.F_SETFL, flags | os.O_NONBLOCK)
+            # Holding the slave open keeps the master readable while no driver has the
+            # port open (a driver may close and reopen it, as after a USB reset).
+            self._master, self._slave = master, slave
+            self.path = os.ttyname(slave)
+            self._time = self.clock.now()
+            self.on_start()
+        if not self.clock.virtual:
+            self._service = threading.Thread(
+                target=self._serve, name=f"emulator {self.path}", daemon=True
+            )
+            self._service.start()
+        return self.path
+
+    def step(self, now: float) -> None:
+        """Handle received bytes, fire timed events up to ``now`` and settle with the driver."""
+        with self._lock:
+            if self._master is None:
+                return
+            self._pump_input(complete=True)
+            while True:
+                t = self.next_event_time()
+                if t is None or t > now:
+                    break
+                self._time = max(self._time, t)
+                self.on_timer(self._time)
+                self._settle(None)
+            self._time = max(self._time, now)
+            self.on_timer(self._time)
+            self.barrier.begin(now)
+            self._settle(now)
+
+    def close(self) -> None:
+        """Stop serving and close both ends of the pseudo-terminal. Safe to call twice."""
+        self._stop.set()
+        if self._service is not None and self._service is not threading.current_thread():
+            self._service.join(timeout=2.0)
+        self.barrier.detach()
+        with self._lock:
+            for fd in (self._master, self._slave):
+                if fd is not None:
+                    with contextlib.suppress(OSError):
+                        os.close(fd)
+            self._master = self._slave = None
+
+    def true_joints(self) -> np.ndarray:
+        """Joint positions in the world (missed steps included), degrees / mm."""
+        with self._lock:
+            return self.joints.true(self._time)
+
+    def reported_joints(self) -> np.ndarray:
+        """Joint positions the firmware believes, degrees / mm."""
+        with self._lock:
+            return self.joints.reported(self._time)
+
+    def halt(self, reason: str) -> None:
+        """Stop the joints dead where they are (a crash, an e-stop)."""
+        with self._lock:
+            self.joints.halt(self._time)
+            self.halted_reason = reason
+
+    def inject(self, fault: str, **options: float) -> None:
+        """Inject a fault from now on.
+
+        * ``corrupt``: ``rate`` (probability per byte sent) and/or ``count`` (the
+          next n bytes sent) get one random bit flipped;
+        * ``drop``: ``rate`` and/or ``count`` bytes sent are lost;
+        * ``cut``: the link goes dead; by default the device hangs up (reads fail
+          as on a USB unplug), with ``silent=1`` it just stops talking and listening;
+        * ``missed_steps``: ``joint`` (index) slips by ``amount`` (deg / mm) that the
+          firmware does not know about.
+        """
+        with self._lock:
+            if fault == "corrupt":
+                self._corrupt_rate = float(options.get("rate", 0.0))
+                self._corrupt_count += int(options.get("count", 0))
+            elif fault == "drop":
+                self._drop_rate = float(options.get("rate", 0.0))
+                self._drop_count += int(options.get("count", 0))
+            elif fault == "cut":
+                self.barrier.detach()
+                if options.get("silent"):
+                    self._silent = True
+                else:
+                    self._hang_up()
+            elif fault == "missed_steps":
+                self.joints.miss_steps(int(options.get("joint", 0)), float(options["amount"]))
+            else:
+                raise ValueError(
+                    f"{type(self).__name__}: unknown fault {fault!r} (known: {', '.join(FAULTS)})"
+                )
+
+    # ------------------------------------------------------------------ I/O for subclasses
+
+    def send(self, data: bytes) -> None:
+        """Send bytes to the host, through the injected faults; lost if nobody reads."""
+        if self._master is None or self._silent or not data:
+            return
+        data = self._apply_faults(data)
+        if not data:
+            return
+        try:
+            n = os.write(self._master, data)
+        except (BlockingIOError, OSError):
+            return
+        self.barrier.sent(n)
+        self.transcript.append((self._time, "tx", bytes(data[:n])))
+
+    # ------------------------------------------------------------------ internals
+
+    def _apply_faults(self, data: bytes) -> bytes:
+        if not (self._corrupt_rate or self._corrupt_count or self._drop_rate or self._drop_count):
+            return data
+        out = bytearray()
+        for byte in data:
+            if self._drop_count > 0:
+                self._drop_count -= 1
+                continue
+            if self._drop_rate and self._rng.random() < self._drop_rate:
+                continue
+            if self._corrupt_count > 0 or (
+                self._corrupt_rate and self._rng.random() < self._corrupt_rate
+            ):
+                self._corrupt_count = max(0, self._corrupt_count - 1)
+                byte ^= 1 << int(self._rng.integers(8))
+            out.append(byte)
+        return bytes(out)
+
+    def _read_available(self) -> bytes:
+        if self._master is None:
+            return b""
+        try:
+            return os.read(self._master, 4096)
+        except (BlockingIOError, OSError):
+            return b""
+
+    def _pump_input(self, complete: bool) -> None:
+        """Read and handle what the host wrote; with ``complete``, wait for every byte it wrote."""
+        deadline = time.monotonic() + self.barrier.timeout
+        while True:
+            data = self._read_available()
+            if data:
+                self.barrier.received(len(data))
+                if not self._silent:
+                    self.transcript.append((self._time, "rx", data))
+                    self.on_bytes(data, self._time)
+                continue
+            if not complete or self.barrier.missing() == 0 or time.monotonic() > deadline:
+                return
+            select.select([self._master], [], [], 0.05)
+
+    def _settle(self, tick: float | None) -> None:
+        while True:
+            if not self.barrier.wait_driver(tick):
+                self._pump_input(complete=False)
+                return
+            if self.barrier.missing() == 0:
+                return
+            self._pump_input(complete=True)
+
+    def _hang_up(self) -> None:
+        for fd in (self._master, self._slave):
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self._master = self._slave = None
+
+    def _serve(self) -> None:
+        while not self._stop.is_set():
+            master = self._master
+            if master is None:
+                return
+            wait = self.service_period
+            nxt = self.next_event_time()
+            if nxt is not None:
+                wait = min(wait, max(0.0, nxt - self.clock.now()))
+            with contextlib.suppress(OSError, ValueError):
+                select.select([master], [], [], wait)
+            if self._stop.is_set():
+                return
+            self.step(self.clock.now())

@@ -1,0 +1,395 @@
+"""The threaded pyserial driver every arm driver builds on.
+
+:class:`SerialArmDriver` opens the port (a real ``/dev/ttyUSB0`` or an
+emulator's pty, the same code path), runs the serial I/O on its own thread,
+watches the link, keeps the motion handles, and refuses bad targets before a
+byte is sent. A subclass writes the protocol:
+
+* :meth:`SerialArmDriver.on_data` parses received bytes (on the I/O thread);
+* :meth:`SerialArmDriver.on_time` takes the actions due at a time (polls,
+  retries, streaming steps), also on the I/O thread;
+* :meth:`SerialArmDriver.handshake_done` says when :meth:`connect` may return;
+* the :class:`~armtree.rig.ArmDriver` methods (moves, suction, stop).
+
+It calls :meth:`SerialArmDriver.write` to send, :meth:`SerialArmDriver.mark_alive`
+when a valid frame or reply arrives, and :meth:`SerialArmDriver.lose_link`
+when the arm stops making sense. Times are seconds on the run's clock; on a
+virtual clock "now" is the tick the emulator announced (see ``barrier``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import math
+import os
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+import serial
+
+from armtree.clock import Clock
+from armtree.errors import HardwareFault, Unreachable
+from armtree.kinematics import KinematicModel
+from armtree.rig import ArmDriver, MotionHandle, MotionStatus
+
+from .barrier import StepBarrier
+from .checks import check_joint_target, check_position_target
+from .framing import identify_foreign_protocol
+
+
+def open_serial_port(port: str, baud: int, read_timeout: float = 0.01) -> serial.Serial:
+    """Open ``port`` exclusively at ``baud`` (8N1), or raise a :class:`HardwareFault` saying why."""
+    if not os.path.exists(port):
+        raise HardwareFault(
+            "no such serial port (is the arm plugged in and powered? "
+            "use 'port: sim' for the simulation)",
+            port,
+        )
+    ser = serial.Serial()
+    ser.port = port
+    ser.baudrate = baud
+    ser.bytesize = serial.EIGHTBITS
+    ser.parity = serial.PARITY_NONE
+    ser.stopbits = serial.STOPBITS_ONE
+    ser.timeout = read_timeout
+    ser.write_timeout = 1.0
+    ser.exclusive = True
+    try:
+        ser.open()
+    except serial.SerialException as exc:
+        text = str(exc)
+        code = getattr(exc, "errno", None)
+        if "exclusively lock" in text or code in (errno.EBUSY, errno.EAGAIN):
+            raise HardwareFault("port is busy: another program has it open", port) from exc
+        if code == errno.EACCES or "Permission denied" in text:
+            raise HardwareFault(
+                "permission denied (on Linux, add yourself to the 'dialout' group)", port
+            ) from exc
+        if code == errno.ENOENT:
+            raise HardwareFault("no such serial port", port) from exc
+        raise HardwareFault(f"cannot open the serial port: {text}", port) from exc
+    except (OSError, ValueError) as exc:
+        raise HardwareFault(f"not a serial port: {exc}", port) from exc
+    return ser
+
+
+class SerialArmDriver(ArmDriver):
+    """A serial arm driver with its I/O thread; see the module docstring for the contract.
+
+    ``barrier`` and ``pump`` are given only when the driver talks to an
+    in-process emulator on a virtual clock: the barrier makes the exchange
+    deterministic and ``pump(now)`` (the emulator's ``step``) lets
+    :meth:`connect` make the emulator boot. ``interrupt(reason, fault)`` is the
+    run's interrupt, called when the link is lost. ``link_timeout`` is how long
+    (run-clock seconds) the arm may stay silent once connected;
+    ``connect_timeout`` (wall seconds) bounds :meth:`connect`.
+    """
+
+    #: Human name of the protocol, for error messages ("Dobot V1.0 status frames").
+    protocol = "the arm's protocol"
+
+    def __init__(
+        self,
+        model: KinematicModel,
+        port: str,
+        *,
+        baud: int,
+        clock: Clock,
+        barrier: StepBarrier | None = None,
+        pump: Callable[[float], None] | None = None,
+        interrupt: Callable[[str, HardwareFault | None], None] | None = None,
+        link_timeout: float = 1.0,
+        connect_timeout: float = 3.0,
+    ) -> None:
+        self.model = model
+        self.device = port
+        self.baud = baud
+        self.clock = clock
+        self.barrier = barrier
+        self.pump = pump
+        self.interrupt = interrupt or (lambda reason, fault=None: None)
+        self.link_timeout = link_timeout
+        self.connect_timeout = connect_timeout
+        #: Wall time (``time.perf_counter``) of the newest write, for latency figures.
+        self.last_write_wall = 0.0
+        self._ser: serial.Serial | None = None
+        self._thread: threading.Thread | None = None
+        self._running = threading.Event()
+        self._write_lock = threading.Lock()
+        self._state_lock = threading.RLock()
+        self._fault: HardwareFault | None = None
+        self._connected = False
+        self._seen = bytearray()
+        self._now = -math.inf
+        self._last_alive = -math.inf
+        self._handles: list[MotionHandle] = []
+        self._last_sent: object = None
+
+    # ------------------------------------------------------------------ subclass hooks
+
+    def on_data(self, data: bytes) -> None:
+        """Handle received bytes (I/O thread)."""
+        raise HardwareFault(f"{type(self).__name__} does not read the port", self.device)
+
+    def on_time(self, now: float) -> None:  # noqa: B027 - protocols without timed actions
+        """Take the actions due at ``now`` (I/O thread)."""
+
+    def on_open(self) -> None:  # noqa: B027 - protocols that just listen at first
+        """The port is open and the I/O thread about to start: queue the first requests."""
+
+    def handshake_done(self) -> bool:
+        """True once the arm has answered as it should; :meth:`connect` waits for it."""
+        return self._last_alive > -math.inf
+
+    # ------------------------------------------------------------------ helpers
+
+    @property
+    def now(self) -> float:
+        """The time the I/O thread is handling (seconds on the run clock)."""
+        return self._now
+
+    @property
+    def connected(self) -> bool:
+        """True between a successful :meth:`connect` and :meth:`close` or a fault."""
+        return self._connected and self._fault is None
+
+    @property
+    def fault(self) -> HardwareFault | None:
+        """The fault that stopped the link, if any."""
+        return self._fault
+
+    def write(self, data: bytes) -> bool:
+        """Send ``data`` now; False (and nothing sent) when the link is down."""
+        ser = self._ser
+        if ser is None or self._fault is not None:
+            return False
+        with self._write_lock:
+            try:
+                n = ser.write(data)
+                ser.flush()
+            except (serial.SerialException, OSError) as exc:
+                self.lose_link(f"link lost while writing: {exc}")
+                return False
+            self.last_write_wall = time.perf_counter()
+            if self.barrier is not None:
+                self.barrier.wrote(n or 0)
+        return True
+
+    def mark_alive(self) -> None:
+        """A valid frame or reply arrived: the link is alive at the current time."""
+        self._last_alive = self._now if math.isfinite(self._now) else self._current_time()
+        if not math.isfinite(self._last_alive):
+            self._last_alive = self.clock.now()
+
+    def lose_link(self, message: str) -> None:
+        """The link is gone: record the fault, fail every motion, interrupt the run."""
+        with self._state_lock:
+            if self._fault is not None:
+                return
+            fault = HardwareFault(message, self.device)
+            self._fault = fault
+            handles, self._handles = self._handles, []
+        if self.barrier is not None:
+            self.barrier.detach()
+        for handle in handles:
+            handle.update(MotionStatus.FAILED, error=fault)
+        if self._connected:
+            self.interrupt(f"link lost on {self.device}", fault)
+
+    def track(self, handle: MotionHandle) -> MotionHandle:
+        """Keep ``handle`` to be failed if the link is lost or stopped by :meth:`stop_all`."""
+        with self._state_lock:
+            self._handles = [h for h in self._handles if not h.done]
+            self._handles.append(handle)
+        return handle
+
+    def active_handles(self) -> list[MotionHandle]:
+        """Handles not yet finished, oldest first."""
+        with self._state_lock:
+            self._handles = [h for h in self._handles if not h.done]
+            return list(self._handles)
+
+    def stop_all(self) -> None:
+        """Mark every unfinished handle STOPPED."""
+        with self._state_lock:
+            handles, self._handles = self._handles, []
+        for handle in handles:
+            handle.update(MotionStatus.STOPPED)
+
+    def is_duplicate(self, key: object) -> bool:
+        """True when ``key`` equals the last command sent (seed 004, third safeguard)."""
+        return self._last_sent is not None and _same(self._last_sent, key)
+
+    def remember_sent(self, key: object) -> None:
+        """Record ``key`` as the last command sent (None forgets it)."""
+        self._last_sent = key
+
+    @staticmethod
+    def refused(description: str, error: Exception) -> MotionHandle:
+        """A FAILED handle for a target refused before anything was sent."""
+        handle = MotionHandle(description)
+        handle.update(MotionStatus.FAILED, error=error)
+        return handle
+
+    def checked_joints(self, q: np.ndarray) -> np.ndarray:
+        """``q`` checked against limits and constraints; raises :class:`Unreachable`."""
+        return check_joint_target(self.model, q)
+
+    def checked_position(self, xyz: np.ndarray) -> np.ndarray:
+        """Joint solution for ``xyz`` nearest the reported joints; raises :class:`Unreachable`."""
+        near = self.joints() if self.connected else None
+        return check_position_target(self.model, xyz, near)
+
+    def move_to(self, xyz: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Move the tool centre to ``xyz`` (mm) through host-side IK; see :meth:`move_joints`."""
+        try:
+            q = self.checked_position(xyz)
+        except Unreachable as exc:
+            return self.refused(f"move to {np.asarray(xyz).tolist()}", exc)
+        return self.move_joints(q, speed)
+
+    def ensure_connected(self) -> HardwareFault | None:
+        """Connect on first use; return the fault that prevents it, if any."""
+        if self._fault is not None:
+            return self._fault
+        if not self._connected:
+            try:
+                self.connect()
+            except HardwareFault as exc:
+                return exc
+        return self._fault
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def connect(self) -> None:
+        """Open the port, start the I/O thread and wait for the arm's handshake.
+
+        Raises :class:`HardwareFault` naming the port when it is missing or busy,
+        or when the device does not speak :attr:`protocol` (a foreign banner is named).
+        """
+        if self._connected:
+            if self._fault is not None:
+                raise self._fault
+            return
+        self._fault = None
+        self._seen.clear()
+        self._last_alive = -math.inf
+        self._ser = open_serial_port(self.device, self.baud)
+        self._running.set()
+        if self.barrier is not None:
+            self.barrier.attach(wake=self._wake)
+        self.on_open()
+        self._thread = threading.Thread(
+            target=self._loop, name=f"serial {self.device}", daemon=True
+        )
+        self._thread.start()
+        deadline = time.monotonic() + self.connect_timeout
+        while not self.handshake_done() and self._fault is None:
+            if time.monotonic() > deadline:
+                break
+            if self.pump is not None and self.clock.virtual:
+                self.pump(self.clock.now())
+                time.sleep(0.001)
+            else:
+                time.sleep(0.005)
+        if self.handshake_done() and self._fault is None:
+            self._connected = True
+            return
+        fault = self._fault or HardwareFault(self._no_answer_message(), self.device)
+        self.close()
+        self._fault = fault
+        raise fault
+
+    def close(self) -> None:
+        """Stop the I/O thread and release the port. Safe to call twice."""
+        self._running.clear()
+        if self.barrier is not None:
+            self.barrier.detach()
+        ser = self._ser
+        if ser is not None:
+            with contextlib.suppress(Exception):
+                ser.cancel_read()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._thread = None
+        if ser is not None:
+            with contextlib.suppress(Exception):
+                ser.close()
+        self._ser = None
+        self._connected = False
+        self.stop_all()
+
+    # ------------------------------------------------------------------ internals
+
+    def _no_answer_message(self) -> str:
+        seen = bytes(self._seen)
+        foreign = identify_foreign_protocol(seen)
+        if foreign:
+            return f"wrong protocol: expected {self.protocol}, but the device looks like {foreign}"
+        if seen:
+            return (
+                f"wrong protocol: expected {self.protocol}, got {len(seen)} bytes that are not "
+                f"(first: {seen[:16].hex(' ')}); check the firmware and the baud rate ({self.baud})"
+            )
+        return (
+            f"no answer: expected {self.protocol} within {self.connect_timeout:g} s "
+            f"(is the arm powered, the firmware right and the baud rate {self.baud}?)"
+        )
+
+    def _wake(self) -> None:
+        ser = self._ser
+        if ser is not None:
+            with contextlib.suppress(Exception):
+                ser.cancel_read()
+
+    def _current_time(self) -> float:
+        # With a barrier, time moves only when the emulator announces a tick, so the
+        # driver's timed actions happen at the same point of the exchange every run.
+        if self.barrier is not None and self.barrier.attached:
+            return self.barrier.tick
+        return self.clock.now()
+
+    def _loop(self) -> None:
+        while self._running.is_set() and self._fault is None:
+            ser = self._ser
+            if ser is None:
+                return
+            try:
+                waiting = ser.in_waiting
+                data = ser.read(waiting or 1)
+            except (serial.SerialException, OSError, TypeError) as exc:
+                if self._running.is_set():
+                    self.lose_link(f"link lost: {exc}")
+                return
+            self._now = self._current_time()
+            if data:
+                if len(self._seen) < 512:
+                    self._seen.extend(data[: 512 - len(self._seen)])
+                self.on_data(data)
+            if self._fault is not None:
+                return
+            if math.isfinite(self._now):
+                self.on_time(self._now)
+            if (
+                self._connected
+                and math.isfinite(self._last_alive)
+                and self._now - self._last_alive > self.link_timeout
+            ):
+                self.lose_link(
+                    f"link lost: no {self.protocol} for {self._now - self._last_alive:.2f} s"
+                )
+                return
+            if self.barrier is not None:
+                self.barrier.handled(len(data), self._now)
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        try:
+            return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+        except (TypeError, ValueError):
+            return False
+    return a == b
