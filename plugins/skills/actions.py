@@ -1,0 +1,261 @@
+"""Non-blocking steps a skill is made of: move, switch the tool, pause, look.
+
+Each :class:`Action` is started once and then polled once per tick until it
+ends; nothing here waits on I/O. Units: millimetres, degrees, seconds on the
+run's clock.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from armtree.errors import PlanningError, Unreachable
+from armtree.perception import camera_in_base, marker_in_base
+from armtree.rig import Detection, MotionHandle, MotionStatus
+
+
+class SkillFailure(Exception):
+    """A skill cannot go on; the message becomes the behaviour's feedback."""
+
+
+class State(enum.Enum):
+    """Where an action is."""
+
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+
+
+def fmt(xyz: Any) -> str:
+    """A position as ``[x, y, z] mm`` for messages."""
+    return f"{np.round(np.asarray(xyz, dtype=float), 1).tolist()} mm"
+
+
+class Action:
+    """One step of a skill: :meth:`start` once, :meth:`poll` every tick, :meth:`stop` if halted.
+
+    After :meth:`poll` returns ``DONE``, :attr:`result` holds what the step produced;
+    after ``FAILED``, :attr:`message` says why.
+    """
+
+    result: Any = None
+    message: str = ""
+
+    def start(self) -> None:
+        """Begin the step; must return at once."""
+
+    def poll(self) -> State:
+        """Advance and report the step's state; must return at once."""
+        return State.DONE
+
+    def stop(self) -> None:
+        """Halt the step (the skill was halted); must return at once."""
+
+    def fail(self, message: str) -> State:
+        """Record why the step failed and return ``FAILED``."""
+        self.message = message
+        return State.FAILED
+
+
+class Move(Action):
+    """Move the tool centre to ``xyz`` (mm, base frame), or the joints to ``joints``.
+
+    With a planner the path is planned (limits, reachability, collisions) and its
+    waypoints are sent one after another; without one the arm's own target checks
+    apply. A refused target fails the step with the reason; nothing is sent.
+    """
+
+    def __init__(
+        self,
+        rig: Any,
+        xyz: np.ndarray | None = None,
+        *,
+        joints: np.ndarray | None = None,
+        speed: float = 1.0,
+        label: str = "move",
+    ) -> None:
+        self.rig = rig
+        self.xyz = None if xyz is None else np.asarray(xyz, dtype=float).reshape(3)
+        self.joints = None if joints is None else np.asarray(joints, dtype=float)
+        self.speed = speed
+        self.label = label
+        self._waypoints: list[np.ndarray] = []
+        self._handle: MotionHandle | None = None
+
+    def describe(self) -> str:
+        """What this move goes to, for messages."""
+        if self.xyz is not None:
+            return f"{self.label} to {fmt(self.xyz)}"
+        return f"{self.label} to joints {np.round(self.joints, 1).tolist()}"
+
+    def start(self) -> None:
+        arm, planner = self.rig.arm, self.rig.planner
+        self.message = ""
+        try:
+            if planner is None:
+                if self.xyz is not None:
+                    self._handle = arm.move_to(self.xyz, self.speed)
+                else:
+                    self._handle = arm.move_joints(self.joints, self.speed)
+                return
+            q0 = np.asarray(arm.joints(), dtype=float)
+            if self.xyz is not None:
+                path = planner.plan_to(q0, self.xyz)
+            else:
+                path = planner.plan(q0, self.joints)
+        except (Unreachable, PlanningError) as exc:
+            self.message = f"{self.describe()} refused: {exc}"
+            return
+        waypoints = [np.asarray(w, dtype=float) for w in np.atleast_2d(path)]
+        while len(waypoints) > 1 and np.allclose(waypoints[0], q0, atol=1e-6):
+            waypoints.pop(0)
+        self._waypoints = waypoints
+        self._next()
+
+    @property
+    def handle(self) -> MotionHandle | None:
+        """The motion under way, if any."""
+        return self._handle
+
+    def _next(self) -> None:
+        self._handle = self.rig.arm.move_joints(self._waypoints.pop(0), self.speed)
+
+    def poll(self) -> State:
+        if self.message:
+            return State.FAILED
+        handle = self._handle
+        while handle is not None and handle.done:
+            if handle.status is not MotionStatus.DONE:
+                reason = handle.error if handle.error is not None else handle.status.value
+                return self.fail(f"{self.describe()} failed: {reason}")
+            if not self._waypoints:
+                self._handle = None
+                return State.DONE
+            self._next()
+            handle = self._handle
+        return State.RUNNING if handle is not None else State.DONE
+
+    def stop(self) -> None:
+        self._waypoints = []
+        if self._handle is not None and not self._handle.done:
+            self.rig.arm.stop()
+
+
+class Suction(Action):
+    """Switch the suction pump on or off; done when the arm acknowledges it."""
+
+    def __init__(self, rig: Any, on: bool) -> None:
+        self.rig = rig
+        self.on = on
+        self._handle: MotionHandle | None = None
+
+    def start(self) -> None:
+        self._handle = self.rig.arm.set_suction(self.on)
+
+    def poll(self) -> State:
+        assert self._handle is not None
+        if not self._handle.done:
+            return State.RUNNING
+        if self._handle.status is not MotionStatus.DONE:
+            word = "on" if self.on else "off"
+            return self.fail(
+                f"suction {word} failed: {self._handle.error or self._handle.status.value}"
+            )
+        return State.DONE
+
+
+class Pause(Action):
+    """Let ``seconds`` pass on the run's clock (a pump settling, a camera catching up)."""
+
+    def __init__(self, clock: Any, seconds: float) -> None:
+        self.clock = clock
+        self.seconds = seconds
+        self._until = 0.0
+
+    def start(self) -> None:
+        self._until = self.clock.now() + self.seconds
+
+    def poll(self) -> State:
+        return State.DONE if self.clock.now() >= self._until - 1e-9 else State.RUNNING
+
+
+@dataclass
+class Sighting:
+    """A marker seen in one frame: its role and id, and its pose in the base frame (4x4 mm)."""
+
+    role: str
+    id: int
+    pose: np.ndarray
+    detection: Detection
+    timestamp: float
+
+    @property
+    def position(self) -> np.ndarray:
+        """The marker centre in the base frame, mm."""
+        return self.pose[:3, 3].copy()
+
+
+class Look(Action):
+    """Read fresh camera frames while the arm is still and locate every marker in them.
+
+    Frames stamped before the step started (plus ``settle`` seconds) are skipped,
+    so nothing is measured from a moving camera. Up to ``frames`` fresh frames are
+    read, stopping early once a marker of ``want`` (a role) is seen. The result is
+    a list of :class:`Sighting`, newest per marker id. No frame within ``timeout``
+    seconds fails the step.
+    """
+
+    def __init__(
+        self,
+        rig: Any,
+        clock: Any,
+        want: str | None = None,
+        frames: int = 3,
+        settle: float = 0.0,
+        timeout: float = 2.0,
+    ) -> None:
+        self.rig = rig
+        self.clock = clock
+        self.want = want
+        self.frames = max(1, frames)
+        self.settle = settle
+        self.timeout = timeout
+        self._seen: dict[int, Sighting] = {}
+        self._count = 0
+        self._t0 = 0.0
+
+    def start(self) -> None:
+        self._t0 = self.clock.now() + self.settle
+        self._seen = {}
+        self._count = 0
+        self.result = []
+
+    def poll(self) -> State:
+        rig = self.rig
+        if rig.camera is None or rig.tracker is None:
+            return self.fail("this rig has no camera and tracker to look with")
+        frame = rig.camera.read()
+        if frame is not None and frame.timestamp >= self._t0 - 1e-9:
+            self._count += 1
+            tool = rig.arm.pose() if rig.arm is not None else np.eye(4)
+            base_T_camera = camera_in_base(rig.camera.mount, rig.camera.extrinsics, tool)
+            for det in rig.tracker.detect(frame):
+                if det.tvec is None:
+                    continue
+                role = det.role
+                if role in ("", "unknown"):
+                    spec = rig.role_of(det.id)
+                    role = spec.role if spec is not None else "unknown"
+                pose = marker_in_base(base_T_camera, det.rvec, det.tvec)
+                self._seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
+            self.result = list(self._seen.values())
+            wanted = self.want is None or any(s.role == self.want for s in self.result)
+            if self._count >= self.frames or (self.want is not None and wanted):
+                return State.DONE
+        elif self.clock.now() > self._t0 + self.timeout:
+            return self.fail(f"the camera gave no frame for {self.timeout:g} s")
+        return State.RUNNING

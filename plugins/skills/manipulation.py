@@ -1,0 +1,240 @@
+"""Pick and place with a suction cup, and the steps that locate a marker before them.
+
+Seed 004 ("Loading a ducky"): the pump holds an object while the tool touches
+it; the arm moves and releases it. Positions are the tool centre in the base
+frame, mm; a place's z is the height where the tool touches the object.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armtree import Param
+from armtree.perception import EYE_IN_HAND, tool_for_camera_over
+
+from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
+from .base import Procedure, Skill, as_list
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def look_over(
+    skill: Skill, point: np.ndarray | None, height: float, want: str | None, frames: int = 3
+) -> Procedure:
+    """Bring the camera ``height`` mm above ``point`` (eye-in-hand; stay put if None) and look.
+
+    Returns the list of :class:`Sighting`.
+    """
+    rig = skill.rig
+    if point is not None and rig.camera.mount == EYE_IN_HAND:
+        try:
+            tool = tool_for_camera_over(
+                rig.arm.model, point, height, rig.camera.extrinsics, near=rig.arm.joints()
+            )
+        except ValueError as exc:
+            raise SkillFailure(
+                f"cannot put the camera {height:g} mm over {fmt(point)}: {exc}"
+            ) from exc
+        yield Move(rig, tool, speed=skill.speed(), label="look over")
+    return (yield Look(rig, skill.clock, want=want, frames=frames, settle=skill.settle()))
+
+
+def nearest(
+    sightings: list[Sighting], role: str, near: np.ndarray | None, radius: float | None = None
+) -> Sighting | None:
+    """The sighting of ``role`` nearest to ``near`` (mm, in the xy plane), within ``radius`` if given."""
+    cands = [s for s in sightings if s.role == role]
+    if not cands:
+        return None
+    if near is None:
+        return cands[0]
+    dist = [float(np.linalg.norm(s.position[:2] - near[:2])) for s in cands]
+    best = int(np.argmin(dist))
+    if radius is not None and dist[best] > radius:
+        return None
+    return cands[best]
+
+
+def pick_steps(
+    skill: Skill, target: np.ndarray, approach: float, grasp_offset: float, dwell: float
+) -> Procedure:
+    """Approach above ``target``, descend, suction on, let it grip, lift back."""
+    rig, speed = skill.rig, skill.speed()
+    above = target + UP * approach
+    yield Move(rig, above, speed=speed, label="approach")
+    yield Move(rig, target + UP * grasp_offset, speed=speed, label="descend")
+    yield Suction(rig, True)
+    yield Pause(skill.clock, dwell)
+    yield Move(rig, above, speed=speed, label="lift")
+
+
+def release_steps(
+    skill: Skill, target: np.ndarray, approach: float, release: float, dwell: float
+) -> Procedure:
+    """Approach above ``target``, descend to ``release`` mm above it, suction off, lift back."""
+    rig, speed = skill.rig, skill.speed()
+    above = target + UP * max(approach, release)
+    yield Move(rig, above, speed=speed, label="approach")
+    if release < approach:
+        yield Move(rig, target + UP * release, speed=speed, label="descend")
+    yield Suction(rig, False)
+    yield Pause(skill.clock, dwell)
+    if release < approach:
+        yield Move(rig, above, speed=speed, label="lift")
+
+
+class ArmSkill(Skill):
+    """A skill with the common motion parameters ``speed`` and ``settle_s``."""
+
+    COMMON = (
+        Param("speed", "float", 1.0, "", "fraction of the arm's maximum speed, 0 to 1"),
+        Param("settle_s", "float", 0.0, "s", "wait after a move before a frame counts"),
+    )
+
+    def speed(self) -> float:
+        """The ``speed`` parameter, clipped to (0, 1]."""
+        return float(min(1.0, max(0.01, self.param("speed"))))
+
+    def settle(self) -> float:
+        """The ``settle_s`` parameter."""
+        return float(self.param("settle_s"))
+
+
+class Pick(ArmSkill):
+    """Pick an object with the suction cup: locate its tag, approach, descend, grip, lift.
+
+    With ``tag`` and a camera, the marker nearest to ``from`` (or seen from the
+    current pose) gives the position; otherwise ``from`` (a place, a pose or a
+    ``{key}``) does. After the lift, the camera checks the marker left its spot.
+    """
+
+    PARAMS = (
+        Param("tag", "str", "", "", "tag role of the object (empty: use `from` only)"),
+        Param("from", "any", None, "mm", "place name, [x, y, z] or {key}: where the object is"),
+        Param(
+            "approach_mm",
+            "float",
+            60.0,
+            "mm",
+            "height above the object to approach from and lift to",
+        ),
+        Param(
+            "grasp_offset_mm",
+            "float",
+            0.0,
+            "mm",
+            "tool height above the object's top when gripping",
+        ),
+        Param(
+            "look_height_mm",
+            "float",
+            120.0,
+            "mm",
+            "camera height above `from` when locating the tag",
+        ),
+        Param("search_radius_mm", "float", 80.0, "mm", "how far from `from` the tag may be"),
+        Param("dwell_s", "float", 0.3, "s", "time for the suction to grip"),
+        Param("verify", "bool", True, "", "check with the camera that the object left its spot"),
+        Param(
+            "verify_tolerance_mm",
+            "float",
+            10.0,
+            "mm",
+            "a marker this close to the pick spot was not picked",
+        ),
+        Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
+        *ArmSkill.COMMON,
+    )
+    RESOURCES = ("arm", "tool")
+    PLACE_PARAMS = ("from",)
+    ROLE_PARAMS = ("tag",)
+
+    def procedure(self) -> Procedure:
+        tag = self.param("tag")
+        source = self.param("from")
+        target = None if source is None else self.point(source, f"{self.name}: from")
+        seen = None
+        if tag and self.rig.camera is not None and self.rig.tracker is not None:
+            sightings = yield from look_over(self, target, self.param("look_height_mm"), tag)
+            seen = nearest(
+                sightings,
+                tag,
+                target,
+                self.param("search_radius_mm") if target is not None else None,
+            )
+            if seen is not None:
+                target = seen.position
+            elif target is None:
+                raise SkillFailure(f"{self.name}: no {tag!r} tag in view")
+        if target is None:
+            raise SkillFailure(f"{self.name}: give `from` (a place or pose) or a `tag` to see")
+        yield from pick_steps(
+            self,
+            target,
+            self.param("approach_mm"),
+            self.param("grasp_offset_mm"),
+            self.param("dwell_s"),
+        )
+        if not self.rig.arm.tool.suction:
+            raise SkillFailure(f"{self.name}: the suction pump is off after gripping")
+        if seen is not None and self.param("verify"):
+            after = yield Look(self.rig, self.clock, frames=2, settle=self.settle())
+            left = nearest(after, tag, target, self.param("verify_tolerance_mm"))
+            if left is not None and abs(left.position[2] - target[2]) < self.param(
+                "verify_tolerance_mm"
+            ):
+                raise SkillFailure(
+                    f"{self.name}: the {tag!r} tag is still at {fmt(target)}; the grip failed"
+                )
+        self.output("pose", as_list(target))
+        return target
+
+
+class Place(ArmSkill):
+    """Put the held object down: approach, descend to the release height, suction off, lift.
+
+    ``at`` is a place, a pose or a ``{key}``; with ``tag`` and a camera the
+    marker of that role nearest to ``at`` is looked up again first, so a target
+    that moved a little (a parked Duckybot) is still hit.
+    """
+
+    PARAMS = (
+        Param(
+            "at", "any", doc="place name, [x, y, z] or {key}: where to put the object", unit="mm"
+        ),
+        Param("tag", "str", "", "", "tag role marking the target, looked up again before placing"),
+        Param("approach_mm", "float", 60.0, "mm", "height above the target to approach from"),
+        Param("release_mm", "float", 30.0, "mm", "tool height above the target when releasing"),
+        Param(
+            "look_height_mm",
+            "float",
+            120.0,
+            "mm",
+            "camera height above `at` when looking for `tag`",
+        ),
+        Param("search_radius_mm", "float", 120.0, "mm", "how far from `at` the tag may be"),
+        Param("dwell_s", "float", 0.3, "s", "time for the suction to let go"),
+        Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
+        *ArmSkill.COMMON,
+    )
+    RESOURCES = ("arm", "tool")
+    PLACE_PARAMS = ("at",)
+    ROLE_PARAMS = ("tag",)
+
+    def procedure(self) -> Procedure:
+        target = self.point(self.param("at"), f"{self.name}: at")
+        tag = self.param("tag")
+        if tag and self.rig.camera is not None and self.rig.tracker is not None:
+            sightings = yield from look_over(self, target, self.param("look_height_mm"), tag)
+            seen = nearest(sightings, tag, target, self.param("search_radius_mm"))
+            if seen is None:
+                raise SkillFailure(
+                    f"{self.name}: no {tag!r} tag within {self.param('search_radius_mm'):g} mm of {fmt(target)}"
+                )
+            target = seen.position
+        yield from release_steps(
+            self, target, self.param("approach_mm"), self.param("release_mm"), self.param("dwell_s")
+        )
+        released = target + UP * self.param("release_mm")
+        self.output("pose", as_list(released))
+        return released

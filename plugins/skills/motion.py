@@ -1,0 +1,52 @@
+"""Plain motions: go to a place or a pose, go home."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armtree import Param
+
+from .actions import Move
+from .base import Procedure, as_list
+from .manipulation import ArmSkill
+
+
+class MoveTo(ArmSkill):
+    """Move the tool to a place, an [x, y, z] pose (mm) or a {key}, through the planner."""
+
+    PARAMS = (
+        Param(
+            "to", "any", doc="place name, [x, y, z] or {key}: where the tool centre goes", unit="mm"
+        ),
+        Param(
+            "offset",
+            "vector",
+            [0.0, 0.0, 0.0],
+            "mm",
+            "added to the target, e.g. [0, 0, 50] to hover",
+        ),
+        Param("pose", "any", None, "mm", "output: the position reached", io="out"),
+        *ArmSkill.COMMON,
+    )
+    RESOURCES = ("arm",)
+    PLACE_PARAMS = ("to",)
+
+    def procedure(self) -> Procedure:
+        target = self.point(self.param("to"), f"{self.name}: to") + np.asarray(
+            self.param("offset"), dtype=float
+        )
+        yield Move(self.rig, target, speed=self.speed(), label="move")
+        self.output("pose", as_list(target))
+        return target
+
+
+class Home(ArmSkill):
+    """Move the arm to its model's home joint configuration, through the planner."""
+
+    PARAMS = ArmSkill.COMMON
+    RESOURCES = ("arm",)
+
+    def procedure(self) -> Procedure:
+        home = np.asarray(self.rig.arm.model.home, dtype=float)
+        yield Move(self.rig, joints=home, speed=self.speed(), label="home")
+        return home

@@ -1,0 +1,106 @@
+"""Follow a moving marker with the camera (seed 004, appendices C and D).
+
+The report hovers the camera 5 tag sizes above the marker, smooths the
+marker's base-frame position with weight 0.2 on each new measurement, moves
+only when the wanted position changed by more than 1 mm, and gives the marker
+up after 30 consecutive frames without it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armtree import Param
+from armtree.filters import PoseFilter
+from armtree.perception import EYE_IN_HAND, tool_for_camera_over
+
+from .actions import Look, Move, SkillFailure, fmt
+from .base import Procedure, as_list
+from .manipulation import ArmSkill
+
+#: The smoothed marker's key in the pose filter (one marker is followed).
+_TRACKED = 0
+
+
+class Track(ArmSkill):
+    """Keep the camera above a moving marker; SUCCESS once it stood still or `until` holds.
+
+    The marker's base position is low-pass filtered (``alpha``, seed 004
+    appendix D) and written to ``pose``; the arm follows when the wanted
+    position moved more than ``deadband_mm``. SUCCESS when the marker moved less
+    than ``still_mm`` for ``still_s`` seconds, or when ``until`` (usually a
+    ``{key}``) is true; FAILURE when it was missed in ``lost_frames`` frames in a row.
+    """
+
+    PARAMS = (
+        Param("tag", "str", doc="tag role to follow"),
+        Param("height_mm", "float", 0.0, "mm", "camera height above the marker (0: 5 tag sizes)"),
+        Param("alpha", "float", 0.2, "", "weight of a new measurement in the smoothed position"),
+        Param(
+            "deadband_mm", "float", 1.0, "mm", "smallest change of the wanted position worth a move"
+        ),
+        Param("still_mm", "float", 3.0, "mm", "a marker moving less than this is standing still"),
+        Param(
+            "still_s", "float", 2.0, "s", "how long the marker must stand still (0: never ends so)"
+        ),
+        Param("until", "bool", False, "", "end with SUCCESS when this (a {key}) becomes true"),
+        Param("lost_frames", "int", 30, "", "consecutive frames without the marker before FAILURE"),
+        Param("pose", "any", None, "mm", "output: the marker's smoothed base position", io="out"),
+        *ArmSkill.COMMON,
+    )
+    RESOURCES = ("arm",)
+    NEEDS = ("arm", "camera")
+    ROLE_PARAMS = ("tag",)
+
+    def height(self, tag: str) -> float:
+        """Camera height above the marker in mm."""
+        h = float(self.param("height_mm"))
+        if h > 0:
+            return h
+        spec = self.rig.tags.get(tag)
+        return 5.0 * (spec.size_mm if spec is not None else 25.0)
+
+    def wanted_tool(self, marker: np.ndarray, height: float) -> np.ndarray:
+        """Tool position (mm) that puts the camera ``height`` above ``marker``."""
+        rig = self.rig
+        if rig.camera.mount == EYE_IN_HAND:
+            return tool_for_camera_over(
+                rig.arm.model, marker, height, rig.camera.extrinsics, near=rig.arm.joints()
+            )
+        return marker + np.array([0.0, 0.0, height])
+
+    def procedure(self) -> Procedure:
+        tag = self.param("tag")
+        height = self.height(tag)
+        smoother = PoseFilter(alpha=float(self.param("alpha")))
+        missed = 0
+        anchor: np.ndarray | None = None
+        anchor_t = 0.0
+        while not self.param("until"):
+            sightings = yield Look(self.rig, self.clock, want=tag, frames=1, settle=self.settle())
+            seen = [s for s in sightings if s.role == tag]
+            if not seen:
+                missed += 1
+                if missed >= self.param("lost_frames"):
+                    raise SkillFailure(f"{self.name}: lost the {tag!r} tag for {missed} frames")
+                continue
+            missed = 0
+            measured = seen[0].position
+            now = self.clock.now()
+            if anchor is None or np.linalg.norm(measured - anchor) > self.param("still_mm"):
+                anchor, anchor_t = measured, now
+            estimate = smoother.update(_TRACKED, measured, timestamp=now).tvec
+            self.output("pose", as_list(estimate))
+            still_s = float(self.param("still_s"))
+            if still_s > 0 and now - anchor_t >= still_s:
+                self.feedback_message = f"{tag!r} still at {fmt(estimate)}"
+                return estimate
+            try:
+                wanted = self.wanted_tool(estimate, height)
+            except ValueError as exc:
+                raise SkillFailure(
+                    f"{self.name}: cannot follow {tag!r} to {fmt(estimate)}: {exc}"
+                ) from exc
+            if np.linalg.norm(wanted - self.rig.arm.pose()[:3, 3]) > self.param("deadband_mm"):
+                yield Move(self.rig, wanted, speed=self.speed(), label="follow")
+        return None

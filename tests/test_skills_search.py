@@ -1,0 +1,117 @@
+"""search and clean_up on fake rigs (seed 004, appendix B)."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from py_trees.common import Status
+from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
+
+from armtree.params import Binding
+from armtree.plugins.skills.search import CleanUp, Search, sweep_angles
+
+
+def on_arc(deg, r=200.0, z=0.0):
+    return np.array([r * math.cos(math.radians(deg)), r * math.sin(math.radians(deg)), z])
+
+
+def test_sweep_goes_to_the_top_then_back_to_the_bottom_in_5_degree_steps():
+    angles = sweep_angles(0.0, -100.0, 100.0, 5.0, 2)
+    assert angles[:3] == [0.0, 5.0, 10.0]
+    assert max(angles) == 100.0 and min(angles) == -100.0 and angles[-1] == -100.0
+    assert len(angles) == 21 + 40
+
+
+@given(
+    start=st.floats(-150, 150),
+    lo=st.floats(-120, 0),
+    span=st.floats(1, 240),
+    step=st.floats(0.5, 30),
+    sweeps=st.integers(1, 4),
+)
+def test_sweep_stays_in_range_with_bounded_steps(start, lo, span, step, sweeps):
+    hi = lo + span
+    angles = np.array(sweep_angles(start, lo, hi, step, sweeps))
+    assert np.all(angles >= lo - 1e-9) and np.all(angles <= hi + 1e-9)
+    assert np.all(np.abs(np.diff(angles)) <= step + 1e-9)
+    assert math.isclose(angles.max(), hi)
+
+
+def test_sweep_rejects_a_bad_step():
+    with pytest.raises(ValueError):
+        sweep_angles(0, -10, 10, 0, 1)
+
+
+def test_search_finds_the_tag_and_outputs_its_base_position():
+    rig = make_rig([Marker(1, on_arc(40.0))])
+    node = Search("search", tag="duckybot", pose=Binding("duckybot_pose"), height_mm=100.0)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert np.allclose(node.bb.get("duckybot_pose"), on_arc(40.0), atol=1e-3)
+    base_angle = rig.arm.q[0]
+    assert 20.0 <= base_angle <= 45.0  # stopped where it first saw it
+
+
+def test_search_fails_after_its_sweeps_without_the_tag():
+    rig = make_rig([Marker(1, on_arc(-170.0))])
+    node = Search("search", tag="duckybot", pose=Binding("p"), step_deg=20.0)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "no 'duckybot' tag seen from" in node.feedback_message
+
+
+def test_search_skips_refused_scan_poses():
+    rig = make_rig([Marker(1, on_arc(60.0))])
+    node = Search(
+        "search", tag="duckybot", pose=Binding("p"), poses=[[0, 0, 0], "home", [100, 173, 100]]
+    )
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS and np.allclose(node.bb.get("p"), on_arc(60.0), atol=1e-3)
+
+
+def test_search_with_clean_up_bins_trash_on_the_way_then_finds_the_tag():
+    trash = Marker(3, on_arc(15.0))
+    bot = Marker(1, on_arc(70.0))
+    rig = make_rig([trash, bot])
+    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True, height_mm=100.0)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert trash.dropped_at is not None
+    assert np.allclose(trash.dropped_at[:2], [60, 230]) and trash.dropped_at[2] >= 40
+    assert not rig.arm.suction and np.allclose(node.bb.get("p"), on_arc(70.0), atol=1e-3)
+
+
+def test_search_without_clean_up_leaves_trash_alone():
+    trash = Marker(3, on_arc(15.0))
+    rig = make_rig([trash, Marker(1, on_arc(70.0))])
+    status, _ = run(Search("search", tag="duckybot", pose=Binding("p"), height_mm=100.0), rig)
+    assert status is Status.SUCCESS and trash.dropped_at is None
+
+
+def test_clean_up_clears_every_trash_marker_in_view():
+    items = [Marker(2, np.array([205.0, 10.0, 0.0])), Marker(4, np.array([195.0, -15.0, 0.0]))]
+    rig = make_rig(items)
+    rig.arm.q = np.array([0.0, 200.0, 120.0])
+    node = CleanUp("clean", count=Binding("n"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert node.bb.get("n") == 2
+    assert all(m.dropped_at is not None and np.allclose(m.dropped_at[:2], [60, 230]) for m in items)
+    assert np.allclose(rig.arm.pose()[:3, 3], [200, 0, 120])  # back where it looked from
+
+
+def test_clean_up_gives_up_on_trash_that_will_not_come_away():
+    rig = make_rig([Marker(2, np.array([205.0, 10.0, 0.0]))])
+    rig.world.grip = lambda tool: None
+    rig.arm.q = np.array([0.0, 200.0, 120.0])
+    node = CleanUp("clean", max_items=2)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "trash still in view" in node.feedback_message
+
+
+def test_search_needs_a_camera():
+    rig = make_rig(camera=False)
+    node = Search("search", tag="duckybot", pose=Binding("p"))
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "no camera" in node.feedback_message
