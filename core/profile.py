@@ -288,8 +288,7 @@ def _finish(
             manager = manager.extended([p for p, _ in plugins], dict(plugins))
         except ConfigError as exc:
             errors.append(exc)
-    if not errors:
-        _validate(data, manager, errors)
+    _validate(data, manager, errors)
     if errors:
         raise ConfigError(
             errors[0].message, errors[0].file, errors[0].line, errors[0].column, errors

@@ -72,9 +72,15 @@ def mark_of(node: yaml.Node, file: str) -> Mark:
 
 
 def error_at(message: str, mark: Mark | None, file: str | None = None) -> ConfigError:
-    """A :class:`ConfigError` positioned at ``mark`` (or just naming ``file``)."""
+    """A :class:`ConfigError` positioned at ``mark`` (or just naming ``file``).
+
+    A mark of a command-line value (its file starts with ``--``) names the
+    option alone: it has no lines to point into.
+    """
     if mark is None:
         return ConfigError(message, file=file)
+    if mark.file.startswith("--"):
+        return ConfigError(message, file=mark.file)
     return ConfigError(message, file=mark.file, line=mark.line, column=mark.column)
 
 
