@@ -1,0 +1,466 @@
+"""A serial arm described by a Denavit-Hartenberg table: batched FK, Jacobian and DLS IK.
+
+Seed 001 gives the two conventions. Modified DH (Craig, "análisis por
+articulaciones") builds link ``i`` from the previous frame as
+``T = Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)`` (seed 001, the MaTran
+function); standard DH as ``T = Rz(theta_i) Dz(d_i) Dx(a_i) Rx(alpha_i)``.
+Table units at the edges are mm and degrees; the maths runs in radians and mm.
+
+Speed: forward kinematics never builds 4x4 matrices per joint. The rotation
+columns and the origin are kept as separate ``(N,)`` arrays and each joint
+updates them with a handful of vector operations, so 100,000 configurations of
+a 6-joint arm take a few tens of milliseconds (benchmarks/bench_kinematics.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from armtree.errors import ConfigError, Unreachable
+from armtree.kinematics import Joint, KinematicModel, LinkBox
+
+#: Configurations per block in batched FK: small enough for the temporaries to stay in cache.
+_CHUNK = 2048
+
+
+@dataclass(frozen=True)
+class DHRow:
+    """One row of a DH table, mm and degrees.
+
+    For ``convention="modified"`` ``a`` and ``alpha`` are ``a_{i-1}`` and
+    ``alpha_{i-1}`` of seed 001; for ``"standard"`` they are ``a_i`` and
+    ``alpha_i``. ``theta`` (revolute) or ``d`` (prismatic) is the joint's
+    offset: the joint value is added to it.
+    """
+
+    a: float
+    alpha: float
+    d: float
+    theta: float = 0.0
+    kind: str = "revolute"
+
+
+def parse_dh(
+    config: Mapping[str, Any], source: str = "<profile>"
+) -> tuple[str, list[DHRow], list[tuple[float, float]]]:
+    """Read ``{convention, table: [{a, alpha, d, theta, type, limits}]}`` from a profile.
+
+    Returns the convention, the rows and each joint's (lower, upper) limits.
+    Raises :class:`ConfigError` naming the row and field that is wrong.
+    """
+    convention = config.get("convention", "modified")
+    if convention not in ("modified", "standard"):
+        raise ConfigError(
+            f"arm.dh.convention must be modified or standard, not {convention!r}", source
+        )
+    table = config.get("table")
+    if not isinstance(table, Sequence) or isinstance(table, str) or not table:
+        raise ConfigError("arm.dh.table must be a non-empty list of rows", source)
+    rows: list[DHRow] = []
+    limits: list[tuple[float, float]] = []
+    for i, raw in enumerate(table):
+        where = f"arm.dh.table[{i}]"
+        if not isinstance(raw, Mapping):
+            raise ConfigError(f"{where} must be a mapping with a, alpha, d, theta", source)
+        unknown = set(raw) - {"a", "alpha", "d", "theta", "type", "limits", "name"}
+        if unknown:
+            raise ConfigError(f"{where}: unknown field(s) {sorted(unknown)}", source)
+        values = {}
+        for key in ("a", "alpha", "d", "theta"):
+            v = raw.get(key, 0.0)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                raise ConfigError(f"{where}.{key} must be a finite number, got {v!r}", source)
+            values[key] = float(v)
+        kind = {
+            "R": "revolute",
+            "P": "prismatic",
+            "revolute": "revolute",
+            "prismatic": "prismatic",
+        }.get(raw.get("type", "R"))
+        if kind is None:
+            raise ConfigError(f"{where}.type must be R or P, got {raw.get('type')!r}", source)
+        lim = raw.get("limits", [-180.0, 180.0] if kind == "revolute" else [0.0, 100.0])
+        if (
+            not isinstance(lim, Sequence)
+            or len(lim) != 2
+            or not all(isinstance(v, (int, float)) and np.isfinite(v) for v in lim)
+            or lim[0] >= lim[1]
+        ):
+            raise ConfigError(
+                f"{where}.limits must be [lower, upper] with lower < upper, got {lim!r}", source
+            )
+        rows.append(DHRow(kind=kind, **values))
+        limits.append((float(lim[0]), float(lim[1])))
+    return convention, rows, limits
+
+
+class DHModel(KinematicModel):
+    """Any serial arm from a DH table (mm, degrees at the edges; radians inside).
+
+    ``link_frames`` returns the base frame, one frame per joint and the tool
+    centre point (``n + 2`` frames). ``ik_all`` takes ``(..., 4, 4)`` poses (6
+    constraints) or ``(..., 3)`` positions and runs damped least squares from
+    several seeds at once; each returned row is a distinct converged solution.
+    """
+
+    def __init__(
+        self,
+        rows: Sequence[DHRow],
+        limits: Sequence[tuple[float, float]],
+        convention: str = "modified",
+        name: str = "dh",
+        tool_offset: Sequence[float] = (0.0, 0.0, 0.0),
+        base: Sequence[float] = (0.0, 0.0, 0.0),
+        home: Sequence[float] | None = None,
+        seeds: int = 12,
+        seed: int = 0,
+        link_width: float = 60.0,
+    ) -> None:
+        if convention not in ("modified", "standard"):
+            raise ValueError(f"unknown DH convention {convention!r}")
+        self.name = name
+        self.convention = convention
+        self.rows = tuple(rows)
+        self.joints = tuple(
+            Joint(f"q{i + 1}", r.kind, lo, hi, max_speed=90.0 if r.kind == "revolute" else 100.0)
+            for i, (r, (lo, hi)) in enumerate(zip(self.rows, limits, strict=True))
+        )
+        self._a = np.array([r.a for r in self.rows])
+        self._ca = np.cos(np.radians([r.alpha for r in self.rows]))
+        self._sa = np.sin(np.radians([r.alpha for r in self.rows]))
+        self._d = np.array([r.d for r in self.rows])
+        self._theta = np.radians([r.theta for r in self.rows])
+        self._revolute = np.array([r.kind == "revolute" for r in self.rows])
+        self.tool_offset = np.asarray(tool_offset, dtype=float)
+        self.base = np.asarray(base, dtype=float)
+        lo, hi = self.lower, self.upper
+        self.home = np.clip(np.zeros(self.dof) if home is None else np.asarray(home, float), lo, hi)
+        # Deterministic IK seeds: home first, then a fixed sample of the joint space.
+        rng = np.random.default_rng(seed)
+        self.seeds = np.vstack([self.home, rng.uniform(lo, hi, size=(max(seeds, 1) - 1, self.dof))])
+        self.boxes = self._make_boxes(link_width)
+        self.self_collision_pairs = tuple(
+            (i, j) for i in range(len(self.boxes)) for j in range(i + 2, len(self.boxes))
+        )
+
+    # ------------------------------------------------------------------ FK
+
+    def _chain(self, q: np.ndarray, keep: bool) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Run the chain on flattened ``(N, n)`` joints; returns rotation columns and origins.
+
+        Each entry of the first list is ``(3, 3, N)`` (row, column, sample); of
+        the second ``(3, N)``. With ``keep`` every joint frame is kept, else only
+        the last one.
+        """
+        n_samples = q.shape[0]
+        qr = q.T  # (n, N): one contiguous row per joint
+        th = np.where(self._revolute[:, None], np.radians(qr), 0.0) + self._theta[:, None]
+        dd = np.where(self._revolute[:, None], 0.0, qr) + self._d[:, None]
+        cos_t, sin_t = np.cos(th), np.sin(th)
+        # columns of R as (3, N) arrays; the base frame is the identity
+        c0 = np.zeros((3, n_samples))
+        c1 = np.zeros((3, n_samples))
+        c2 = np.zeros((3, n_samples))
+        c0[0] = c1[1] = c2[2] = 1.0
+        p = np.zeros((3, n_samples)) + self.base[:, None]
+        rots, origins = [], []
+        modified = self.convention == "modified"
+        for i in range(self.dof):
+            ca, sa, a = self._ca[i], self._sa[i], self._a[i]
+            ct, st, d = cos_t[i], sin_t[i], dd[i]
+            if modified:
+                # seed 001, MaTran: Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)
+                if a:
+                    p = p + a * c0
+                b1 = c1 * ca + c2 * sa if sa else c1 * ca
+                b2 = c2 * ca - c1 * sa if sa else c2 * ca
+                c0, c1, c2 = c0 * ct + b1 * st, b1 * ct - c0 * st, b2
+                p = p + b2 * d
+            else:
+                # standard DH: Rz(theta_i) Dz(d_i) Dx(a_i) Rx(alpha_i)
+                p = p + c2 * d
+                n0 = c0 * ct + c1 * st
+                m1 = c1 * ct - c0 * st
+                if a:
+                    p = p + n0 * a
+                c0, c1, c2 = n0, m1 * ca + c2 * sa, c2 * ca - m1 * sa
+            if keep:
+                rots.append(np.stack([c0, c1, c2], axis=1))
+                origins.append(p)
+        if not keep:
+            rots.append(np.stack([c0, c1, c2], axis=1))
+            origins.append(p)
+        return rots, origins
+
+    def _tool(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        t = self.tool_offset
+        return p + R[:, 0] * t[0] + R[:, 1] * t[1] + R[:, 2] * t[2]
+
+    @staticmethod
+    def _pack(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        n = R.shape[-1]
+        out = np.zeros((n, 4, 4))
+        out[:, :3, :3] = np.moveaxis(R, -1, 0)
+        out[:, :3, 3] = p.T
+        out[:, 3, 3] = 1.0
+        return out
+
+    def _flat(self, q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
+        q = np.asarray(q, dtype=float)
+        if q.shape[-1] != self.dof:
+            raise ValueError(f"{self.name}: expected {self.dof} joints, got shape {q.shape}")
+        return q.reshape(-1, self.dof), q.shape[:-1]
+
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """Tool pose ``(..., 4, 4)`` in mm for joints ``(..., n)`` in degrees / mm."""
+        flat, lead = self._flat(q)
+        out = np.zeros((flat.shape[0], 4, 4))
+        out[:, 3, 3] = 1.0
+        # chunks that stay in cache: the chain is a long run of elementwise operations
+        for i in range(0, flat.shape[0], _CHUNK):
+            rots, origins = self._chain(flat[i : i + _CHUNK], keep=False)
+            R = rots[-1]
+            out[i : i + _CHUNK, :3, :3] = np.moveaxis(R, -1, 0)
+            out[i : i + _CHUNK, :3, 3] = self._tool(R, origins[-1]).T
+        return out.reshape(*lead, 4, 4)
+
+    def position(self, q: np.ndarray) -> np.ndarray:
+        """Tool position ``(..., 3)`` in mm."""
+        flat, lead = self._flat(q)
+        out = np.empty((flat.shape[0], 3))
+        for i in range(0, flat.shape[0], _CHUNK):
+            rots, origins = self._chain(flat[i : i + _CHUNK], keep=False)
+            out[i : i + _CHUNK] = self._tool(rots[-1], origins[-1]).T
+        return out.reshape(*lead, 3)
+
+    def link_frames(self, q: np.ndarray) -> np.ndarray:
+        """Base frame, every joint frame and the tool frame: ``(..., n + 2, 4, 4)``, mm."""
+        flat, lead = self._flat(q)
+        rots, origins = self._chain(flat, keep=True)
+        n = flat.shape[0]
+        base = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
+        base[:, :3, 3] = self.base
+        frames = [base] + [self._pack(R, p) for R, p in zip(rots, origins, strict=True)]
+        tool = self._pack(rots[-1], self._tool(rots[-1], origins[-1]))
+        frames.append(tool)
+        return np.stack(frames, axis=1).reshape(*lead, self.dof + 2, 4, 4)
+
+    def jacobian_geometric(self, q: np.ndarray) -> np.ndarray:
+        """Geometric Jacobian ``(..., 6, n)``: mm per radian (or per mm) over rad per radian."""
+        flat, lead = self._flat(q)
+        rots, origins = self._chain(flat, keep=True)
+        tip = self._tool(rots[-1], origins[-1])
+        J = np.zeros((flat.shape[0], 6, self.dof))
+        for i in range(self.dof):
+            z = rots[i][:, 2]
+            if self._revolute[i]:
+                J[:, :3, i] = np.cross(z.T, (tip - origins[i]).T)
+                J[:, 3:, i] = z.T
+            else:
+                J[:, :3, i] = z.T
+        return J.reshape(*lead, 6, self.dof)
+
+    # ------------------------------------------------------------------ IK
+
+    def ik_all(
+        self,
+        target: np.ndarray,
+        seeds: np.ndarray | None = None,
+        tol: float = 1e-3,
+        iterations: int = 100,
+        orientation_weight: float = 200.0,
+    ) -> np.ndarray:
+        """Damped-least-squares IK from every seed at once: ``(..., S, n)``, NaN where a seed failed.
+
+        ``target`` is ``(..., 4, 4)`` (position and orientation) or ``(..., 3)``
+        (position only), mm. A seed counts as solved when the position error is
+        below ``tol`` mm and the orientation error below ``tol / orientation_weight``
+        rad, within the joint limits. Duplicate solutions (closer than 1e-3 deg)
+        are reported once. ``orientation_weight`` (mm per radian) balances the
+        two kinds of error in the damped step.
+        """
+        target = np.asarray(target, dtype=float)
+        full = target.shape[-2:] == (4, 4)
+        if not full and target.shape[-1] != 3:
+            raise ValueError(
+                f"{self.name}: target must be (..., 3) or (..., 4, 4), got {target.shape}"
+            )
+        lead = target.shape[:-2] if full else target.shape[:-1]
+        flat_t = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
+        s = self.seeds if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
+        n_t, n_s = flat_t.shape[0], s.shape[0]
+        q = np.tile(s, (n_t, 1))  # (T*S, n)
+        tgt = np.repeat(flat_t, n_s, axis=0)
+        q, err = self._dls(q, tgt, full, tol, iterations, orientation_weight)
+        ok = (err < tol) & self.within_limits(q)
+        q = np.where(ok[:, None], q, np.nan).reshape(n_t, n_s, self.dof)
+        q = self._dedupe(q)
+        return q.reshape(*lead, n_s, self.dof)
+
+    def ik_batch(
+        self,
+        target: np.ndarray,
+        near: np.ndarray | None = None,
+        tol: float = 1e-3,
+        iterations: int = 100,
+        orientation_weight: float = 200.0,
+    ) -> np.ndarray:
+        """One solution per target, ``(..., n)``; NaN rows where every seed failed.
+
+        Starts every target from ``near`` (default: home) and restarts only the
+        targets that failed from the next seed, so a batch costs little more
+        than one solve per target. Same tolerances as :meth:`ik_all`.
+        """
+        target = np.asarray(target, dtype=float)
+        full = target.shape[-2:] == (4, 4)
+        lead = target.shape[:-2] if full else target.shape[:-1]
+        flat_t = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
+        first = self.home if near is None else np.asarray(near, dtype=float)
+        seeds = np.vstack([np.broadcast_to(first, (1, self.dof)), self.seeds[1:]])
+        out = np.full((flat_t.shape[0], self.dof), np.nan)
+        todo = np.arange(flat_t.shape[0])
+        for s in seeds:
+            if todo.size == 0:
+                break
+            q = np.repeat(s[None], todo.size, axis=0)
+            q, err = self._dls(q, flat_t[todo], full, tol, iterations, orientation_weight)
+            ok = (err < tol) & self.within_limits(q)
+            out[todo[ok]] = q[ok]
+            todo = todo[~ok]
+        return out.reshape(*lead, self.dof)
+
+    def _errors(
+        self, q: np.ndarray, tgt: np.ndarray, full: bool, w: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Error vectors ``(M, 6|3)`` (mm, weighted radians) and the Jacobian ``(M, 6|3, n)``."""
+        rots, origins = self._chain(q, keep=True)
+        R = rots[-1]
+        tip = self._tool(R, origins[-1])
+        J = np.zeros((q.shape[0], 6 if full else 3, self.dof))
+        for i in range(self.dof):
+            z = rots[i][:, 2].T
+            if self._revolute[i]:
+                # mm per degree: the chain takes degrees
+                J[:, :3, i] = np.cross(z, (tip - origins[i]).T) * (np.pi / 180.0)
+                if full:
+                    J[:, 3:, i] = z * (w * np.pi / 180.0)
+            else:
+                J[:, :3, i] = z
+        e_pos = tgt[:, :3, 3] - tip.T if full else tgt - tip.T
+        if not full:
+            return e_pos, J
+        Rc = np.moveaxis(R, -1, 0)  # (M, 3, 3)
+        # orientation error: the rotation vector (axis * angle, radians) taking the current
+        # orientation to the target, in the base frame; scipy's log map stays exact near 180
+        # degrees, where the usual sum of column cross products vanishes and would stall
+        local = Rotation.from_matrix(np.swapaxes(Rc, 1, 2) @ tgt[:, :3, :3]).as_rotvec()
+        e_rot = np.einsum("mij,mj->mi", Rc, local)
+        return np.concatenate([e_pos, w * e_rot], axis=1), J
+
+    def _dls(
+        self, q: np.ndarray, tgt: np.ndarray, full: bool, tol: float, iterations: int, w: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Levenberg-style damped least squares, vectorised over problems; joints clamped to limits."""
+        lo, hi = self.lower, self.upper
+        lam = np.full(q.shape[0], 1.0)
+        e, J = self._errors(q, tgt, full, w)
+        cost = np.einsum("ij,ij->i", e, e)
+        m = e.shape[1]
+        eye = np.eye(m)
+        active = np.ones(q.shape[0], dtype=bool)
+        for _ in range(iterations):
+            idx = np.flatnonzero(active)
+            if idx.size == 0:
+                break
+            Ja, ea = J[idx], e[idx]
+            A = Ja @ np.swapaxes(Ja, 1, 2) + (lam[idx] ** 2)[:, None, None] * eye
+            dq = np.einsum("mji,mj->mi", Ja, np.linalg.solve(A, ea[..., None])[..., 0])
+            qn = np.clip(q[idx] + dq, lo, hi)
+            en, Jn = self._errors(qn, tgt[idx], full, w)
+            cn = np.einsum("ij,ij->i", en, en)
+            better = cn < cost[idx]
+            take = idx[better]
+            q[take], e[take], J[take], cost[take] = qn[better], en[better], Jn[better], cn[better]
+            lam[take] *= 0.5
+            lam[idx[~better]] *= 4.0
+            lam = np.clip(lam, 1e-4, 1e6)
+            active[idx] = (np.sqrt(cost[idx]) >= tol * 0.1) & (lam[idx] < 1e6)
+        return q, np.sqrt(cost)
+
+    def _dedupe(self, q: np.ndarray) -> np.ndarray:
+        """Blank (NaN) any solution that repeats an earlier one for the same target."""
+        n_s = q.shape[1]
+        for j in range(1, n_s):
+            d = np.abs(q[:, :j, :] - q[:, j : j + 1, :]).max(axis=-1)
+            dup = np.any(d < 1e-3, axis=1)
+            q[dup, j, :] = np.nan
+        return q
+
+    def ik(self, target: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
+        """One solution, nearest to ``near`` (which is also tried as a seed); raises Unreachable."""
+        target = np.asarray(target, dtype=float)
+        if not np.all(np.isfinite(target)):
+            raise Unreachable(f"{self.name}: target {target.tolist()} is not finite")
+        ref = (
+            self.home
+            if near is None
+            else np.clip(np.asarray(near, dtype=float), self.lower, self.upper)
+        )
+        sols = self.ik_all(target, seeds=np.vstack([ref, self.seeds]))
+        sols = sols[np.all(np.isfinite(sols), axis=-1)]
+        if len(sols) == 0:
+            shown = target[:3, 3] if target.shape == (4, 4) else target
+            raise Unreachable(
+                f"{self.name}: target {np.round(shown, 2).tolist()} mm is outside the workspace "
+                "or the joint limits"
+            )
+        return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
+
+    # ------------------------------------------------------------------ boxes
+
+    def _make_boxes(self, width: float) -> tuple[LinkBox, ...]:
+        """One box per link, spanning frame ``i``'s origin to frame ``i + 1``'s at home.
+
+        The box is axis-aligned in frame ``i`` and at least ``width`` mm thick in
+        every direction, so short links still have a volume.
+        """
+        frames = self.link_frames(self.home)
+        boxes = []
+        for i in range(self.dof + 1):
+            rel = np.linalg.inv(frames[i]) @ frames[i + 1][:, 3]
+            size = tuple(float(max(abs(s), width)) for s in rel[:3])
+            off = np.eye(4)
+            off[:3, 3] = rel[:3] / 2
+            boxes.append(LinkBox(f"link{i}", i, size, off))
+        return tuple(boxes)
+
+
+def model_from_config(config: Mapping[str, Any], source: str = "<profile>") -> DHModel:
+    """Build a :class:`DHModel` from a profile's ``arm`` mapping (its ``dh:`` section)."""
+    dh = config.get("dh")
+    if not isinstance(dh, Mapping):
+        raise ConfigError("arm.dh must be a mapping with convention and table", source)
+    convention, rows, limits = parse_dh(dh, source)
+    tool = dh.get("tool_offset_mm", config.get("tool_offset_mm", [0.0, 0.0, 0.0]))
+    base = dh.get("base_mm", [0.0, 0.0, 0.0])
+    for key, v in (("tool_offset_mm", tool), ("base_mm", base)):
+        if not isinstance(v, Sequence) or len(v) != 3:
+            raise ConfigError(f"arm.dh.{key} must be [x, y, z] in mm, got {v!r}", source)
+    home = dh.get("home")
+    if home is not None and (not isinstance(home, Sequence) or len(home) != len(rows)):
+        raise ConfigError(f"arm.dh.home must list {len(rows)} joint values", source)
+    return DHModel(
+        rows,
+        limits,
+        convention,
+        name=str(config.get("name", "dh")),
+        tool_offset=tool,
+        base=base,
+        home=home,
+        seeds=int(dh.get("ik_seeds", 12)),
+    )

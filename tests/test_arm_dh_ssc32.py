@@ -1,0 +1,66 @@
+"""SSC-32 commands and the least-squares pulse-to-angle map of seed 001."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from armtree.errors import ConfigError
+from armtree.plugins.arms.dh import ssc32 as S
+
+
+def test_seed_001_servo_example_is_fitted_exactly():
+    # seed 001: PWM 0.3 ms -> 170 deg, 1.2 ms -> 85 deg, 2.1 ms -> 0 deg
+    m = S.ServoMap.fit(0, [[300, 170], [1200, 85], [2100, 0]])
+    assert m.slope == pytest.approx(-85 / 900)
+    assert m.angle(1200) == pytest.approx(85)
+    assert m.pulse(0) == pytest.approx(2100)
+    assert m.residual == pytest.approx(0, abs=1e-9)
+
+
+def test_noisy_table_fit_is_least_squares():
+    rng = np.random.default_rng(0)
+    pulses = np.linspace(600, 2400, 25)
+    angles = 0.09 * pulses - 135 + rng.normal(0, 0.5, pulses.size)
+    m = S.ServoMap.fit(3, np.column_stack([pulses, angles]))
+    ref = np.polyfit(pulses, angles, 1)
+    assert (m.slope, m.intercept) == pytest.approx(tuple(ref))
+    assert 0.3 < m.residual < 0.7
+
+
+def test_commands_are_byte_exact():
+    assert S.move_command({1: 1600, 0: 1500}, 1000) == b"#0P1500#1P1600T1000\r"
+    assert S.query_pulses([0, 5]) == b"QP0 QP5\r"
+    assert S.QUERY_MOTION == b"Q\r"
+    assert S.stop_command([2]) == b"STOP2\r"
+    with pytest.raises(ValueError):
+        S.move_command({0: 2600})
+
+
+def test_parse_request():
+    r = S.parse_request("#0 P1500 S750 #1P1600T1000")
+    assert r.moves == {0: (1500, 750.0), 1: (1600, None)} and r.time_ms == 1000
+    assert S.parse_request("QP0 QP12 Q").queries == (("QP", 0), ("QP", 12), ("Q", None))
+    assert S.parse_request("VER").version
+    assert S.parse_request("STOP 4").stops == (4,)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(max_size=60))
+def test_any_request_text_parses(text):
+    S.parse_request(text)
+
+
+def test_servo_config():
+    maps = S.servo_maps_from_config(None, 2)
+    assert [m.channel for m in maps] == [0, 1] and maps[0].angle(1500) == pytest.approx(0)
+    maps = S.servo_maps_from_config([{"channel": 4, "table": [[500, -90], [2500, 90]]}], 1)
+    assert maps[0].channel == 4 and maps[0].range() == pytest.approx((-90, 90))
+    for bad, match in [
+        ([{"table": [[1, 2]]}], "table"),
+        ([{"channel": 40, "table": [[500, 0], [600, 1]]}], "channel"),
+        ([], "one servo per joint"),
+        ([{"table": [[500, 0], [500, 1]]}], "different"),
+    ]:
+        with pytest.raises(ConfigError, match=match):
+            S.servo_maps_from_config(bad, 1)
