@@ -1,0 +1,60 @@
+"""What the built-in cameras share: profile keys, intrinsics per frame, mounting."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from armtree.clock import Clock
+from armtree.params import Param
+from armtree.plugins.trackers.common import check_config, profile_file
+from armtree.rig import Camera, Frame, RigContext
+
+from .intrinsics import INTRINSICS_PARAMS, IntrinsicsBySize, extrinsics_from, intrinsics_from_config
+
+
+class FrameSourceCamera(Camera):
+    """A camera that stamps each image with the run's time and the intrinsics for its size."""
+
+    def __init__(
+        self,
+        name: str,
+        clock: Clock,
+        intrinsics: IntrinsicsBySize,
+        mount: str = "eye_to_hand",
+        extrinsics: np.ndarray | None = None,
+    ) -> None:
+        self.name = name
+        self.clock = clock
+        self.intrinsics = intrinsics
+        self.mount = mount
+        self.extrinsics = np.eye(4) if extrinsics is None else extrinsics
+        self._index = 0
+
+    def make_frame(self, image: np.ndarray, timestamp: float | None = None) -> Frame:
+        """A :class:`Frame` of ``image`` stamped now (or at ``timestamp`` seconds)."""
+        h, w = image.shape[:2]
+        intr = self.intrinsics.get(w, h)
+        frame = Frame(
+            image=image,
+            timestamp=self.clock.now() if timestamp is None else float(timestamp),
+            camera_matrix=intr.camera_matrix,
+            distortion=intr.distortion,
+            index=self._index,
+        )
+        self._index += 1
+        return frame
+
+
+def camera_config(
+    config: dict[str, Any], context: RigContext, params: tuple[Param, ...]
+) -> tuple[dict[str, Any], IntrinsicsBySize, np.ndarray, str | None]:
+    """Checked values, intrinsics, extrinsics and the profile file of a camera section."""
+    file = profile_file(context.profile)
+    values = check_config(config, params, "camera", file)
+    intr = IntrinsicsBySize(intrinsics_from_config(values, file))
+    return values, intr, extrinsics_from(values["extrinsics"], file), file
+
+
+__all__ = ["INTRINSICS_PARAMS", "FrameSourceCamera", "camera_config"]

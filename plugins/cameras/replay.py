@@ -1,0 +1,254 @@
+"""The ``video`` and ``images`` cameras: replay a recording for offline runs and tests.
+
+Pacing follows the run's clock (``pace: clock``): frame ``i`` is shown from
+``i / fps`` seconds after ``start()``, so a run on the virtual clock sees the
+same frames at the same ticks every time. ``pace: each`` hands out the next
+frame on every ``read()`` (batch work such as measuring a detection rate).
+Frames are decoded in ``read()`` itself rather than on a thread: decoding one
+frame takes a few milliseconds, and doing it in step keeps replays
+deterministic. At the end of the recording ``read()`` returns None (or starts
+again with ``loop: true``) and ``finished`` becomes True.
+"""
+
+from __future__ import annotations
+
+import glob
+from abc import abstractmethod
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from armtree.errors import ConfigError, HardwareFault
+from armtree.params import Param
+from armtree.rig import Frame, RigContext
+
+from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp")
+
+
+class ReplayCamera(FrameSourceCamera):
+    """Base of the replay cameras: pacing by clock or by call, looping, end of recording."""
+
+    def __init__(
+        self, name: str, clock: Any, intrinsics: Any, fps: float, pace: str, loop: bool, **kw: Any
+    ) -> None:
+        super().__init__(name, clock, intrinsics, **kw)
+        self.fps = float(fps)
+        self.pace = pace
+        self.loop = loop
+        self.finished = False
+        self._t0 = 0.0
+        self._shown = -1  # index (in the recording's timeline) of the last frame handed out
+        self._started = False
+
+    def start(self) -> None:
+        """Open the recording and start its timeline at the clock's current time."""
+        self._open()
+        self._t0 = self.clock.now()
+        self._shown = -1
+        self.finished = False
+        self._started = True
+
+    def read(self) -> Frame | None:
+        """The frame due now (or the next one with ``pace: each``), None if none is new."""
+        if not self._started or self.finished:
+            return None
+        if self.pace == "each":
+            due = self._shown + 1
+        else:
+            due = int(np.floor((self.clock.now() - self._t0) * self.fps + 1e-9))
+        if due <= self._shown:
+            return None
+        image = self._image_at(due)
+        if image is None and self.loop and due > 0:
+            self._rewind()
+            self._t0, self._shown, due = self.clock.now(), -1, 0
+            image = self._image_at(0)
+        if image is None:
+            self.finished = True
+            return None
+        self._shown = due
+        return self.make_frame(image, self._t0 + due / self.fps)
+
+    def frames(self) -> Iterator[Frame]:
+        """Every frame of the recording once, in order, whatever the pacing."""
+        pace, loop = self.pace, self.loop
+        self.pace, self.loop = "each", False
+        try:
+            self.start()
+            while (frame := self.read()) is not None:
+                yield frame
+        finally:
+            self.pace, self.loop = pace, loop
+
+    @abstractmethod
+    def _open(self) -> None:
+        """Open the recording; ConfigError naming it if it cannot be."""
+
+    @abstractmethod
+    def _image_at(self, index: int) -> np.ndarray | None:
+        """Image ``index`` of the recording, None past its end."""
+
+    def _rewind(self) -> None:
+        """Go back to the start (a video reopens; images need nothing)."""
+
+
+class ImagesCamera(ReplayCamera):
+    """A folder (or glob) of images replayed in name order."""
+
+    def __init__(self, paths: list[Path], clock: Any, intrinsics: Any, **kw: Any) -> None:
+        super().__init__(f"images {paths[0].parent}", clock, intrinsics, **kw)
+        self.paths = paths
+
+    def _open(self) -> None:
+        pass
+
+    def _image_at(self, index: int) -> np.ndarray | None:
+        if index >= len(self.paths):
+            return None
+        path = self.paths[index]
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise HardwareFault(
+                "cannot decode image (unreadable, empty or not an image)", str(path)
+            )
+        return image
+
+
+class VideoCamera(ReplayCamera):
+    """A video file replayed frame by frame (any format OpenCV's backends decode)."""
+
+    def __init__(self, path: Path, clock: Any, intrinsics: Any, **kw: Any) -> None:
+        super().__init__(f"video {path}", clock, intrinsics, **kw)
+        self.path = path
+        self._capture: Any = None
+        self._position = 0  # index of the next frame the capture will decode
+
+    def _open(self) -> None:
+        self.close()
+        cap = cv2.VideoCapture(str(self.path))
+        if not cap.isOpened():
+            raise ConfigError("cannot open video (unreadable or not a video)", file=str(self.path))
+        self._capture = cap
+        self._position = 0
+
+    def _image_at(self, index: int) -> np.ndarray | None:
+        cap = self._capture
+        if index < self._position:
+            self._open()
+            cap = self._capture
+        while self._position < index:
+            if not cap.grab():
+                return None
+            self._position += 1
+        ok, image = cap.read()
+        if not ok:
+            return None
+        self._position += 1
+        return image
+
+    def _rewind(self) -> None:
+        self._open()
+
+    def close(self) -> None:
+        """Release the file."""
+        if self._capture is not None:
+            self._capture.release()
+            self._capture = None
+
+
+def video_fps(path: Path) -> float | None:
+    """The frame rate a video file declares, or None."""
+    cap = cv2.VideoCapture(str(path))
+    try:
+        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
+    finally:
+        cap.release()
+    return float(fps) if fps and np.isfinite(fps) and fps > 0 else None
+
+
+def image_paths(spec: str, file: str | None = None) -> list[Path]:
+    """The images of a folder or a glob pattern, sorted by name; ConfigError when there are none."""
+    path = Path(spec)
+    if path.is_dir():
+        found = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    elif any(ch in spec for ch in "*?["):
+        found = sorted(Path(p) for p in glob.glob(spec) if Path(p).is_file())
+    else:
+        raise ConfigError(f"camera.path: {spec} is not a folder of images", file=file)
+    if not found:
+        raise ConfigError(
+            f"camera.path: no images ({', '.join(IMAGE_SUFFIXES)}) in {spec}", file=file
+        )
+    return found
+
+
+_REPLAY_PARAMS = (
+    Param("loop", "bool", False, doc="start again at the end"),
+    Param(
+        "pace",
+        "str",
+        "clock",
+        doc="clock: frame i at i/fps s; each: next frame per read",
+        choices=("clock", "each"),
+    ),
+    *INTRINSICS_PARAMS,
+)
+
+
+def _check_fps(fps: Any, file: str | None) -> float:
+    if not fps > 0:
+        raise ConfigError(f"camera.fps: must be positive, got {fps}", file=file)
+    return float(fps)
+
+
+def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
+    """Replays a video file as a camera, paced by the run's clock."""
+    values, intr, extrinsics, file = camera_config(config, context, video_factory.PARAMS)
+    path = Path(values["path"])
+    if not path.is_file():
+        raise ConfigError(f"camera.path: no video file {path}", file=file)
+    fps = values["fps"] or video_fps(path) or 30.0
+    return VideoCamera(
+        path,
+        context.clock,
+        intr,
+        fps=_check_fps(fps, file),
+        pace=values["pace"],
+        loop=values["loop"],
+        mount=values["mount"],
+        extrinsics=extrinsics,
+    )
+
+
+video_factory.PARAMS = (
+    Param("path", "str", doc="video file"),
+    Param("fps", "float", None, unit="Hz", doc="replay rate; the file's own rate by default"),
+    *_REPLAY_PARAMS,
+)
+
+
+def images_factory(config: dict[str, Any], context: RigContext) -> ImagesCamera:
+    """Replays a folder of images (name order) as a camera, paced by the run's clock."""
+    values, intr, extrinsics, file = camera_config(config, context, images_factory.PARAMS)
+    return ImagesCamera(
+        image_paths(values["path"], file),
+        context.clock,
+        intr,
+        fps=_check_fps(values["fps"], file),
+        pace=values["pace"],
+        loop=values["loop"],
+        mount=values["mount"],
+        extrinsics=extrinsics,
+    )
+
+
+images_factory.PARAMS = (
+    Param("path", "str", doc="folder of images, or a glob such as frames/*.png"),
+    Param("fps", "float", 10.0, unit="Hz", doc="replay rate"),
+    *_REPLAY_PARAMS,
+)
