@@ -62,14 +62,15 @@ def jsonable(value: Any, depth: int = 0) -> Any:
 class RunLog:
     """Append-only JSON-lines log of one run at ``path`` (``None``: keep nothing).
 
-    Status records are the hot path (one per node status change); they are
-    formatted from pre-encoded node paths rather than through :func:`json.dumps`.
+    Status records are the hot path (one per node status change); each line's
+    end is built once per (node, from, to) and reused.
     """
 
     def __init__(self, path: Path | None) -> None:
         self.path = path
         self._file: TextIO | None = None
-        self._quoted: dict[str, str] = {}
+        # Hot path: the end of a status line, per (path, from, to), built once.
+        self._tails: dict[tuple[str, Any, Any], str] = {}
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             self._file = path.open("w", encoding="utf-8", buffering=1 << 16)
@@ -84,19 +85,23 @@ class RunLog:
         if self._file is not None:
             self._file.write(json.dumps(jsonable(record)) + "\n")
 
-    def status_changes(self, tick: int, t: float, changes: Iterable[tuple[str, str, str]]) -> None:
-        """Append one ``status`` record per ``(node_path, from, to)``."""
+    def status_changes(self, tick: int, t: float, changes: Iterable[tuple[str, Any, Any]]) -> None:
+        """Append one ``status`` record per ``(node_path, from, to)`` (py_trees Status or name)."""
         if self._file is None:
             return
-        quoted = self._quoted
-        head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '
-        lines = []
-        for path, old, new in changes:
-            q = quoted.get(path)
-            if q is None:
-                q = quoted[path] = json.dumps(path)
-            lines.append(f'{head}{q}, "from": "{old}", "to": "{new}"}}\n')
-        self._file.write("".join(lines))
+        tails = self._tails
+        parts = []
+        for change in changes:
+            tail = tails.get(change)
+            if tail is None:
+                path, old, new = change
+                tail = tails[change] = (
+                    f'{json.dumps(path)}, "from": "{_name(old)}", "to": "{_name(new)}"}}\n'
+                )
+            parts.append(tail)
+        if parts:
+            head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '
+            self._file.write(head + head.join(parts))
 
     def event(self, tick: int, t: float, event: str, **data: Any) -> None:
         """Append an ``event`` record."""
@@ -113,6 +118,10 @@ class RunLog:
             self._file.flush()
             self._file.close()
             self._file = None
+
+
+def _name(status: Any) -> str:
+    return str(getattr(status, "value", status))
 
 
 def read_log(path: Path | str) -> list[dict[str, Any]]:

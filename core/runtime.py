@@ -363,14 +363,16 @@ class Run:
                     interrupts.wake.wait(-late)
 
     def _track(self, now: float, logging: bool) -> None:
-        nodes, last = self._nodes, self._last
-        current = [n.status for n in nodes]
+        last = self._last
+        current = [n.status for n in self._nodes]
         if current != last:
             paths = self._paths
+            # ``_value_`` is a plain attribute (Enum.value is a slow descriptor) and its
+            # string hash is cached, so the log's per-change cache lookup stays cheap.
             changes = [
-                (paths[i], last[i].value, s.value)
-                for i, s in enumerate(current)
-                if s is not last[i]
+                (paths[i], last[i]._value_, status._value_)
+                for i, status in enumerate(current)
+                if status is not last[i]
             ]
             self._last = current
             if logging:
