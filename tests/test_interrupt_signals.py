@@ -1,0 +1,159 @@
+"""Real signals and the stop key sent to a real ``run-tree`` process."""
+
+import importlib.metadata
+import os
+import pty
+import queue
+import signal
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from armtree.runlog import read_log
+
+RUN_TREE = Path(sys.executable).with_name("run-tree")
+
+#: Only the core plugins: these tests are about interrupts, not about arms or skills.
+ISOLATE = [
+    arg
+    for ep in importlib.metadata.entry_points(group="armtree")
+    if ep.name not in ("core_behaviours", "core_commands")
+    for arg in ("-p", f"no:{ep.name}")
+]
+
+SPIN = """\
+tree: spin
+tick_hz: 20
+root:
+  sequence:
+    name: Root
+    children:
+      - success: {name: Ready}
+      - running: {name: Wait}
+"""
+
+HANG_PLUGIN = '''
+import threading
+import armtree
+from py_trees.common import Status
+
+
+class Hang(armtree.Behaviour):
+    """Never finishes, and its halt never returns."""
+
+    def update(self):
+        return Status.RUNNING
+
+    def terminate(self, new_status):
+        if new_status == Status.INVALID:
+            threading.Event().wait()
+
+
+@armtree.hookimpl
+def armtree_behaviours():
+    return {"hang": Hang}
+'''
+
+
+class Proc:
+    """A run-tree subprocess whose stdout lines can be awaited with a timeout."""
+
+    def __init__(self, args, cwd, stdin=None):
+        self.p = subprocess.Popen(
+            [str(RUN_TREE), *args, *ISOLATE],
+            cwd=cwd,
+            stdin=stdin if stdin is not None else subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.lines: queue.Queue = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.p.stdout:
+            self.lines.put(line)
+        self.lines.put(None)
+
+    def wait_for(self, text, timeout=30.0):
+        deadline = time.monotonic() + timeout
+        seen = []
+        while True:
+            line = self.lines.get(timeout=max(0.01, deadline - time.monotonic()))
+            if line is None:
+                raise AssertionError(f"process ended before {text!r}: {''.join(seen)}")
+            seen.append(line)
+            if text in line:
+                return line
+
+    def finish(self, timeout):
+        """Exit code and stderr; fails if the process is not gone within ``timeout`` s."""
+        try:
+            code = self.p.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.p.kill()
+            raise
+        return code, self.p.stderr.read()
+
+
+@pytest.fixture
+def spin(tmp_path):
+    (tmp_path / "spin.yaml").write_text(SPIN)
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    ("sig", "clock"), [(signal.SIGINT, "--realtime"), (signal.SIGTERM, "--seed=1")]
+)
+def test_a_signal_halts_a_real_run_and_exits_130_with_the_log_flushed(spin, sig, clock):
+    proc = Proc(["spin.yaml", "--record", "rec", clock], spin)
+    proc.wait_for("Root/Wait: INVALID -> RUNNING")
+    start = time.monotonic()
+    proc.p.send_signal(sig)
+    code, err = proc.finish(timeout=2.0)
+    assert time.monotonic() - start < 2.0
+    assert code == 130, err
+    name = sig.name
+    assert f"interrupted by {name}" in err and "Root/Wait" in err
+    log = read_log(spin / "rec" / "run.jsonl")
+    assert log[-1]["kind"] == "result" and log[-1]["status"] == "INTERRUPTED"
+    assert log[-1]["running"] == ["Root/Wait"]
+    assert any(r.get("event") == "interrupt" and r["reason"] == name for r in log)
+    assert any(
+        r["kind"] == "status" and r["node"] == "Root/Wait" and r["to"] == "INVALID" for r in log
+    )
+
+
+def test_a_second_sigint_during_a_hanging_halt_forces_exit(spin):
+    (spin / "hang.py").write_text(textwrap.dedent(HANG_PLUGIN))
+    (spin / "hang.yaml").write_text("tree: hang\nroot:\n  hang: {name: Stuck}\n")
+    proc = Proc(["hang.yaml", "--plugin", "hang.py", "--record", "rec", "--realtime"], spin)
+    proc.wait_for("Stuck: INVALID -> RUNNING")
+    proc.p.send_signal(signal.SIGINT)
+    proc.wait_for("interrupted: SIGINT")
+    start = time.monotonic()
+    proc.p.send_signal(signal.SIGINT)
+    code, err = proc.finish(timeout=2.0)
+    assert time.monotonic() - start < 2.0
+    assert code == 130 and "forced exit" in err
+    log = read_log(spin / "rec" / "run.jsonl")
+    assert log[-1]["event"] == "forced_exit"
+
+
+def test_the_stop_key_in_a_terminal_halts_the_run(spin):
+    master, slave = pty.openpty()
+    try:
+        proc = Proc(["spin.yaml", "--record", "rec", "--realtime"], spin, stdin=slave)
+        proc.wait_for("Root/Wait: INVALID -> RUNNING")
+        os.write(master, b"q")
+        code, err = proc.finish(timeout=5.0)
+    finally:
+        os.close(slave)
+        os.close(master)
+    assert code == 130 and "interrupted by stop key" in err
+    assert read_log(spin / "rec" / "run.jsonl")[-1]["status"] == "INTERRUPTED"
