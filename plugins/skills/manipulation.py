@@ -14,27 +14,65 @@ from armtree.perception import EYE_IN_HAND, tool_for_camera_over
 
 from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
 from .base import Procedure, Skill, as_list
+from .reach import highest_reachable, nearest_reachable, reachable
 
 UP = np.array([0.0, 0.0, 1.0])
+
+
+def camera_over(
+    skill: Skill, point: np.ndarray, height: float, min_height: float = 40.0
+) -> np.ndarray:
+    """Tool position (mm) putting the camera ``height`` mm over ``point``, or as near as reachable.
+
+    Eye-in-hand: lower heights down to ``min_height`` are tried in 10 mm steps,
+    then the reachable tool position nearest the wanted one. Eye-to-hand: the
+    tool simply goes ``height`` above the point (out of the way is the caller's
+    business). Raises :class:`SkillFailure` when nothing near is reachable.
+    """
+    rig = skill.rig
+    model = rig.arm.model
+    if rig.camera.mount != EYE_IN_HAND:
+        return point + UP * height
+    wanted = None
+    for h in np.arange(height, min(min_height, height) - 1e-9, -10.0):
+        try:
+            tool = tool_for_camera_over(
+                model, point, h, rig.camera.extrinsics, near=rig.arm.joints()
+            )
+        except ValueError:
+            continue
+        if wanted is None:
+            wanted = tool
+        if reachable(model, tool):
+            return tool
+    if wanted is None:
+        wanted = point + UP * height - rig.camera.extrinsics[:3, 3]
+    near = nearest_reachable(model, wanted)
+    if near is None:
+        raise SkillFailure(f"cannot bring the camera over {fmt(point)}: nothing near is reachable")
+    return near
+
+
+def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
+    """``target`` raised by ``height`` mm, or by as much of it as the arm can reach."""
+    want = target + UP * height
+    model = skill.rig.arm.model
+    if height <= 0 or reachable(model, want):
+        return want
+    best = highest_reachable(model, target, target[2], target[2] + height)
+    return want if best is None else best
 
 
 def look_over(
     skill: Skill, point: np.ndarray | None, height: float, want: str | None, frames: int = 3
 ) -> Procedure:
-    """Bring the camera ``height`` mm above ``point`` (eye-in-hand; stay put if None) and look.
+    """Bring the camera ``height`` mm above ``point`` (stay put if None) and look.
 
     Returns the list of :class:`Sighting`.
     """
     rig = skill.rig
     if point is not None and rig.camera.mount == EYE_IN_HAND:
-        try:
-            tool = tool_for_camera_over(
-                rig.arm.model, point, height, rig.camera.extrinsics, near=rig.arm.joints()
-            )
-        except ValueError as exc:
-            raise SkillFailure(
-                f"cannot put the camera {height:g} mm over {fmt(point)}: {exc}"
-            ) from exc
+        tool = camera_over(skill, point, height)
         yield Move(rig, tool, speed=skill.speed(), label="look over")
     return (yield Look(rig, skill.clock, want=want, frames=frames, settle=skill.settle()))
 
@@ -60,12 +98,12 @@ def pick_steps(
 ) -> Procedure:
     """Approach above ``target``, descend, suction on, let it grip, lift back."""
     rig, speed = skill.rig, skill.speed()
-    above = target + UP * approach
-    yield Move(rig, above, speed=speed, label="approach")
+    over = above(skill, target, approach)
+    yield Move(rig, over, speed=speed, label="approach")
     yield Move(rig, target + UP * grasp_offset, speed=speed, label="descend")
     yield Suction(rig, True)
     yield Pause(skill.clock, dwell)
-    yield Move(rig, above, speed=speed, label="lift")
+    yield Move(rig, over, speed=speed, label="lift")
 
 
 def release_steps(
@@ -73,14 +111,14 @@ def release_steps(
 ) -> Procedure:
     """Approach above ``target``, descend to ``release`` mm above it, suction off, lift back."""
     rig, speed = skill.rig, skill.speed()
-    above = target + UP * max(approach, release)
-    yield Move(rig, above, speed=speed, label="approach")
-    if release < approach:
+    over = above(skill, target + UP * release, max(0.0, approach - release))
+    yield Move(rig, over, speed=speed, label="approach")
+    if over[2] > target[2] + release + 1e-6:
         yield Move(rig, target + UP * release, speed=speed, label="descend")
     yield Suction(rig, False)
     yield Pause(skill.clock, dwell)
-    if release < approach:
-        yield Move(rig, above, speed=speed, label="lift")
+    if over[2] > target[2] + release + 1e-6:
+        yield Move(rig, over, speed=speed, label="lift")
 
 
 class ArmSkill(Skill):

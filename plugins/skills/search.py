@@ -17,6 +17,7 @@ from armtree import Param
 from .actions import Look, Move, Sighting, SkillFailure, fmt
 from .base import ActionFailed, Procedure, as_list
 from .manipulation import ArmSkill, pick_steps, release_steps
+from .reach import nearest_reachable
 
 
 def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
@@ -101,9 +102,13 @@ def scan_poses(skill: ArmSkill) -> list[np.ndarray]:
     except ValueError as exc:
         raise SkillFailure(f"{skill.name}: {exc}") from exc
     r, z = float(skill.param("radius_mm")), float(skill.param("height_mm"))
-    return [
-        np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), z]) for a in angles
-    ]
+    model = skill.rig.arm.model
+    poses = []
+    for a in angles:
+        want = np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), z])
+        near = nearest_reachable(model, want)
+        poses.append(want if near is None else near)
+    return poses
 
 
 def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, cleared: int) -> Procedure:

@@ -12,11 +12,10 @@ import numpy as np
 
 from armtree import Param
 from armtree.filters import PoseFilter
-from armtree.perception import EYE_IN_HAND, tool_for_camera_over
 
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure, as_list
-from .manipulation import ArmSkill
+from .manipulation import ArmSkill, camera_over
 
 #: The smoothed marker's key in the pose filter (one marker is followed).
 _TRACKED = 0
@@ -60,15 +59,6 @@ class Track(ArmSkill):
         spec = self.rig.tags.get(tag)
         return 5.0 * (spec.size_mm if spec is not None else 25.0)
 
-    def wanted_tool(self, marker: np.ndarray, height: float) -> np.ndarray:
-        """Tool position (mm) that puts the camera ``height`` above ``marker``."""
-        rig = self.rig
-        if rig.camera.mount == EYE_IN_HAND:
-            return tool_for_camera_over(
-                rig.arm.model, marker, height, rig.camera.extrinsics, near=rig.arm.joints()
-            )
-        return marker + np.array([0.0, 0.0, height])
-
     def procedure(self) -> Procedure:
         tag = self.param("tag")
         height = self.height(tag)
@@ -95,12 +85,7 @@ class Track(ArmSkill):
             if still_s > 0 and now - anchor_t >= still_s:
                 self.feedback_message = f"{tag!r} still at {fmt(estimate)}"
                 return estimate
-            try:
-                wanted = self.wanted_tool(estimate, height)
-            except ValueError as exc:
-                raise SkillFailure(
-                    f"{self.name}: cannot follow {tag!r} to {fmt(estimate)}: {exc}"
-                ) from exc
+            wanted = camera_over(self, estimate, height)
             if np.linalg.norm(wanted - self.rig.arm.pose()[:3, 3]) > self.param("deadband_mm"):
                 yield Move(self.rig, wanted, speed=self.speed(), label="follow")
         return None

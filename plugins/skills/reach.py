@@ -1,0 +1,57 @@
+"""Choosing reachable tool positions near wanted ones, for arms with small workspaces.
+
+A tree says "approach 60 mm above" or "scan at 120 mm"; a Dobot V1.0 within
+seed 004's conservative joint limits reaches only a few centimetres of height,
+so a skill asks here for the closest position the arm's model can reach
+instead of failing. Everything is a batched inverse-kinematics query on the
+rig's :class:`~armtree.kinematics.KinematicModel`; positions in mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armtree.kinematics import KinematicModel
+
+
+def reachable(model: KinematicModel, points: np.ndarray) -> np.ndarray:
+    """Boolean ``(...)``: whether some IK solution within the limits reaches each point."""
+    sols = model.ik_all(np.asarray(points, dtype=float))
+    return np.any(np.all(np.isfinite(sols), axis=-1), axis=-1)
+
+
+def highest_reachable(
+    model: KinematicModel, point: np.ndarray, low: float, high: float, step: float = 1.0
+) -> np.ndarray | None:
+    """The point at ``point``'s x, y with the highest reachable z in [low, high], or None."""
+    p = np.asarray(point, dtype=float).reshape(3)
+    zs = np.arange(high, low - 1e-9, -abs(step)) if high > low else np.array([low])
+    cands = np.repeat(p[None, :], len(zs), axis=0)
+    cands[:, 2] = zs
+    ok = reachable(model, cands)
+    if not ok.any():
+        return None
+    return cands[int(np.argmax(ok))]
+
+
+def nearest_reachable(
+    model: KinematicModel, target: np.ndarray, span: float = 150.0, step: float = 2.0
+) -> np.ndarray | None:
+    """The reachable point closest to ``target`` in the vertical plane through it and the base z-axis.
+
+    Searches reach and height within ``span`` mm of the target's on a ``step`` mm
+    grid; None when nothing there is reachable.
+    """
+    t = np.asarray(target, dtype=float).reshape(3)
+    if reachable(model, t):
+        return t
+    r0 = float(np.hypot(t[0], t[1]))
+    angle = np.arctan2(t[1], t[0]) if r0 > 1e-9 else 0.0
+    offsets = np.arange(-span, span + 1e-9, step)
+    rr, zz = np.meshgrid(np.maximum(r0 + offsets, 0.0), t[2] + offsets, indexing="ij")
+    cands = np.stack([rr * np.cos(angle), rr * np.sin(angle), zz], axis=-1).reshape(-1, 3)
+    ok = reachable(model, cands)
+    if not ok.any():
+        return None
+    cands = cands[ok]
+    return cands[int(np.argmin(np.linalg.norm(cands - t, axis=-1)))]
