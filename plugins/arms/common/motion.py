@@ -133,6 +133,11 @@ class JointState:
         """Joint positions in the world at ``t`` (missed steps included)."""
         return self.reported(t) + self.missed
 
+    @property
+    def end_time(self) -> float:
+        """When the current move (or brake) ends, seconds; ``-inf`` when there is none."""
+        return self._move.end_time if self._move is not None else float("-inf")
+
     def moving(self, t: float) -> bool:
         """True while a move or a brake is under way at ``t``."""
         return self._move is not None and not self._move.done(t)

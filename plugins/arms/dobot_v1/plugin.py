@@ -1,1 +1,118 @@
-"""Registration of the built-in dobot_v1 plugin (filled in as the components land)."""
+"""Registration of the built-in dobot_v1 plugin: ``arm: {type: dobot_v1}``.
+
+``firmware: original`` (the 42-byte frame protocol, 9600 baud by default) or
+``firmware: open-dobot`` (the replacement firmware's request/response
+protocol, 115200 baud). ``port: sim`` starts the matching firmware emulator on
+a pseudo-terminal and drives it through the same pyserial driver.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+import armtree
+from armtree.clock import Clock
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.rig import ArmDriver, RigContext
+
+from ..common import PtyEmulator, serve_in_run, sim_driver_options
+from .driver import DobotV1Driver
+from .emulator import DobotV1Emulator
+from .kinematics import DEFAULT_TOOL_OFFSET, DobotV1Model
+
+FIRMWARES = ("original", "open-dobot")
+DEFAULT_BAUD = {"original": 9600, "open-dobot": 115200}
+
+
+def _firmware(config: dict[str, Any]) -> str:
+    firmware = config.get("firmware", "original")
+    if firmware not in FIRMWARES:
+        raise ConfigError(f"arm.firmware: {firmware!r} is not one of {', '.join(FIRMWARES)}")
+    return firmware
+
+
+def dobot_v1_model(config: dict[str, Any]) -> DobotV1Model:
+    """The Dobot V1.0 kinematic model of a profile's ``arm`` mapping (no port opened)."""
+    return DobotV1Model(
+        tool_offset_mm=float(config.get("tool_offset_mm", DEFAULT_TOOL_OFFSET)),
+        tool_drop_mm=float(config.get("tool_drop_mm", 0.0)),
+    )
+
+
+def dobot_v1_emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> PtyEmulator:
+    """The firmware emulator (not started) that ``config`` asks for, on ``clock``."""
+    model = dobot_v1_model(config)
+    q0 = config.get("start_pose")
+    q0 = None if q0 is None else np.asarray(q0, dtype=float)
+    if _firmware(config) == "open-dobot":
+        from .opendobot_emulator import OpenDobotEmulator
+
+        return OpenDobotEmulator(model, clock, seed=seed, q0=q0, board=config.get("board", "fpga"))
+    return DobotV1Emulator(
+        model,
+        clock,
+        seed=seed,
+        q0=q0,
+        status_period=float(config.get("status_period", 0.05)),
+    )
+
+
+def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
+    """Dobot V1.0 (original or open-dobot firmware) over pyserial; ``port: sim`` emulates it."""
+    firmware = _firmware(config)
+    model = dobot_v1_model(config)
+    port = config.get("port", "sim")
+    options: dict[str, Any] = {}
+    if port == "sim":
+        emulator = dobot_v1_emulator(config, context.clock, seed=context.seed)
+        port = serve_in_run(emulator, context)
+        options = sim_driver_options(emulator)
+    baud = int(config.get("baud") or DEFAULT_BAUD[firmware])
+    common = {
+        "baud": baud,
+        "clock": context.clock,
+        "interrupt": context.interrupt,
+        "link_timeout": float(config.get("link_timeout", 1.0)),
+        **options,
+    }
+    if firmware == "open-dobot":
+        from .opendobot_driver import OpenDobotDriver
+
+        return OpenDobotDriver(model, port, board=config.get("board", "fpga"), **common)
+    return DobotV1Driver(model, port, **common)
+
+
+dobot_v1_factory.PARAMS = (
+    Param("port", "str", "sim", doc="serial device (/dev/ttyUSB0, COM3), or sim for the emulator"),
+    Param("firmware", "str", "original", doc="firmware on the arm", choices=FIRMWARES),
+    Param(
+        "baud",
+        "int",
+        0,
+        doc="serial speed; 0 = the firmware's default (9600 original, 115200 open-dobot; "
+        "the first original firmware used 256000)",
+    ),
+    Param(
+        "tool_offset_mm",
+        "float",
+        DEFAULT_TOOL_OFFSET,
+        unit="mm",
+        doc="wrist-to-tool, horizontal (report's d)",
+    ),
+    Param("tool_drop_mm", "float", 0.0, unit="mm", doc="tool centre below the wrist joint"),
+    Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
+    Param("status_period", "float", 0.05, unit="s", doc="sim only: status frame period (original)"),
+    Param("board", "str", "fpga", doc="open-dobot control board", choices=("fpga", "ramps")),
+    Param("start_pose", "vector", None, unit="deg", doc="sim only: power-up joint angles"),
+)
+dobot_v1_factory.model = dobot_v1_model
+dobot_v1_factory.emulator = dobot_v1_emulator
+
+
+@armtree.hookimpl
+def armtree_arms() -> dict[str, Any]:
+    """Register ``dobot_v1``."""
+    return {"dobot_v1": dobot_v1_factory}

@@ -1,0 +1,225 @@
+"""The Dobot V1.0 driver for the original firmware (42-byte frames over pyserial).
+
+It behaves as the official client does: the arm streams status frames, and
+the driver writes at most one queued command each time a complete status
+frame arrives (reference §1.4), so the firmware never drops one (§1.6). The
+RPI report's safeguards (seed 004, "Serial Interface") hold: targets are
+checked before a byte is sent; a command is sent only once the move before
+it is complete, judged from the arm's reported angles; and a duplicate of the
+last command is not re-sent (a suction change alone goes as a jog frame).
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from armtree.errors import Unreachable
+from armtree.rig import MotionHandle, MotionStatus, ToolState
+
+from ..common import SerialArmDriver
+from . import codec
+
+
+@dataclass
+class _Pending:
+    """A command waiting for its status frame, and the handle it completes."""
+
+    command: codec.Command
+    handle: MotionHandle | None
+    key: object
+    kind: str  # "move", "suction", "config"
+    target: np.ndarray | None = None
+    suction: bool | None = None
+
+
+class DobotV1Driver(SerialArmDriver):
+    """Drives a Dobot V1.0 with its original firmware (angles in degrees, positions mm).
+
+    ``tolerance`` (degrees) is how close the reported angles must come to a
+    target for a move to be DONE (the report used 0.001 degrees; float32
+    frames and a real arm's steps call for a little more).
+    """
+
+    protocol = "Dobot V1.0 status frames (0xA5 ... 0x5A, 42 bytes)"
+
+    def __init__(self, *args, tolerance: float = 0.01, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.tolerance = tolerance
+        self._lock = threading.RLock()
+        self._parser = codec.frame_parser()
+        self._queue: collections.deque[_Pending] = collections.deque()
+        self._inflight: collections.deque[tuple[MotionHandle, np.ndarray, np.ndarray]] = (
+            collections.deque()
+        )
+        self._suction_waits: list[tuple[MotionHandle, bool]] = []
+        self._status: codec.Status | None = None
+        self._previous: np.ndarray | None = None
+        self._wrote_since_status = False
+        self._suction = False
+        self._speed = 1.0
+        #: Status frames received, for figures and tests.
+        self.frames_received = 0
+        #: Commands written, for figures and tests.
+        self.commands_written = 0
+
+    # ------------------------------------------------------------------ I/O thread
+
+    def on_open(self) -> None:
+        """A fresh parser and state for a new connection."""
+        with self._lock:
+            self._parser.reset()
+            self._queue.clear()
+            self._status = None
+            self._wrote_since_status = False
+
+    def handshake_done(self) -> bool:
+        """Connected once the first status frame arrived."""
+        return self._status is not None
+
+    def on_data(self, data: bytes) -> None:
+        """Parse status frames; after each, update handles and write one queued command."""
+        for frame in self._parser.feed(data):
+            status = codec.Status.decode(frame)
+            self.mark_alive()
+            with self._lock:
+                if self._status is None:
+                    self._suction = status.is_grab != 0.0
+                self._status = status
+                self.frames_received += 1
+                self._wrote_since_status = False
+                self._update_handles(status)
+                # seed 004, second safeguard: the next command waits for the move before it
+                if self._queue and (not self._inflight or self._queue[0].key == ("stop",)):
+                    self._send(self._queue.popleft())
+
+    def _send(self, item: _Pending) -> None:
+        if not self.write(item.command.encode()):
+            return
+        self._wrote_since_status = True
+        self.commands_written += 1
+        self.remember_sent(item.key)
+        if item.kind == "move" and item.handle is not None:
+            start = np.array(self._status.joints) if self._status else item.target
+            self._inflight.append((item.handle, start, item.target))
+            item.handle.update(MotionStatus.RUNNING, 0.0)
+        elif item.kind == "suction" and item.handle is not None:
+            self._suction_waits.append((item.handle, bool(item.suction)))
+            item.handle.update(MotionStatus.RUNNING)
+
+    def _update_handles(self, status: codec.Status) -> None:
+        q = np.array(status.joints)
+        still = self._previous is not None and np.allclose(q, self._previous, atol=1e-6)
+        self._previous = q
+        while self._inflight:
+            handle, start, target = self._inflight[0]
+            if handle.done:
+                self._inflight.popleft()
+                continue
+            span = float(np.max(np.abs(target - start)))
+            left = float(np.max(np.abs(target - q)))
+            if left <= self.tolerance and (still or span <= self.tolerance):
+                handle.update(MotionStatus.DONE)
+                self._inflight.popleft()
+                continue
+            if span > 0:
+                handle.update(MotionStatus.RUNNING, 1.0 - left / span)
+            break
+        grabbed = status.is_grab != 0.0
+        waits = []
+        for handle, want in self._suction_waits:
+            if grabbed == want:
+                handle.update(MotionStatus.DONE)
+            elif not handle.done:
+                waits.append((handle, want))
+        self._suction_waits = waits
+
+    # ------------------------------------------------------------------ ArmDriver
+
+    def joints(self) -> np.ndarray:
+        """Joint angles from the newest status frame, degrees (base, rear, fore)."""
+        self.ensure_connected()
+        status = self._status
+        if status is None:
+            return self.model.home.copy()
+        return np.array(status.joints, dtype=float)
+
+    @property
+    def tool(self) -> ToolState:
+        """Pump and gripper as reported by the arm."""
+        status = self._status
+        if status is None:
+            return ToolState()
+        return ToolState(suction=status.is_grab != 0.0, gripper=status.gripper)
+
+    def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Queue a state-6 MOVJ to ``q`` (degrees); refused targets send nothing."""
+        description = f"move_joints {np.round(np.asarray(q, dtype=float), 3).tolist()}"
+        fault = self.ensure_connected()
+        if fault is not None:
+            return self.refused(description, fault)
+        try:
+            q = self.checked_joints(q)
+        except Unreachable as exc:
+            return self.refused(description, exc)
+        if not 0.0 < speed <= 1.0:
+            return self.refused(description, Unreachable(f"speed {speed} is not in (0, 1]"))
+        target = np.asarray(np.float32(q), dtype=float)
+        handle = self.track(MotionHandle(description, target))
+        with self._lock:
+            suction = self._suction
+            key = ("move", tuple(target.tolist()), suction)
+            if self.is_duplicate(key) and not self._queue:
+                # seed 004, third safeguard: do not re-send the same angles
+                start = np.array(self._status.joints) if self._status else target
+                self._inflight.append((handle, start, target))
+                handle.update(MotionStatus.RUNNING)
+                return handle
+            if abs(speed - self._speed) > 1e-9:
+                self._speed = speed
+                config = codec.set_speed(speed * 100.0, 100.0)
+                self._queue.append(_Pending(config, None, ("speed", speed), "config"))
+            command = codec.move_joints(target, suction=suction, mode=codec.MODE_MOVJ)
+            self._queue.append(_Pending(command, handle, key, "move", target=target))
+        return handle
+
+    def set_suction(self, on: bool) -> MotionHandle:
+        """Switch the pump with a jog frame (axis 9 / 10); DONE when the status shows it."""
+        handle = self.track(MotionHandle(f"suction {'on' if on else 'off'}"))
+        fault = self.ensure_connected()
+        if fault is not None:
+            handle.update(MotionStatus.FAILED, error=fault)
+            return handle
+        with self._lock:
+            if self._suction == on and not any(p.kind == "suction" for p in self._queue):
+                status = self._status
+                if status is not None and (status.is_grab != 0.0) == on:
+                    handle.update(MotionStatus.DONE)
+                    return handle
+            self._suction = on
+            command = codec.jog(codec.AXIS_GRAB if on else codec.AXIS_RELEASE)
+            self._queue.append(_Pending(command, handle, ("suction", on), "suction", suction=on))
+        return handle
+
+    def stop(self) -> None:
+        """Drop queued commands, mark motions STOPPED and send a jog stop (axis 0) at once.
+
+        If a command already went out since the last status frame, the stop goes
+        with the next status frame instead (≤ one status period), because the
+        firmware would drop it.
+        """
+        with self._lock:
+            self._queue = collections.deque(p for p in self._queue if p.kind == "suction")
+            self._inflight.clear()
+            self.remember_sent(None)
+            stop = _Pending(codec.jog(codec.AXIS_STOP), None, ("stop",), "config")
+            if self._ser is not None and self._fault is None and not self._wrote_since_status:
+                self._send(stop)
+            else:
+                self._queue.appendleft(stop)
+        for handle in self.active_handles():
+            if not handle.description.startswith("suction"):
+                handle.update(MotionStatus.STOPPED)

@@ -1,0 +1,216 @@
+"""Firmware emulators of the Dobot V1.0: the original firmware and open-dobot.
+
+:class:`DobotV1Emulator` speaks the original firmware's 42-byte frames
+(reference §1): a status frame every ``status_period`` seconds, state 3 / 6
+moves in a small FIFO, jogs (axis 0 stops), suction, speed and playback
+configuration, and the documented quirk that a command arriving before the
+next status frame was sent is dropped (reference §1.6; the official client
+writes one command per status frame, §1.4).
+
+:class:`OpenDobotEmulator` (in :mod:`.opendobot_emulator`) is the replacement firmware.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from armtree.clock import Clock
+from armtree.errors import Unreachable
+from armtree.rig import ToolState
+
+from ..common import PtyEmulator
+from . import codec
+from .kinematics import DobotV1Model
+
+#: Mechanical joint ranges of the V1.0 (seed 004, "Hardware"); the firmware clamps to these.
+HARDWARE_LOWER = np.array([-135.0, -5.0, -10.0])
+HARDWARE_UPPER = np.array([135.0, 85.0, 95.0])
+
+
+@dataclass
+class _Segment:
+    """One queued joint move: target, speed fraction and pause after it (s)."""
+
+    goal: np.ndarray
+    speed: float
+    pause: float
+    queued_at: float
+
+
+class DobotV1Emulator(PtyEmulator):
+    """The original Dobot V1.0 firmware behind a pseudo-terminal.
+
+    ``status_period`` (s) is the status stream's period (50 ms assumed: the
+    firmware's is unconfirmed, the 2015 prototype used 60 ms); ``fifo_depth``
+    the number of queued moves it keeps (unconfirmed; extra moves are dropped).
+    Angles are degrees, positions mm.
+    """
+
+    def __init__(
+        self,
+        model: DobotV1Model,
+        clock: Clock,
+        *,
+        seed: int = 0,
+        q0: np.ndarray | None = None,
+        status_period: float = 0.05,
+        fifo_depth: int = 4,
+    ) -> None:
+        super().__init__(model, clock, seed=seed, q0=q0)
+        self.status_period = status_period
+        self.fifo_depth = fifo_depth
+        #: Commands dropped because they came faster than one per status frame.
+        self.dropped = 0
+        #: Commands refused (unreachable state-3 targets, unknown states).
+        self.refused = 0
+        self.suction = False
+        self.gripper = 0.0
+        self.r_head = 0.0
+        self.speed_ratio = 1.0
+        self.jump_height = 20.0
+        self._fifo: collections.deque[_Segment] = collections.deque()
+        self._busy_until = -math.inf
+        self._next_status = math.inf
+        self._accepted_since_status = False
+        self._parser = codec.frame_parser()
+
+    # ------------------------------------------------------------------ firmware
+
+    def on_start(self) -> None:
+        """Power-up: the first status frame goes out at once (reference §1.4)."""
+        self._next_status = self.time
+
+    def tool(self) -> ToolState:
+        """Suction pump and gripper as the firmware drives them."""
+        return ToolState(suction=self.suction, gripper=self.gripper)
+
+    def halt(self, reason: str) -> None:
+        """Stop dead and forget queued moves."""
+        with self._lock:
+            self._fifo.clear()
+            self._busy_until = -math.inf
+        super().halt(reason)
+
+    def next_event_time(self) -> float | None:
+        """The next status frame, or the end of the current move if sooner."""
+        if self._fifo and self._busy_until < self._next_status:
+            return max(self._busy_until, self.time)
+        return self._next_status
+
+    def on_timer(self, t: float) -> None:
+        """Start queued moves whose turn has come and send the status frames due."""
+        self._start_due_moves(t)
+        while self._next_status <= t + 1e-12:
+            ts = self._next_status
+            self._start_due_moves(ts)
+            self.send(self._status(ts).encode())
+            self._accepted_since_status = False
+            self._next_status = ts + self.status_period
+
+    def on_bytes(self, data: bytes, t: float) -> None:
+        """Handle host frames; one command per status interval is accepted."""
+        for frame in self._parser.feed(data):
+            if self._accepted_since_status:
+                self.dropped += 1
+                continue
+            self._accepted_since_status = True
+            self._command(codec.Command.decode(frame), t)
+
+    # ------------------------------------------------------------------ internals
+
+    def _status(self, t: float) -> codec.Status:
+        q = self.joints.reported(t)
+        x, y, z = self.model.position(q)
+        return codec.Status(
+            x, y, z, self.r_head, q[0], q[1], q[2], self.r_head, float(self.suction), self.gripper
+        )
+
+    def _start_due_moves(self, t: float) -> None:
+        while self._fifo and self._busy_until <= t + 1e-12:
+            seg = self._fifo.popleft()
+            # A queued move starts when the previous one ended, or when it arrived.
+            start = max(self._busy_until, seg.queued_at)
+            move = self.joints.move_to(seg.goal, start, seg.speed)
+            self._busy_until = move.end_time + seg.pause
+
+    def _enqueue(self, goal: np.ndarray, pause: float, t: float) -> None:
+        if len(self._fifo) >= self.fifo_depth:
+            self.dropped += 1
+            return
+        goal = np.clip(goal, HARDWARE_LOWER, HARDWARE_UPPER)
+        self._fifo.append(_Segment(goal, self.speed_ratio, max(0.0, pause), t))
+        self._start_due_moves(t)
+
+    def _command(self, cmd: codec.Command, t: float) -> None:
+        state = int(round(cmd.state))
+        values = np.array([cmd.x, cmd.y, cmd.z], dtype=float)
+        if state in (codec.STATE_MOVE_JOINTS, codec.STATE_MOVE_XYZ):
+            if not np.all(np.isfinite(values)):
+                self.refused += 1
+                return
+            if state == codec.STATE_MOVE_XYZ:
+                try:
+                    values = self.model.ik(values, near=self.joints.reported(t))
+                except Unreachable:
+                    # the real firmware loses control here (open-dobot issue #32); refuse instead
+                    self.refused += 1
+                    return
+            self.suction = cmd.is_grab != 0.0
+            self.r_head = float(cmd.r_head)
+            self.gripper = float(cmd.end_vel)
+            mode = int(round(cmd.start_vel))
+            if mode == codec.MODE_JUMP:
+                self._enqueue_jump(values, cmd.max_vel, t)
+            else:
+                # MOVL is emulated by joint interpolation to the same target.
+                self._enqueue(values, cmd.max_vel, t)
+        elif state in (codec.STATE_JOINT_JOG, codec.STATE_LINEAR_JOG):
+            self._jog(int(round(cmd.axis)), cmd.start_vel, t)
+        elif state == codec.STATE_CONFIG:
+            if int(round(cmd.axis)) == codec.CONFIG_PLAYBACK:
+                if cmd.x > 0:
+                    self.joints.max_speed[:] = cmd.x
+                if cmd.y > 0:
+                    self.joints.max_accel[:] = cmd.y
+                if cmd.max_vel > 0:
+                    self.jump_height = float(cmd.max_vel)
+        elif state == codec.STATE_SPEED:
+            self.speed_ratio = float(np.clip(cmd.x / 100.0, 0.01, 1.0))
+        else:
+            self.refused += 1
+
+    def _enqueue_jump(self, goal: np.ndarray, pause: float, t: float) -> None:
+        """JUMP: lift by the jump height, cross over, lower (reference §1.5)."""
+        here = self.model.position(self.joints.reported(t))
+        there = self.model.position(goal)
+        lift = np.array([0.0, 0.0, self.jump_height])
+        try:
+            up = self.model.ik(here + lift, near=self.joints.reported(t))
+            over = self.model.ik(there + lift, near=goal)
+        except Unreachable:
+            self._enqueue(goal, pause, t)
+            return
+        for q, p in ((up, 0.0), (over, 0.0), (goal, pause)):
+            self._enqueue(q, p, t)
+
+    def _jog(self, axis: int, speed_percent: float, t: float) -> None:
+        if axis == codec.AXIS_STOP:
+            self._fifo.clear()
+            self.joints.brake(t)
+            self._busy_until = max(t, self.joints.end_time)
+        elif axis == codec.AXIS_GRAB:
+            self.suction = True
+        elif axis == codec.AXIS_RELEASE:
+            self.suction = False
+        elif 1 <= axis <= 6:
+            joint = (axis - 1) // 2
+            goal = self.joints.reported(t)
+            goal[joint] = HARDWARE_UPPER[joint] if axis % 2 == 1 else HARDWARE_LOWER[joint]
+            self._fifo.clear()
+            speed = float(np.clip(speed_percent / 100.0, 0.01, 1.0))
+            move = self.joints.move_to(goal, t, speed)
+            self._busy_until = move.end_time

@@ -1,0 +1,203 @@
+"""Dobot V1 driver against its firmware emulator over a real pseudo-terminal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from armtree.clock import VirtualClock
+from armtree.emulation import SHARED_KEY
+from armtree.errors import HardwareFault, Unreachable
+from armtree.plugins.arms.dobot_v1 import codec
+from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
+from armtree.rig import MotionStatus, RigContext
+
+
+class Sim:
+    """A factory-built driver on ``port: sim`` and the run's stepping, as the runtime does it."""
+
+    def __init__(self, **config):
+        self.clock = VirtualClock()
+        self.interrupts = []
+        self.context = RigContext(
+            profile=None,
+            clock=self.clock,
+            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
+        )
+        self.arm = dobot_v1_factory({"port": "sim", **config}, self.context)
+        self.emu = self.context.shared[SHARED_KEY]
+
+    def tick(self, n=1, dt=0.05):
+        for _ in range(n):
+            now = self.clock.advance(dt)
+            for step in self.context.steppers:
+                step(now)
+
+    def until(self, handle, limit=400):
+        for _ in range(limit):
+            if handle.done:
+                return
+            self.tick()
+        raise AssertionError(f"{handle} did not finish")
+
+    def close(self):
+        self.arm.close()
+        for closer in reversed(self.context.closers):
+            closer()
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    s.arm.connect()
+    yield s
+    s.close()
+
+
+def test_connect_reads_the_power_up_status(sim):
+    assert np.allclose(sim.arm.joints(), sim.arm.model.home, atol=1e-4)
+    assert sim.arm.device.startswith("/dev/")
+    assert sim.context.steppers == [sim.emu.step]
+
+
+def test_move_completes_from_the_arms_reports(sim):
+    target = np.array([30.0, 5.0, 45.0])
+    handle = sim.arm.move_joints(target)
+    assert handle.status is MotionStatus.PENDING
+    sim.tick()
+    assert handle.status is MotionStatus.RUNNING
+    progress = []
+    while not handle.done:
+        sim.tick()
+        progress.append(handle.progress)
+    assert handle.status is MotionStatus.DONE
+    assert np.all(np.diff(progress) >= -1e-9)
+    assert np.allclose(sim.arm.joints(), target, atol=1e-4)
+    assert np.allclose(sim.emu.true_joints(), target, atol=1e-4)
+    assert sim.emu.dropped == 0
+
+
+def test_move_to_uses_host_ik_and_reaches_the_point(sim):
+    p = sim.arm.model.position([-40.0, 12.0, 52.0])
+    handle = sim.arm.move_to(p)
+    sim.until(handle)
+    assert handle.status is MotionStatus.DONE
+    assert np.allclose(sim.arm.pose()[:3, 3], p, atol=1e-2)
+
+
+def test_suction_on_and_off(sim):
+    on = sim.arm.set_suction(True)
+    sim.until(on)
+    assert on.status is MotionStatus.DONE and sim.emu.tool().suction and sim.arm.tool.suction
+    # suction stays on through a move (isGrab in each state-6 frame)
+    move = sim.arm.move_joints([10.0, 5.0, 50.0])
+    sim.until(move)
+    assert sim.emu.tool().suction
+    off = sim.arm.set_suction(False)
+    sim.until(off)
+    assert not sim.emu.tool().suction and not sim.arm.tool.suction
+
+
+def test_stop_acts_at_once_and_the_arm_brakes(sim):
+    handle = sim.arm.move_joints([120.0, 5.0, 45.0])
+    sim.tick(4)
+    assert handle.status is MotionStatus.RUNNING
+    sim.arm.stop()
+    assert handle.status is MotionStatus.STOPPED
+    sim.tick(40)
+    q = sim.arm.joints()
+    assert 0.0 < q[0] < 120.0
+    before = sim.emu.true_joints()
+    sim.tick(10)
+    assert np.allclose(sim.emu.true_joints(), before)
+
+
+def test_duplicate_of_the_last_command_is_not_resent(sim):
+    target = [20.0, 5.0, 45.0]
+    sim.until(sim.arm.move_joints(target))
+    written = sim.arm.commands_written
+    again = sim.arm.move_joints(target)
+    sim.until(again)
+    assert again.status is MotionStatus.DONE
+    assert sim.arm.commands_written == written
+
+
+def test_one_command_per_status_frame_so_none_is_dropped(sim):
+    handles = [sim.arm.move_joints([a, 5.0, 45.0]) for a in (5.0, 10.0, 15.0)]
+    sim.until(handles[-1])
+    assert all(h.status is MotionStatus.DONE for h in handles)
+    assert sim.emu.dropped == 0
+
+
+def test_commands_faster_than_status_frames_are_dropped_by_the_firmware(sim):
+    # bypass the driver's pacing: two frames inside one status interval
+    first = codec.move_joints([10.0, 5.0, 45.0]).encode()
+    second = codec.move_joints([-10.0, 5.0, 45.0]).encode()
+    sim.arm.write(first + second)
+    sim.tick(60)
+    assert sim.emu.dropped == 1
+    assert np.allclose(sim.emu.true_joints(), [10.0, 5.0, 45.0], atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("target", "match"),
+    [
+        ([200.0, 5.0, 45.0], "base"),
+        ([0.0, 20.0, 40.0], "elbow_opening"),
+        ([0.0, float("nan"), 40.0], "not finite"),
+        ([0.0, 5.0], "3 joints"),
+    ],
+)
+def test_bad_joint_targets_are_refused_and_nothing_is_sent(sim, target, match):
+    sim.tick()
+    written = sim.arm.commands_written
+    handle = sim.arm.move_joints(target)
+    assert handle.status is MotionStatus.FAILED
+    assert isinstance(handle.error, Unreachable) and match in str(handle.error)
+    sim.tick(3)
+    assert sim.arm.commands_written == written
+
+
+def test_unreachable_point_is_refused(sim):
+    handle = sim.arm.move_to([500.0, 0.0, 0.0])
+    assert handle.status is MotionStatus.FAILED and isinstance(handle.error, Unreachable)
+    handle = sim.arm.move_to([np.nan, 0.0, 0.0])
+    assert handle.status is MotionStatus.FAILED and "not finite" in str(handle.error)
+
+
+def test_link_cut_mid_move_fails_the_handle_and_interrupts(sim):
+    handle = sim.arm.move_joints([100.0, 5.0, 45.0])
+    sim.tick(5)
+    sim.emu.inject("cut")
+    assert handle.wait(2.0)
+    assert handle.status is MotionStatus.FAILED
+    assert isinstance(handle.error, HardwareFault) and handle.error.device == sim.arm.device
+    reason, fault = sim.interrupts[0]
+    assert sim.arm.device in reason and fault is handle.error
+    later = sim.arm.move_joints([0.0, 5.0, 45.0])
+    assert later.status is MotionStatus.FAILED and isinstance(later.error, HardwareFault)
+
+
+def test_missing_port_is_a_clear_hardware_fault():
+    context = RigContext(profile=None, clock=VirtualClock())
+    arm = dobot_v1_factory({"port": "/dev/ttyUSB-armtree-missing"}, context)
+    with pytest.raises(HardwareFault, match="no such serial port") as err:
+        arm.connect()
+    assert err.value.device == "/dev/ttyUSB-armtree-missing"
+    handle = arm.move_joints([0.0, 5.0, 45.0])
+    assert handle.status is MotionStatus.FAILED
+
+
+def test_two_runs_exchange_identical_bytes():
+    def run():
+        s = Sim()
+        try:
+            s.arm.connect()
+            s.until(s.arm.move_joints([25.0, 8.0, 48.0]))
+            s.until(s.arm.set_suction(True))
+            s.until(s.arm.move_to(s.arm.model.position([-30.0, 2.0, 55.0])))
+            return [(t, d, b) for t, d, b in s.emu.transcript], s.arm.joints().tolist()
+        finally:
+            s.close()
+
+    assert run() == run()
