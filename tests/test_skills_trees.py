@@ -191,3 +191,21 @@ def test_pick_and_place_tree_moves_the_ducky(tmp_path, manager):
     )
     assert result.status == "SUCCESS", result.message
     assert np.allclose(rig.arm.world.markers[0].dropped_at, PLACES["garbage_bin"])
+
+
+def test_track_tree_follows_the_duckybot_until_it_parks(tmp_path, manager):
+    start = arc(30.0)
+    markers = [[1, start[0], start[1], 0.0, 0.0, 15.0, 2.0]]
+    result, rig = run_tree("track.yaml", write_profile(tmp_path, markers), manager)
+    assert result.status == "SUCCESS", result.message
+    bot = rig.arm.world.markers[1].position
+    cam = (rig.arm.actual_pose() @ rig.camera.extrinsics)[:2, 3]
+    assert np.linalg.norm(cam - bot[:2]) < 15.0
+
+
+def test_touch_tag_tree_servos_over_the_tag_within_3_mm(tmp_path, manager):
+    markers = [[1, *arc(25.0)]]
+    result, rig = run_tree("touch_tag.yaml", write_profile(tmp_path, markers), manager)
+    assert result.status == "SUCCESS", result.message
+    tool = rig.arm.actual_pose()[:3, 3]
+    assert np.linalg.norm(tool - (np.array(arc(25.0)) + [0, 0, 20])) < 3.0

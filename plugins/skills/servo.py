@@ -22,7 +22,8 @@ class VisualServo(ArmSkill):
     """Bring the tool to ``offset`` from a target marker by measuring and correcting.
 
     Eye-in-hand: the target marker is measured through the camera on the tool
-    and the tool position comes from the joints. Eye-to-hand with ``tool_tag``:
+    and the tool position comes from the joints; once the tool is over the
+    target the camera may no longer see it, and its last measurement stands. Eye-to-hand with ``tool_tag``:
     the tool's own marker is measured too (seed 000's set-up), so errors of the
     arm's open-loop positioning are corrected as well. SUCCESS when the error is
     below ``tolerance_mm``; FAILURE after ``max_iterations`` or when a marker is
@@ -73,15 +74,20 @@ class VisualServo(ArmSkill):
         arm, model = self.rig.arm, self.rig.arm.model
         tolerance = float(self.param("tolerance_mm"))
         error = float("inf")
+        last: np.ndarray | None = None
         for iteration in range(self.param("max_iterations") + 1):
             # step 1-2: marker positions in the camera, then in the robot frame
             sightings = yield Look(
                 self.rig, self.clock, want=tag, frames=self.param("frames"), settle=self.settle()
             )
             target = next((s for s in sightings if s.role == tag), None)
-            if target is None:
+            if target is not None:
+                last = correction.apply(target.position)
+            elif last is None or tool_tag:
                 raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
-            reference = correction.apply(target.position) + offset
+            # eye-in-hand: the camera cannot see under the tool, so a target that left
+            # the view after a correction keeps its last measured (fixed) position
+            reference = last + offset
             q = np.asarray(arm.joints(), dtype=float)
             if tool_tag:
                 mark = next((s for s in sightings if s.role == tool_tag), None)
