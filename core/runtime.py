@@ -402,7 +402,10 @@ class Run:
     def _failure_message(self) -> str:
         failed = self._deepest(Status.FAILURE)
         self._failed_node = self.path_of(failed) if failed is not None else None
-        return f"the tree failed at {self.where(failed)}" if failed is not None else "FAILURE"
+        if failed is None:
+            return "FAILURE"
+        why = (getattr(failed, "feedback_message", "") or "").strip()
+        return f"the tree failed at {self.where(failed)}" + (f": {why}" if why else "")
 
     def _deepest(self, status: Status) -> py_trees.behaviour.Behaviour | None:
         node = self.root

@@ -1,0 +1,149 @@
+"""The run log's records and what the terminal shows: live view, plain lines, summary."""
+
+import io
+import itertools
+
+import py_trees
+from py_trees.common import Status
+from rich.console import Console
+
+from armtree import display
+from armtree.display import LiveView, NullView, PlainView, make_view, summary
+from armtree.runlog import RunLog, default_run_dir, jsonable, read_log
+from armtree.runtime import Run, RunResult, run
+from armtree.tree import Tree
+
+
+def test_log_records_status_changes_blackboard_writes_and_the_result(tmp_path):
+    write = py_trees.behaviours.SetBlackboardVariable(
+        name="remember", variable_name="target", variable_value=[1.5, 2, 3], overwrite=True
+    )
+    wait = py_trees.behaviours.TickCounter(
+        name="wait", duration=1, completion_status=Status.SUCCESS
+    )
+    root = py_trees.composites.Sequence("Root", memory=True, children=[write, wait])
+    tree = Tree(name="mem", root=root, source=None, blackboard={"speed": 0.5})
+    result = run(tree, record=tmp_path / "log", seed=3)
+    log = read_log(result.log_path)
+    assert result.log_path == tmp_path / "log" / "run.jsonl"
+    start = log[0]
+    assert start["kind"] == "start" and start["tree"] == "mem" and start["seed"] == 3
+    assert start["clock"] == "virtual" and start["blackboard"] == {"speed": 0.5}
+    writes = [r for r in log if r["kind"] == "blackboard"]
+    assert writes and writes[0]["key"] == "/target" and writes[0]["value"] == [1.5, 2, 3]
+    assert writes[0]["tick"] == 1 and writes[0]["client"] == "remember"
+    statuses = [(r["tick"], r["node"], r["from"], r["to"]) for r in log if r["kind"] == "status"]
+    assert statuses == [
+        (1, "Root/remember", "INVALID", "SUCCESS"),
+        (1, "Root/wait", "INVALID", "RUNNING"),
+        (1, "Root", "INVALID", "RUNNING"),
+        (2, "Root/wait", "RUNNING", "SUCCESS"),
+        (2, "Root", "RUNNING", "SUCCESS"),
+    ]
+    assert log[-1] == {
+        "kind": "result",
+        "tick": 2,
+        "t": 0.05,
+        "status": "SUCCESS",
+        "ticks": 2,
+        "seconds": 0.05,
+        "wall_seconds": log[-1]["wall_seconds"],
+        "overruns": 0,
+        "message": "",
+        "failed_node": None,
+        "exit_code": 0,
+        "running": [],
+    }
+
+
+def test_default_run_dirs_are_unique_under_runs(tmp_path):
+    a = default_run_dir("load ducky", tmp_path / "runs")
+    b = default_run_dir("load ducky", tmp_path / "runs")
+    assert a != b and a.parent == b.parent == tmp_path / "runs"
+    assert a.name.startswith("load_ducky-") and a.is_dir() and b.is_dir()
+
+
+def test_jsonable_keeps_structure_and_reprs_the_rest():
+    import numpy as np
+
+    assert jsonable({"a": (1, 2.5), "b": np.array([1.0, 2.0])}) == {"a": [1, 2.5], "b": [1.0, 2.0]}
+    assert jsonable(float("nan")) == "nan"
+    assert jsonable(object()).startswith("<object")
+
+
+def test_status_lines_are_valid_json_even_with_odd_names(tmp_path):
+    log = RunLog(tmp_path / "x.jsonl")
+    log.status_changes(3, 0.15, [('a "quoted"\\ name', "RUNNING", "SUCCESS")])
+    log.close()
+    (rec,) = read_log(tmp_path / "x.jsonl")
+    assert rec["node"] == 'a "quoted"\\ name' and rec["to"] == "SUCCESS" and rec["t"] == 0.15
+
+
+def test_plain_view_prints_status_changes():
+    out = io.StringIO()
+    node = py_trees.behaviours.TickCounter(name="c", duration=1, completion_status=Status.SUCCESS)
+    run(Tree(name="t", root=node, source=None), record=False, view=PlainView(out))
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "run t: 20 Hz on the virtual clock"
+    assert lines[1:] == [
+        "tick 1 t=0.000s c: INVALID -> RUNNING",
+        "tick 2 t=0.050s c: RUNNING -> SUCCESS",
+    ]
+
+
+def test_make_view_picks_by_quiet_and_terminal():
+    assert type(make_view(True)) is NullView
+    assert type(make_view(False, io.StringIO())) is PlainView
+
+
+class FakeTty(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_make_view_is_live_on_a_terminal():
+    assert type(make_view(False, FakeTty())) is LiveView
+
+
+def test_live_view_draws_the_tree_and_refreshes_at_most_max_hz(monkeypatch):
+    ticks = itertools.count()
+    # A fake wall clock that moves 1 ms per reading: 1,000 updates span one second.
+    monkeypatch.setattr(display.time, "monotonic", lambda: next(ticks) * 0.001)
+    out = io.StringIO()
+    view = LiveView(Console(file=out, force_terminal=True, width=100), max_hz=10)
+    a = py_trees.behaviours.Success(name="first step")
+    b = py_trees.behaviours.Running(name="second step")
+    root = py_trees.composites.Sequence("Job", memory=True, children=[a, b])
+    r = Run(Tree(name="job", root=root, source=None), record=False, view=view)
+    r._index_nodes()
+    view.start(r)
+    redraws = []
+    original = view._live.update
+    monkeypatch.setattr(
+        view._live, "update", lambda *a, **k: (redraws.append(1), original(*a, **k))
+    )
+    for _ in range(1000):
+        view.update(r, [("Job", "INVALID", "RUNNING")])
+    assert 8 <= len(redraws) <= 11
+    root.tick_once()
+    view.stop(r)
+    text = out.getvalue()
+    assert "Job" in text and "first step" in text and "second step" in text
+    assert "✓" in text and "*" in text
+
+
+def test_summary_names_result_times_and_why():
+    result = RunResult(
+        status="FAILURE",
+        ticks=40,
+        seconds=2.0,
+        wall_seconds=0.01,
+        overruns=2,
+        message="timeout: 2 s on the run clock reached",
+        failed_node="Root/pick",
+        exit_code=1,
+    )
+    text = summary(result)
+    assert "result: FAILURE  (exit 1)" in text
+    assert "ticks: 40" in text and "run time: 2.000 s" in text and "overruns: 2" in text
+    assert "failed: Root/pick" in text and "why: timeout" in text
