@@ -1,1 +1,103 @@
-"""Commands shared by the arm plugins (``armtree emulate``)."""
+"""Commands shared by the arm plugins: ``armtree emulate ARM [--profile P]``.
+
+``emulate`` builds the arm plugin's firmware emulator with
+``factory.emulator(config, clock)`` (the convention documented in
+:mod:`armtree.plugins.arms.common`) on the wall clock, prints the device path
+on its first line and serves until interrupted (Ctrl-C or SIGTERM), so any
+serial tool or vendor client can be pointed at it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import threading
+from typing import Any
+
+import armtree
+from armtree.clock import WallClock
+from armtree.errors import ConfigError
+
+
+class EmulateCommand:
+    """``armtree emulate``: serve an arm's firmware emulator on a pseudo-terminal."""
+
+    help = "serve an arm's firmware emulator on a pseudo-terminal until interrupted"
+
+    def __init__(self) -> None:
+        #: Set to stop serving (SIGINT / SIGTERM set it too); for embedding and tests.
+        self.stop = threading.Event()
+
+    def configure(self, parser: argparse.ArgumentParser) -> None:
+        """Add ``ARM``, ``--profile`` and ``--seed``."""
+        parser.add_argument("arm", metavar="ARM", help="arm type, e.g. dobot_v1 or dobot_magician")
+        parser.add_argument(
+            "--profile", metavar="P", help="hardware profile whose arm section configures it"
+        )
+        parser.add_argument("--seed", type=int, default=0, help="seed of injected faults")
+
+    def run(self, args: argparse.Namespace) -> int:
+        """Serve until stopped; exit 0, or 2 for an unknown arm or a mismatched profile."""
+        manager = getattr(args, "manager", None)
+        if manager is None:
+            from armtree.plugin_manager import get_plugin_manager
+
+            manager = get_plugin_manager()
+        registry = manager.registry
+        if not registry.has("arm", args.arm):
+            names = ", ".join(registry.names("arm"))
+            raise ConfigError(f"emulate: unknown arm type {args.arm!r} (known: {names})")
+        factory = registry.get("arm", args.arm).factory
+        make = getattr(factory, "emulator", None)
+        if make is None:
+            raise ConfigError(f"emulate: arm type {args.arm!r} has no firmware emulator")
+        config = self._config(args, manager)
+        emulator = make(config, WallClock())
+        path = emulator.start()
+        print(path, flush=True)
+        print(f"serving {args.arm} on {path}; Ctrl-C to stop", file=sys.stderr, flush=True)
+        restore = self._on_signals()
+        try:
+            while not self.stop.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+        finally:
+            restore()
+            emulator.close()
+        return 0
+
+    def _config(self, args: argparse.Namespace, manager: Any) -> dict[str, Any]:
+        if not args.profile:
+            return {"type": args.arm}
+        from armtree.profile import load_profile
+
+        profile = load_profile(args.profile, manager=manager)
+        config = profile.component("arm") or {}
+        if config.get("type") != args.arm:
+            raise profile.error(
+                "arm.type", f"the profile's arm is {config.get('type')!r}, not {args.arm!r}"
+            )
+        return config
+
+    def _on_signals(self) -> Any:
+        if threading.current_thread() is not threading.main_thread():
+            return lambda: None
+        previous = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, lambda signum, frame: self.stop.set())
+
+        def restore() -> None:
+            for sig, handler in previous.items():
+                with contextlib.suppress(ValueError, TypeError):
+                    signal.signal(sig, handler)
+
+        return restore
+
+
+@armtree.hookimpl
+def armtree_commands() -> dict[str, Any]:
+    """Register ``armtree emulate``."""
+    return {"emulate": EmulateCommand}
