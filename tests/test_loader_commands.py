@@ -1,0 +1,154 @@
+"""The core commands (check, show, plugins, schema) and the JSON Schema of trees and profiles."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import textwrap
+from pathlib import Path
+
+import jsonschema
+import pytest
+import yaml
+
+import armtree
+from armtree import builtin_behaviours, builtin_commands
+from armtree.plugin_manager import PluginManager, get_plugin_manager
+from armtree.resolve import shipped_dir
+from armtree.schema import build_schema
+
+COMMANDS = builtin_commands.armtree_commands()
+
+
+def core_manager() -> PluginManager:
+    manager = PluginManager(autoload=False)
+    manager.register(builtin_behaviours, "core_behaviours")
+    manager.register(builtin_commands, "core_commands")
+    return manager
+
+
+def parse(name: str, argv: list[str], manager: PluginManager | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog=f"armtree {name}")
+    COMMANDS[name].configure(parser)
+    args = parser.parse_args(argv)
+    args.manager = manager or core_manager()
+    return args
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text).lstrip("\n"))
+    return path
+
+
+TREE = """
+tree: demo
+root:
+  selector:
+    name: Top
+    children:
+      - inverter: {child: {success: {name: Never}}}
+      - tick_counter: {duration: 2}
+"""
+
+
+def test_every_command_has_help_configure_and_run():
+    assert set(COMMANDS) == {"check", "show", "plugins", "schema"}
+    for command in COMMANDS.values():
+        assert command.help and callable(command.configure) and callable(command.run)
+
+
+def test_check_valid_and_invalid(tmp_path, capsys):
+    good = write(tmp_path, "good.yaml", TREE)
+    assert COMMANDS["check"].run(parse("check", [str(good)])) == 0
+    assert capsys.readouterr().out == "ok: demo: 4 nodes at 20 Hz (no rig)\n"
+    bad = write(tmp_path, "bad.yaml", "root: {inverter: {child: {sucess: {}}}}\n")
+    with pytest.raises(armtree.ConfigError) as info:
+        COMMANDS["check"].run(parse("check", [str(bad), "--set", "x=1"]))
+    assert (info.value.line, info.value.column) == (1, 27)
+
+
+def test_show_ascii_and_dot(tmp_path, capsys):
+    path = write(tmp_path, "t.yaml", TREE)
+    assert COMMANDS["show"].run(parse("show", [str(path)])) == 0
+    text = capsys.readouterr().out
+    assert text.splitlines()[0] == "[o] Top"
+    assert "-^- inverter" in text and "--> Never" in text
+    out = tmp_path / "t.dot"
+    assert COMMANDS["show"].run(parse("show", [str(path), "--format", "dot", "-o", str(out)])) == 0
+    dot = out.read_text()
+    assert dot.startswith("digraph") and '"Never"' in dot or "Never" in dot
+
+
+def test_show_png_is_a_real_image(tmp_path):
+    path = write(tmp_path, "t.yaml", TREE)
+    out = tmp_path / "tree.png"
+    assert COMMANDS["show"].run(parse("show", [str(path), "--format", "png", "-o", str(out)])) == 0
+    data = out.read_bytes()
+    assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 2000
+
+
+def test_plugins_lists_components_with_plugin_and_parameters(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "400")
+    assert COMMANDS["plugins"].run(parse("plugins", ["--kind", "behaviour"])) == 0
+    out = capsys.readouterr().out
+    assert "tick_counter" in out and "core_behaviours" in out
+    assert "duration: int [ticks]" in out
+    assert "RUNNING for `duration` ticks" in out
+    assert "schema" not in out
+
+
+def test_schema_command_writes_valid_json_schema(tmp_path, capsys):
+    out = tmp_path / "s.json"
+    assert COMMANDS["schema"].run(parse("schema", ["-o", str(out)])) == 0
+    capsys.readouterr()
+    schema = json.loads(out.read_text())
+    jsonschema.Draft7Validator.check_schema(schema)
+    node_types = {next(iter(alt["properties"])) for alt in schema["definitions"]["node"]["anyOf"]}
+    assert node_types == {*builtin_behaviours.node_types(), "subtree"}
+    assert COMMANDS["schema"].run(parse("schema", [])) == 0
+    assert json.loads(capsys.readouterr().out) == schema
+
+
+def _validator() -> jsonschema.Draft7Validator:
+    return jsonschema.Draft7Validator(build_schema(get_plugin_manager().registry))
+
+
+def _shipped() -> list[Path]:
+    return sorted(shipped_dir("tree").glob("*.yaml")) + sorted(
+        shipped_dir("profile").glob("*.yaml")
+    )
+
+
+@pytest.mark.parametrize("path", _shipped(), ids=lambda p: p.name)
+def test_schema_accepts_every_shipped_tree_and_profile(path):
+    errors = [e.message for e in _validator().iter_errors(yaml.safe_load(path.read_text()))]
+    assert errors == []
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "root: {sucess: {}}",
+        "root: {tick_counter: {duration: x}}",
+        "root: {tick_counter: {}}",
+        "root: {inverter: {}}",
+        "root: {sequence: {memory: true}}",
+        "tick_hz: 0\nroot: {success: {}}",
+        "rooot: {success: {}}",
+        "arm: {}",
+        "arm: {type: vicra}\ntags: {a: {size_mm: 0, id: 1}}",
+        "arm: {type: vicra}\nplaces: {home: [1, 2]}",
+    ],
+)
+def test_schema_rejects_what_the_loader_rejects(text):
+    assert list(_validator().iter_errors(yaml.safe_load(text)))
+
+
+def test_shipped_trees_reference_the_shipped_schema():
+    trees = shipped_dir("tree")
+    schema = json.loads((trees / "armtree.schema.json").read_text())
+    jsonschema.Draft7Validator.check_schema(schema)
+    for path in trees.glob("*.yaml"):
+        first = path.read_text().splitlines()[0]
+        assert first == "# yaml-language-server: $schema=armtree.schema.json", path.name
