@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import importlib.metadata
 import importlib.util
+import inspect
 import os
 import sys
 from collections.abc import Iterable
@@ -58,6 +59,23 @@ class Component:
         return tuple(getattr(self.factory, "PARAMS", ()))
 
 
+class _Pluggy(pluggy.PluginManager):
+    """pluggy's manager that, as pytest does, takes any ``armtree_*`` function as a hookimpl.
+
+    A hook function whose ``@armtree.hookimpl`` was forgotten still works, and one
+    whose name is misspelt is reported by ``check_pending`` instead of being
+    silently ignored.
+    """
+
+    def parse_hookimpl_opts(self, plugin: Any, name: str) -> Any:
+        opts = super().parse_hookimpl_opts(plugin, name)
+        if opts is None and name.startswith("armtree_"):
+            method = getattr(plugin, name, None)
+            if inspect.isroutine(method):
+                return {}
+        return opts
+
+
 class PluginManager:
     """pluggy's manager plus armtree's rules for finding and checking plugins.
 
@@ -67,7 +85,7 @@ class PluginManager:
     """
 
     def __init__(self, blocked: Iterable[str] = (), autoload: bool | None = None) -> None:
-        self.pm = pluggy.PluginManager("armtree")
+        self.pm = _Pluggy("armtree")
         self.pm.add_hookspecs(hookspecs)
         self.blocked = set(blocked)
         if autoload is None:

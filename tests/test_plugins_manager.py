@@ -226,3 +226,16 @@ def test_shared_managers_are_cached_and_extended_without_mutation(tmp_path):
     assert base.extended([]) is base
     no_core = get_plugin_manager(blocked=["core_behaviours", "no_such_plugin"])
     assert not no_core.registry.has("behaviour", "success")
+
+
+def test_an_unmarked_misspelt_hook_is_reported_and_an_unmarked_one_works(tmp_path):
+    (tmp_path / "unmarked_typo.py").write_text("def armtree_behavours():\n    return {}\n")
+    with pytest.raises(armtree.ConfigError) as info:
+        private().load(str(tmp_path / "unmarked_typo.py"))
+    assert "armtree_behavours" in info.value.message
+    (tmp_path / "unmarked_ok.py").write_text(
+        "import py_trees\n\ndef armtree_behaviours():\n    return {'plain': py_trees.behaviours.Success}\n"
+    )
+    manager = private()
+    manager.load(str(tmp_path / "unmarked_ok.py"))
+    assert manager.registry.has("behaviour", "plain")
