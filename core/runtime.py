@@ -53,7 +53,9 @@ _LOGGED_ACTIVITIES = frozenset(
     {ActivityType.WRITE.value, ActivityType.INITIALISED.value, ActivityType.UNSET.value}
 )
 #: How often the stop key is polled, in wall seconds.
-_KEY_POLL_S = 0.05
+_POLL_S = 0.05
+#: How often the run log is flushed during a run, in wall seconds.
+_FLUSH_S = 1.0
 
 
 @dataclass
@@ -317,7 +319,8 @@ class Run:
         timeout, max_ticks = self.timeout, self.max_ticks
         tick_hooks = bool(self._impls("armtree_tick"))
         logging = self.log.enabled
-        next_key_poll = time.monotonic()
+        next_poll = time.monotonic()
+        next_flush = next_poll + _FLUSH_S
         t0 = next_t = clock.now()
         while True:
             if interrupts.requested:
@@ -329,7 +332,10 @@ class Run:
             self.tick_count += 1
             now = clock.now()
             if rig is not None:
-                rig.step(now)
+                try:
+                    rig.step(now)
+                except Exception as exc:  # noqa: BLE001 - a component failed between ticks
+                    return self._component_exception(exc)
             try:
                 for _ in root.tick():
                     pass
@@ -338,10 +344,15 @@ class Run:
             self._track(now, logging)
             if tick_hooks:
                 self._call_hook("armtree_tick", run=self)
-            if stop_key is not None and time.monotonic() >= next_key_poll:
-                next_key_poll = time.monotonic() + _KEY_POLL_S
-                if stop_key.pressed():
+            wall = time.monotonic()
+            if wall >= next_poll:
+                next_poll = wall + _POLL_S
+                if stop_key is not None and stop_key.pressed():
                     interrupts.request("stop key")
+                if wall >= next_flush:
+                    # A run killed outright (SIGKILL, power) keeps all but the last second.
+                    next_flush = wall + _FLUSH_S
+                    self.log.flush()
             status = root.status
             if status == Status.SUCCESS:
                 return _End("SUCCESS", "", EXIT_SUCCESS)
@@ -458,6 +469,19 @@ class Run:
         )
         code = EXIT_HARDWARE if isinstance(exc, HardwareFault) else EXIT_FAILURE
         return _End("FAILURE", message, code)
+
+    def _component_exception(self, exc: Exception) -> _End:
+        self._end_traceback = "".join(tb_module.format_exception(exc))
+        self.log.event(
+            self.tick_count,
+            self.clock.now(),
+            "component_error",
+            error=f"{type(exc).__name__}: {exc}",
+            traceback=self._end_traceback,
+        )
+        if isinstance(exc, HardwareFault):
+            return _End("FAILURE", f"hardware fault: {exc}", EXIT_HARDWARE)
+        return _End("FAILURE", f"{type(exc).__name__} in a component step: {exc}")
 
     # ------------------------------------------------------------------
     # Stopping

@@ -296,7 +296,9 @@ def test_a_raising_hook_is_reported_and_the_run_goes_on(tmp_path, capsys):
     broken, watcher = Broken(), Watcher()
     manager.register(broken, "broken")
     manager.register(watcher, "watcher")
-    counter = py_trees.behaviours.TickCounter(name="c", duration=3, completion_status=Status.SUCCESS)
+    counter = py_trees.behaviours.TickCounter(
+        name="c", duration=3, completion_status=Status.SUCCESS
+    )
     tree = Tree(name="t", root=counter, source=None)
     result = run(tree, manager=manager, record=tmp_path)
     assert result.status == "SUCCESS" and result.ticks == 4
@@ -328,3 +330,18 @@ def test_a_caller_owned_rig_is_stopped_but_not_closed():
         close_rig=True,
     )
     assert closed == [True]
+
+
+def test_a_component_step_that_raises_ends_the_run_safely():
+    rig = fake_rig()
+
+    def emulator(now):
+        if now >= 0.1:
+            raise HardwareFault("limit switch hit on joint 2", "sim")
+
+    rig.steppers.append(emulator)
+    move = Move("reach")
+    result = run(Tree(name="t", root=move, source=None), rig=rig, record=False)
+    assert result.status == "FAILURE" and result.exit_code == 3
+    assert "limit switch" in result.message and result.ticks == 3
+    assert rig.arm.commands == [("start", "reach"), ("halt", "reach"), ("arm.stop",)]
