@@ -81,6 +81,10 @@ TREE_KEYS = ("tree", "description", "rig", "tick_hz", "plugins", "params", "blac
 SUBTREE_KEYS = ("file", "with", "name")
 DEFAULT_TICK_HZ = 20.0
 
+#: Stands for a required file parameter that was not given, so that what depends on it
+#: is not reported a second time.
+MISSING: Any = object()
+
 BINDING = re.compile(r"^\{(/?[A-Za-z_][\w./]*)\}$")
 PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
 
@@ -398,7 +402,7 @@ class _Loader:
                 )
                 continue
             values[name] = value
-        for name, (default, _) in declared.items():
+        for name, (default, declared_at) in declared.items():
             if name in values:
                 continue
             if default is REQUIRED:
@@ -409,8 +413,9 @@ class _Loader:
                 )
                 self.error(
                     f"{ctx.file.name} needs parameter {name!r}: give it with {how}",
-                    where or _file_mark(ctx),
+                    where or declared_at or _file_mark(ctx),
                 )
+                values[name] = MISSING
             else:
                 values[name] = default
         return values
@@ -511,6 +516,8 @@ class _Loader:
             return ntype
         raw = options.pop("name")
         value = _substitute(raw, ctx.params)
+        if _has_missing(value):
+            return ntype
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             value = str(value)
         if not isinstance(value, str) or not value:
@@ -568,6 +575,8 @@ class _Loader:
                 )
                 continue
             value = _substitute(raw, ctx.params)
+            if _has_missing(value):
+                continue
             binding = BINDING.match(value) if isinstance(value, str) else None
             if binding and param.type != "str" or binding and bindable:
                 if not bindable:
@@ -756,6 +765,8 @@ def _substitute(value: Any, params: dict[str, Any]) -> Any:
         whole = PLACEHOLDER.fullmatch(value)
         if whole and whole.group(1) in params:
             return params[whole.group(1)]
+        if any(params.get(name) is MISSING for name in PLACEHOLDER.findall(value)):
+            return MISSING
 
         def text(m: re.Match) -> str:
             v = params.get(m.group(1), m)
@@ -775,6 +786,17 @@ def _substitute(value: Any, params: dict[str, Any]) -> Any:
         items.item_marks = value.item_marks
         return items
     return value
+
+
+def _has_missing(value: Any) -> bool:
+    """True when ``value`` depends on a parameter that was not given (already reported)."""
+    if value is MISSING:
+        return True
+    if isinstance(value, dict):
+        return any(_has_missing(v) for v in value.values())
+    if isinstance(value, list):
+        return any(_has_missing(v) for v in value)
+    return False
 
 
 def _placeholders(value: Any, found: set[str] | None = None) -> set[str]:

@@ -357,3 +357,26 @@ def test_profile_override_without_a_rig_is_an_error(tmp_path):
     err = one_error(path, overrides=["arm.type=vicra"])
     assert "the tree names no rig" in err.message
     assert err.file == "--set arm.type=vicra"
+
+
+def test_a_missing_parameter_is_reported_once_not_where_it_is_used(tmp_path):
+    path = write(
+        tmp_path,
+        "p.yaml",
+        """
+        params:
+          tag: {doc: marker role}
+        root:
+          sequence:
+            name: "Find {tag}"
+            children:
+              - set_blackboard_variable: {variable_name: "{tag}_seen", variable_value: "{tag}"}
+              - wait: {seconds: "{{tag}_delay}"}
+        """,
+    )
+    err = one_error(path)
+    assert (err.line, err.column) == (2, 3)
+    assert err.message == "p.yaml needs parameter 'tag': give it with --set tag=VALUE"
+    tree = armtree.load_tree(path, overrides=["tag=duck", "duck_delay=2"], manager=core_manager())
+    assert tree.root.name == "Find duck"
+    assert tree.root.children[1].params["seconds"] == armtree.Binding("duck_delay")
