@@ -562,6 +562,7 @@ class _Loader:
         bindable = is_bindable(factory)
         writes = set(getattr(factory, "writes", ()))
         before = len(self.errors)
+        incomplete = False
         params: dict[str, Any] = {}
         for key, raw in options.items():
             mark = options.value_mark(key)
@@ -576,6 +577,7 @@ class _Loader:
                 continue
             value = _substitute(raw, ctx.params)
             if _has_missing(value):
+                incomplete = True
                 continue
             binding = BINDING.match(value) if isinstance(value, str) else None
             if binding and param.type != "str" or binding and bindable:
@@ -618,7 +620,7 @@ class _Loader:
                 self.error(f"{node.type} needs parameter {pname!r}{doc}", node.mark, ctx)
             else:
                 params[pname] = param.default
-        return params if len(self.errors) == before else None
+        return params if len(self.errors) == before and not incomplete else None
 
     # --------------------------------------------------------------- includes
 
