@@ -26,6 +26,9 @@ except AttributeError:  # pragma: no cover - PyYAML built without libyaml
     _Loader = yaml.SafeLoader
 
 
+_STR_TAG = "tag:yaml.org,2002:str"
+
+
 class MarkedDict(dict):
     """A ``dict`` that knows where it, each key and each value were written."""
 
@@ -125,6 +128,8 @@ def _convert(node: yaml.Node, loader: Any, file: str, seen: dict[int, Any]) -> A
     if id(node) in seen:
         return seen[id(node)]
     if isinstance(node, yaml.ScalarNode):
+        if node.tag == _STR_TAG:  # most scalars; skips the constructor's bookkeeping
+            return node.value
         return loader.construct_object(node, deep=True)
     if isinstance(node, yaml.SequenceNode):
         out = MarkedList(mark=mark_of(node, file))
