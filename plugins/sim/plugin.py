@@ -1,1 +1,114 @@
-"""Registration of the built-in sim plugin (filled in as the components land)."""
+"""The built-in simulation plugin: the ``sim`` camera and the world behind ``port: sim``.
+
+``armtree_rig_ready`` builds the world from the profile's ``world:`` section
+(when the profile uses any sim part), puts the arm emulator into it and
+appends the world's stepper after the emulators'. ``armtree_run_started``
+starts the recordings when the run records to a directory, and
+``armtree_run_finished`` writes the ground-truth score beside the run log.
+The world lives in ``RigContext.shared`` only; the Rig never holds it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import armtree
+from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+
+from .camera import SimCamera, sim_camera
+from .recording import Recorder, write_score
+from .scene import profile_section
+from .world import SHARED_KEY, World, world_for
+
+
+class WorldStepper:
+    """The per-tick stepper of a world; the run hooks find the world through it."""
+
+    def __init__(self, world: World, camera: SimCamera | None) -> None:
+        self.world = world
+        self.camera = camera
+        self.recorder: Recorder | None = None
+
+    def __call__(self, now: float) -> None:
+        self.world.step(now)
+        if self.recorder is not None:
+            self.recorder.step(now)
+
+
+def _uses_sim(profile: Any) -> bool:
+    arm = profile_section(profile, "arm") or {}
+    camera = profile_section(profile, "camera") or {}
+    return (
+        profile_section(profile, "world") is not None
+        or (isinstance(arm, dict) and arm.get("port") == "sim")
+        or (isinstance(camera, dict) and camera.get("type") == "sim")
+    )
+
+
+def _stepper(run: Any) -> WorldStepper | None:
+    rig = getattr(run, "rig", None)
+    for stepper in getattr(rig, "steppers", None) or ():
+        if isinstance(stepper, WorldStepper):
+            return stepper
+    return None
+
+
+@armtree.hookimpl
+def armtree_cameras() -> dict[str, Any]:
+    """The ``sim`` camera."""
+    return {"sim": sim_camera}
+
+
+@armtree.hookimpl
+def armtree_rig_ready(rig: Any, context: Any) -> None:
+    """Build the world, attach the emulated arm, and step the world after the emulators."""
+    if not _uses_sim(context.profile):
+        return
+    if any(isinstance(s, WorldStepper) for s in context.steppers):
+        return
+    world = world_for(context)
+    emulator = context.shared.get(EMULATOR_KEY)
+    if emulator is not None and world.emulator is None:
+        world.attach_arm(emulator)
+    camera = rig.camera if isinstance(rig.camera, SimCamera) else None
+    context.steppers.append(WorldStepper(world, camera))
+
+
+@armtree.hookimpl
+def armtree_run_started(run: Any) -> None:
+    """Start recording videos when the run was given a record directory (``--record DIR``)."""
+    stepper = _stepper(run)
+    if stepper is None or stepper.recorder is not None:
+        return
+    requested = getattr(run, "record_requested", None)
+    if requested is None:
+        requested = getattr(run, "_record", None) not in (None, True, False)
+    directory = getattr(run, "record_dir", None)
+    if not requested or directory is None:
+        return
+    planner = getattr(getattr(run, "rig", None), "planner", None)
+    stepper.recorder = Recorder(directory, stepper.world, stepper.camera, planner)
+    run.rig.closers.append(stepper.recorder.close)
+
+
+@armtree.hookimpl
+def armtree_run_finished(run: Any, result: Any) -> None:
+    """Write the world's score (``score.json``) beside the run log and finish recordings."""
+    stepper = _stepper(run)
+    if stepper is None:
+        return
+    score = stepper.world.score()
+    score["run"] = {
+        "status": getattr(result, "status", None),
+        "ticks": getattr(result, "ticks", None),
+        "seconds": getattr(result, "seconds", None),
+        "wall_seconds": getattr(result, "wall_seconds", None),
+    }
+    log_path = getattr(result, "log_path", None)
+    if log_path is not None:
+        write_score(score, log_path.parent / "score.json")
+    if stepper.recorder is not None:
+        stepper.recorder.finish(score)
+
+
+__all__ = ["SHARED_KEY", "WorldStepper"]

@@ -1,0 +1,212 @@
+"""The ``sim`` camera: frames rendered from the simulated world on the run's clock.
+
+Frames exist at the camera's ``fps`` on the run's clock; :meth:`SimCamera.read`
+renders the newest one only when asked (so unread frames cost nothing) and
+returns None when no new frame is due or the frame was dropped. Eye-in-hand
+cameras ride on the tool (pose from the arm's true joints and the
+tool-to-camera offset), eye-to-hand cameras stand still.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.rig import Camera, Frame, RigContext
+
+from .geometry import look_at, pose, rpy_matrix
+from .renderer import CameraModel, Renderer
+from .world import World, world_for
+
+#: Camera in the tool frame for the Dobot's eye-in-hand webcam (seed 004): looking
+#: down with R_TC = [[0, 1, 0], [1, 0, 0], [0, 0, -1]] and P_CT = (-10.48, -21.58,
+#: 28.42) mm (eq. 17), the tool seen from the camera, so the camera sits at -R_TC P_CT.
+DOBOT_R_TC = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+DOBOT_P_CT = np.array([-10.48, -21.58, 28.42])
+DOBOT_CAMERA_IN_TOOL = -DOBOT_R_TC @ DOBOT_P_CT
+
+
+def camera_extrinsics(config: dict[str, Any]) -> np.ndarray:
+    """The camera's 4x4 pose: in the tool frame (eye-in-hand) or the base frame (eye-to-hand)."""
+    mount = config.get("mount", "eye_to_hand")
+    if mount == "eye_in_hand":
+        position = config.get("position") or DOBOT_CAMERA_IN_TOOL.tolist()
+        rpy = config.get("rotation_rpy_deg")
+        rotation = DOBOT_R_TC if rpy is None else rpy_matrix(*rpy)
+        return pose(rotation, position)
+    position = np.asarray(config.get("position") or [250.0, 0.0, 700.0], dtype=float)
+    rpy = config.get("rotation_rpy_deg")
+    if rpy is not None:
+        return pose(rpy_matrix(*rpy), position)
+    target = np.asarray(config.get("look_at") or [position[0], position[1], 0.0], dtype=float)
+    return look_at(position, target)
+
+
+class SimCamera(Camera):
+    """A camera that renders the simulated world; deterministic for the run's seed."""
+
+    def __init__(self, config: dict[str, Any], context: RigContext) -> None:
+        self.config = dict(config)
+        self.context = context
+        self.mount = self.config.get("mount", "eye_to_hand")
+        self.width = int(self.config.get("width", 640))
+        self.height = int(self.config.get("height", 480))
+        self.fps = float(self.config.get("fps", 30.0))
+        intr = self.config.get("intrinsics") or {}
+        self.camera_matrix = np.array(
+            [
+                [float(intr.get("fx", self.width)), 0.0, float(intr.get("cx", self.width / 2))],
+                [0.0, float(intr.get("fy", self.width)), float(intr.get("cy", self.height / 2))],
+                [0.0, 0.0, 1.0],
+            ]
+        )
+        self.distortion = np.zeros(5)
+        dist = np.asarray(self.config.get("distortion") or [0.0] * 5, dtype=float)
+        self.distortion[: min(5, len(dist))] = dist[:5]
+        self.extrinsics = camera_extrinsics(self.config)
+        self.drop_rate = float(self.config.get("drop_rate", 0.0))
+        self.world: World | None = None
+        self.renderer: Renderer | None = None
+        self._last_index = -1
+        self._previous: tuple[int, np.ndarray] | None = None
+        self._lock = threading.Lock()
+        #: Called with every frame produced (the recorder listens here).
+        self.listeners: list[Callable[[Frame], None]] = []
+        self.frames_rendered = 0
+
+    def start(self) -> None:
+        """Build the renderer for this camera and the world it looks at."""
+        if self.renderer is not None:
+            return
+        self.world = world_for(self.context)
+        model = CameraModel(self.width, self.height, self.camera_matrix, self.distortion)
+        self.renderer = Renderer(
+            model,
+            self.world.table,
+            self.world.scene.light,
+            seed=self.world.seed * 1000 + self.world.scene.seed,
+            noise=float(self.config.get("noise", 2.5)),
+            blur=float(self.config.get("blur", 0.5)),
+            exposure=float(self.config.get("exposure_s", 0.02)),
+            shadows=bool(self.config.get("shadows", True)),
+        )
+
+    def pose(self) -> np.ndarray:
+        """The camera's current pose in the base frame (4x4, mm; OpenCV axes)."""
+        self.start()
+        assert self.world is not None
+        return self.world.camera_pose(self.mount, self.extrinsics)
+
+    def read(self) -> Frame | None:
+        """The frame due at the run's current time, rendered now; None if not new or dropped."""
+        self.start()
+        index = int(math.floor(self.context.clock.now() * self.fps + 1e-9))
+        with self._lock:
+            if index <= self._last_index:
+                return None
+            self._last_index = index
+            if self.drop_rate > 0:
+                rng = np.random.default_rng([self.context.seed, 13, index])
+                if rng.random() < self.drop_rate:
+                    return None
+            return self._render(index)
+
+    def render_now(self) -> Frame:
+        """Render the frame due now even if it was already read (for tools and recordings)."""
+        self.start()
+        index = int(math.floor(self.context.clock.now() * self.fps + 1e-9))
+        with self._lock:
+            return self._render(index)
+
+    def _render(self, index: int) -> Frame:
+        assert self.world is not None and self.renderer is not None
+        cam_pose = self.world.camera_pose(self.mount, self.extrinsics)
+        drawables = self.world.drawables()
+        previous, frame_dt = None, 1.0 / self.fps
+        if self._previous is not None and index > self._previous[0]:
+            previous = self._previous[1]
+            frame_dt = (index - self._previous[0]) / self.fps
+        image = self.renderer.render(cam_pose, drawables, index, previous, frame_dt)
+        self._previous = (index, cam_pose)
+        self.frames_rendered += 1
+        frame = Frame(
+            image=image,
+            timestamp=index / self.fps,
+            camera_matrix=self.camera_matrix.copy(),
+            distortion=self.distortion.copy(),
+            index=index,
+        )
+        for listener in self.listeners:
+            listener(frame)
+        return frame
+
+
+def _check(config: dict[str, Any]) -> None:
+    mount = config.get("mount", "eye_to_hand")
+    if mount not in ("eye_in_hand", "eye_to_hand"):
+        raise ConfigError(f"camera.mount: expected eye_in_hand or eye_to_hand, got {mount!r}")
+    for key in ("width", "height"):
+        if int(config.get(key, 1)) <= 0:
+            raise ConfigError(f"camera.{key}: must be positive")
+    if float(config.get("fps", 30.0)) <= 0:
+        raise ConfigError("camera.fps: must be positive")
+    if not 0.0 <= float(config.get("drop_rate", 0.0)) < 1.0:
+        raise ConfigError("camera.drop_rate: must be in [0, 1)")
+    intr = config.get("intrinsics") or {}
+    for key in ("fx", "fy"):
+        if key in intr and float(intr[key]) <= 0:
+            raise ConfigError(f"camera.intrinsics.{key}: must be positive (pixels)")
+    try:
+        camera_extrinsics(config)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"camera: {exc}") from exc
+
+
+def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
+    """A simulated camera rendering the profile's world (eye-in-hand or eye-to-hand)."""
+    _check(config)
+    camera = SimCamera(config, context)
+    camera.start()
+    return camera
+
+
+sim_camera.PARAMS = (
+    Param(
+        "mount",
+        "str",
+        "eye_to_hand",
+        doc="where the camera is fixed",
+        choices=("eye_in_hand", "eye_to_hand"),
+    ),
+    Param("width", "int", 640, "px", "image width"),
+    Param("height", "int", 480, "px", "image height"),
+    Param("fps", "float", 30.0, "Hz", "frames per second on the run's clock"),
+    Param("intrinsics", "dict", {}, "px", "fx, fy, cx, cy (default fx = fy = width, centred)"),
+    Param("distortion", "vector", [0.0, 0.0, 0.0, 0.0, 0.0], "", "OpenCV k1, k2, p1, p2, k3"),
+    Param(
+        "position",
+        "vector",
+        [],
+        "mm",
+        "camera origin in the tool frame (eye_in_hand) or base frame (eye_to_hand)",
+    ),
+    Param(
+        "rotation_rpy_deg",
+        "vector",
+        None,
+        "deg",
+        "camera axes (OpenCV) as roll, pitch, yaw; default looks down",
+    ),
+    Param("look_at", "vector", [], "mm", "eye_to_hand: the base-frame point the camera faces"),
+    Param("noise", "float", 2.5, "", "sensor noise, standard deviation in grey levels"),
+    Param("blur", "float", 0.5, "px", "lens blur (Gaussian sigma); 0 for none"),
+    Param("exposure_s", "float", 0.02, "s", "exposure time, for motion blur"),
+    Param("drop_rate", "float", 0.0, "", "fraction of frames lost, deterministic for the seed"),
+    Param("shadows", "bool", True, "", "draw shadows cast by the lamp"),
+)

@@ -1,0 +1,591 @@
+"""Renders what a camera sees of the simulated world: table, objects, markers, arm, light.
+
+Solids are drawn in painter's order (far to near, back faces culled, the
+near plane clipped) with every vertex projected through the pinhole and the
+profile's lens distortion (OpenCV's k1, k2, p1, p2, k3), long edges
+subdivided so they bend as a real lens bends them. Markers are perspective
+warps of the marker image onto their distorted corners, into their small
+bounding box only. The table (a texture lit by the lamp) is one remap per
+camera pose, through a map computed on a coarse grid and interpolated, and
+is cached, so a still camera costs little more than its markers. Sensor noise
+comes from a seeded bank of noise images; motion blur follows the camera's
+and the objects' image motion during the exposure.
+
+Units: mm and the robot base frame for the scene; pixels for the image.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .geometry import BOX_FACES, UNIT_BOX
+from .markers import MarkerAtlas
+from .scene import LightSpec, MarkerSpec, TableSpec
+
+#: Near clipping distance in front of the camera, mm.
+NEAR = 5.0
+#: Colour of what lies beyond the table edge (the floor), BGR.
+FLOOR = (45, 45, 50)
+#: Texture resolution of the table, pixels per mm.
+TEXTURE_PPM = 1.0
+CYLINDER_SIDES = 16
+#: Polygons wider than this (pixels) get their edges subdivided before distortion.
+SUBDIVIDE_PX = 40.0
+_SHIFT = 4
+_SCALE = 1 << _SHIFT
+
+
+@dataclass
+class Drawable:
+    """One solid to draw: ``shape`` box, cylinder, bin, spot, link or plate.
+
+    ``pose`` is the centre's 4x4 pose and ``size`` its extents (mm). A
+    ``marker`` is drawn on the top face (frame ``marker_pose``: x, y in the
+    face, z up). ``container`` names the drawable this one sits inside (a bin),
+    so it is drawn after it. ``velocity`` (mm/s) blurs it in a moving frame.
+    """
+
+    name: str
+    shape: str
+    pose: np.ndarray
+    size: np.ndarray
+    color: tuple[int, int, int]
+    marker: MarkerSpec | None = None
+    marker_pose: np.ndarray | None = None
+    wall: float = 0.0
+    container: str | None = None
+    shadow: bool = True
+    velocity: np.ndarray | None = None
+
+
+class CameraModel:
+    """Intrinsics and distortion, and the lens's inverse on a coarse pixel grid.
+
+    ``coarse`` holds, for pixel centres every ``COARSE`` pixels, the ideal
+    normalised image coordinates (x/z, y/z) that the lens bends onto them;
+    the table is remapped through it.
+    """
+
+    COARSE = 8
+
+    def __init__(self, width: int, height: int, k: np.ndarray, dist: np.ndarray) -> None:
+        self.width, self.height = int(width), int(height)
+        self.k = np.asarray(k, dtype=float).reshape(3, 3)
+        self.dist = np.zeros(5) if dist is None else np.asarray(dist, dtype=float).ravel()[:5]
+        self.distorted = bool(np.any(np.abs(self.dist) > 0))
+        step = self.COARSE
+        # Sample where cv2.resize's pixel-area alignment puts coarse pixel centres.
+        xs = np.arange(-(-self.width // step), dtype=np.float32) * step + (step - 1) / 2
+        ys = np.arange(-(-self.height // step), dtype=np.float32) * step + (step - 1) / 2
+        gx, gy = np.meshgrid(xs, ys)
+        pts = np.stack([gx.ravel(), gy.ravel()], axis=1).reshape(-1, 1, 2)
+        if self.distorted:
+            ideal = cv2.undistortPoints(
+                pts,
+                self.k,
+                self.dist,
+                criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 1e-7),
+            )
+        else:
+            ideal = (pts - self.k[[0, 1], [2, 2]].astype(np.float32)) / self.k[
+                [0, 1], [0, 1]
+            ].astype(np.float32)
+        self.coarse = ideal.reshape(len(ys), len(xs), 2).astype(np.float64)
+        # Beyond the field of view the distortion polynomial is meaningless: clamp its radius.
+        corners = np.array(
+            [[0, 0], [self.width, 0], [0, self.height], [self.width, self.height]], np.float32
+        )
+        if self.distorted:
+            und = cv2.undistortPoints(corners.reshape(-1, 1, 2), self.k, self.dist).reshape(-1, 2)
+        else:
+            und = (corners - self.k[[0, 1], [2, 2]]) / self.k[[0, 1], [0, 1]]
+        self.r2_max = 2.0 * float(np.max(np.sum(und.astype(float) ** 2, axis=1)))
+
+    def pixels(self, pc: np.ndarray) -> np.ndarray:
+        """Distorted pixel coordinates (N, 2) of camera-frame points (N, 3) with z > 0."""
+        x = pc[:, 0] / pc[:, 2]
+        y = pc[:, 1] / pc[:, 2]
+        if self.distorted:
+            k1, k2, p1, p2, k3 = self.dist
+            r2 = x * x + y * y
+            rc = np.minimum(r2, self.r2_max)
+            radial = 1 + rc * (k1 + rc * (k2 + rc * k3))
+            x, y = (
+                x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+                y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y,
+            )
+        return np.column_stack([self.k[0, 0] * x + self.k[0, 2], self.k[1, 1] * y + self.k[1, 2]])
+
+    def field_of_view_rays(self) -> np.ndarray:
+        """Unit rays (4, 3) through the image corners in the camera frame (distortion ignored)."""
+        w, h = self.width, self.height
+        px = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
+        rays = np.column_stack(
+            [
+                (px[:, 0] - self.k[0, 2]) / self.k[0, 0],
+                (px[:, 1] - self.k[1, 2]) / self.k[1, 1],
+                np.ones(4),
+            ]
+        )
+        return rays / np.linalg.norm(rays, axis=1, keepdims=True)
+
+
+def table_texture(table: TableSpec, light: LightSpec, rng: np.random.Generator) -> np.ndarray:
+    """The table top as a BGR image (1 px per mm), lit by the lamp: wood, plain or checker."""
+    w = max(2, int(round((table.x[1] - table.x[0]) * TEXTURE_PPM)))
+    h = max(2, int(round((table.y[1] - table.y[0]) * TEXTURE_PPM)))
+    xs = np.linspace(table.x[0], table.x[1], w, dtype=np.float32)
+    ys = np.linspace(table.y[0], table.y[1], h, dtype=np.float32)
+    gx, gy = np.meshgrid(xs, ys)
+    if table.texture == "wood":
+        wobble = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 25) * 60
+        grain = 0.5 + 0.5 * np.sin((gy + wobble) * 0.35 + 2.0 * np.sin(gx * 0.01))
+        base = np.array([100, 150, 190], dtype=np.float32)
+        img = base * (0.85 + 0.15 * grain[..., None])
+    elif table.texture == "checker":
+        cells = ((np.floor(gx / 50) + np.floor(gy / 50)) % 2)[..., None]
+        img = np.where(cells > 0, 200.0, 150.0) * np.ones(3, dtype=np.float32)
+    else:
+        img = np.full((h, w, 3), 185.0, dtype=np.float32)
+    img = img + rng.normal(0, 4, (h, w, 1)).astype(np.float32)
+    img *= light_level(light, gx, gy, table.height)[..., None]
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def light_level(light: LightSpec, x: np.ndarray, y: np.ndarray, z: float) -> np.ndarray:
+    """Relative brightness (0-1.2) of a horizontal surface at (x, y, z) under the lamp."""
+    lx, ly, lz = light.position
+    dz = lz - z
+    d2 = (x - lx) ** 2 + (y - ly) ** 2 + dz * dz
+    # Lambert's cosine over the inverse square, normalised to 1 right under the lamp.
+    direct = (dz / np.sqrt(d2)) * (dz * dz / d2)
+    return light.ambient + (1.0 - light.ambient) * direct * 1.2
+
+
+class Renderer:
+    """Draws frames of one camera; deterministic for its seed and the frame index."""
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        table: TableSpec,
+        light: LightSpec,
+        seed: int = 0,
+        noise: float = 3.0,
+        blur: float = 0.0,
+        exposure: float = 0.02,
+        shadows: bool = True,
+    ) -> None:
+        self.camera = camera
+        self.table = table
+        self.light = light
+        self.noise = float(noise)
+        self.blur = float(blur)
+        self.exposure = float(exposure)
+        self.shadows = shadows
+        self.seed = int(seed)
+        rng = np.random.default_rng([self.seed, 7])
+        self.texture = table_texture(table, light, rng)
+        self.texture_half = cv2.resize(
+            self.texture, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA
+        )
+        self.atlas = MarkerAtlas()
+        self._bg_key: bytes | None = None
+        self._bg: np.ndarray | None = None
+        self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
+        if self.noise > 0:
+            for _ in range(6):
+                n = rng.normal(0, self.noise, (camera.height + 16, camera.width + 16, 3))
+                n = np.clip(np.round(n), -255, 255).astype(np.int16)
+                self._noise_bank.append(
+                    (np.clip(n, 0, 255).astype(np.uint8), np.clip(-n, 0, 255).astype(np.uint8))
+                )
+        tex_to_world = np.array(
+            [[1 / TEXTURE_PPM, 0, table.x[0]], [0, 1 / TEXTURE_PPM, table.y[0]], [0, 0, 1]]
+        )
+        self._tex_to_world = tex_to_world
+
+    # -- public -----------------------------------------------------------------
+
+    def render(
+        self,
+        cam_pose: np.ndarray,
+        drawables: list[Drawable],
+        frame_index: int = 0,
+        previous_pose: np.ndarray | None = None,
+        frame_dt: float = 1 / 30,
+    ) -> np.ndarray:
+        """The image (H x W x 3 BGR uint8) seen from ``cam_pose`` (camera-to-base, OpenCV axes).
+
+        ``previous_pose`` is where the camera was one frame (``frame_dt`` s)
+        earlier, for motion blur.
+        """
+        r_cw = cam_pose[:3, :3].T
+        t_cw = -r_cw @ cam_pose[:3, 3]
+        img = self._background(r_cw, t_cw).copy()
+        cam_pos = cam_pose[:3, 3]
+        if self.shadows:
+            self._draw_shadows(img, drawables, r_cw, t_cw)
+        for d in self._order(drawables, cam_pos):
+            self._draw(img, d, r_cw, t_cw, cam_pos)
+        if previous_pose is not None:
+            img = self._camera_blur(img, cam_pose, previous_pose, frame_dt)
+        if self.blur > 0:
+            img = cv2.GaussianBlur(img, (3, 3) if self.blur <= 0.8 else (0, 0), self.blur)
+        if self._noise_bank:
+            img = self._add_noise(img, frame_index)
+        return img
+
+    def project(self, cam_pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Distorted pixel coordinates (N, 2) of base-frame points (N, 3) in front of the camera."""
+        r_cw = cam_pose[:3, :3].T
+        t_cw = -r_cw @ cam_pose[:3, 3]
+        rvec, _ = cv2.Rodrigues(r_cw)
+        px, _ = cv2.projectPoints(
+            np.asarray(points, dtype=np.float64).reshape(-1, 1, 3),
+            rvec,
+            t_cw,
+            self.camera.k,
+            self.camera.dist,
+        )
+        return px.reshape(-1, 2)
+
+    # -- background ---------------------------------------------------------------
+
+    def _background(self, r_cw: np.ndarray, t_cw: np.ndarray) -> np.ndarray:
+        key = np.concatenate([r_cw.ravel(), t_cw]).round(4).tobytes()
+        if key == self._bg_key and self._bg is not None:
+            return self._bg
+        cam = self.camera
+        h = self.table.height
+        # Table plane (texture pixels) -> normalised image plane, and back.
+        plane = (
+            np.column_stack([r_cw[:, 0], r_cw[:, 1], r_cw[:, 2] * h + t_cw]) @ self._tex_to_world
+        )
+        inverse = np.linalg.inv(plane)
+        g = cam.coarse
+        hom = g[..., 0:1] * inverse[:, 0] + g[..., 1:2] * inverse[:, 1] + inverse[:, 2]
+        w = hom[..., 2]
+        valid = w > 1e-9
+        # Rays that never meet the table in front of the camera see the floor colour.
+        safe = np.where(valid, w, 1.0)
+        mx = np.where(valid, hom[..., 0] / safe, -10.0).astype(np.float32)
+        my = np.where(valid, hom[..., 1] / safe, -10.0).astype(np.float32)
+        # The table is smooth: remapping it at half resolution and scaling up costs a quarter.
+        half = ((cam.width + 1) // 2, (cam.height + 1) // 2)
+        mx = cv2.resize(mx, half, interpolation=cv2.INTER_LINEAR)
+        my = cv2.resize(my, half, interpolation=cv2.INTER_LINEAR)
+        small = cv2.remap(
+            self.texture_half,
+            mx * 0.5 - 0.25,
+            my * 0.5 - 0.25,
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=FLOOR,
+        )
+        bg = cv2.resize(small, (cam.width, cam.height), interpolation=cv2.INTER_LINEAR)
+        self._bg_key, self._bg = key, bg
+        return bg
+
+    # -- solids -------------------------------------------------------------------
+
+    def _order(self, drawables: list[Drawable], cam_pos: np.ndarray) -> list[Drawable]:
+        depth = {d.name: float(np.linalg.norm(d.pose[:3, 3] - cam_pos)) for d in drawables}
+        key = {}
+        for d in drawables:
+            k = depth[d.name]
+            if d.container in depth:
+                # Inside a bin: drawn just after it, whatever the distances say.
+                k = min(k, depth[d.container] - 1e-3)
+            key[d.name] = k
+        return sorted(drawables, key=lambda d: -key[d.name])
+
+    def _pixels(self, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray) -> np.ndarray | None:
+        """Distorted pixels of a convex world polygon (clipped to the near plane), or None."""
+        pc = pts @ r_cw.T + t_cw
+        if np.any(pc[:, 2] <= NEAR):
+            pc = _clip_near(pc)
+            if len(pc) < 3:
+                return None
+        uv = self.camera.pixels(pc)
+        span = np.ptp(uv, axis=0).max()
+        if span > 1e5:
+            return None
+        if self.camera.distorted and span > SUBDIVIDE_PX:
+            # Long edges bend through the lens: subdivide them before distorting.
+            n = min(16, int(span // SUBDIVIDE_PX) + 1)
+            t = np.linspace(0, 1, n, endpoint=False)[:, None, None]
+            edges = pc[None, :, :] + t * (np.roll(pc, -1, axis=0) - pc)[None, :, :]
+            uv = self.camera.pixels(edges.transpose(1, 0, 2).reshape(-1, 3))
+        return uv
+
+    def _fill(
+        self, img: np.ndarray, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray, color
+    ) -> np.ndarray | None:
+        """Fill a convex world polygon; returns its pixels or None if not in front."""
+        uv = self._pixels(pts, r_cw, t_cw)
+        if uv is not None:
+            cv2.fillPoly(img, [np.round(uv * _SCALE).astype(np.int32)], color, cv2.LINE_AA, _SHIFT)
+        return uv
+
+    def _draw(
+        self, img: np.ndarray, d: Drawable, r_cw: np.ndarray, t_cw: np.ndarray, cam_pos: np.ndarray
+    ) -> None:
+        if d.shape == "link" and _contains(d, cam_pos):
+            return  # the camera sits inside its own mount: it sees out of it, not its inside
+        rot = d.pose[:3, :3]
+        size = np.asarray(d.size, dtype=float)
+        mesh = (
+            _cylinder_mesh(*map(float, size))
+            if d.shape == "cylinder"
+            else _box_mesh(*map(float, size))
+        )
+        world = mesh.vertices @ rot.T + d.pose[:3, 3]
+        normals = mesh.normals @ rot.T
+        centres = mesh.centres @ rot.T + d.pose[:3, 3]
+        facing = np.einsum("ij,ij->i", normals, cam_pos - centres) > 0
+        to_light = np.asarray(self.light.position) - centres
+        to_light /= np.linalg.norm(to_light, axis=1, keepdims=True)
+        lam = np.maximum(0.0, np.einsum("ij,ij->i", normals, to_light))
+        shade = self.light.ambient + (1 - self.light.ambient) * lam
+        base = np.asarray(d.color, dtype=float)
+        bbox = []
+        for i in np.flatnonzero(facing):
+            color = tuple(np.minimum(255.0, base * shade[i]).tolist())
+            pts = world[list(mesh.faces[i])]
+            if d.shape == "bin" and normals[i, 2] > 0.9:
+                self._draw_bin_top(img, d, pts, r_cw, t_cw, color)
+                continue
+            uv = self._fill(img, pts, r_cw, t_cw, color)
+            if uv is not None:
+                bbox.append(uv)
+        if d.marker is not None and d.marker_pose is not None:
+            top_normal = d.marker_pose[:3, 2]
+            if top_normal @ (cam_pos - d.marker_pose[:3, 3]) > 0:
+                self._draw_marker(img, d, r_cw, t_cw)
+        if d.velocity is not None and bbox:
+            self._object_blur(img, d, np.vstack(bbox), r_cw, t_cw)
+
+    def _draw_bin_top(self, img, d: Drawable, pts, r_cw, t_cw, color) -> None:
+        """A bin seen from above: its rim, then its dark inside down to the floor."""
+        self._fill(img, pts, r_cw, t_cw, color)
+        w = d.wall
+        sx, sy, sz = d.size
+        inner = UNIT_BOX[4:] * [sx - 2 * w, sy - 2 * w, sz]
+        rim = inner @ d.pose[:3, :3].T + d.pose[:3, 3]
+        floor = rim - d.pose[:3, 2] * (sz - w)
+        self._fill(img, rim, r_cw, t_cw, tuple(0.45 * c for c in color))
+        self._fill(img, floor, r_cw, t_cw, tuple(0.6 * c for c in color))
+
+    def _draw_marker(self, img: np.ndarray, d: Drawable, r_cw, t_cw) -> None:
+        marker = d.marker
+        assert marker is not None and d.marker_pose is not None
+        s = marker.size_mm / 2
+        # Printed on a white label a little larger than the marker (its quiet zone).
+        q = min(s * 1.25, 0.5 * float(min(d.size[0], d.size[1])))
+        rot, centre = d.marker_pose[:3, :3], d.marker_pose[:3, 3] + d.marker_pose[:3, 2] * 0.01
+        light = float(light_level(self.light, centre[0], centre[1], centre[2]))
+        white = (min(255.0, 235 * light),) * 3
+        label = np.array([[-q, q, 0], [q, q, 0], [q, -q, 0], [-q, -q, 0]]) @ rot.T + centre
+        if self._fill(img, label, r_cw, t_cw, white) is None:
+            return
+        corners = np.array([[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]]) @ rot.T + centre
+        pc = corners @ r_cw.T + t_cw
+        if np.any(pc[:, 2] <= NEAR):
+            return
+        uv = self.camera.pixels(pc)
+        ih, iw = img.shape[:2]
+        x0, y0 = np.floor(uv.min(axis=0)).astype(int) - 1
+        x1, y1 = np.ceil(uv.max(axis=0)).astype(int) + 2
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, iw), min(y1, ih)
+        if x1 <= x0 or y1 <= y0:
+            return
+        side = float(np.max(np.linalg.norm(np.roll(uv, -1, axis=0) - uv, axis=1)))
+        src_img = self.atlas.image(marker, side)
+        n = src_img.shape[0]
+        src = np.array(
+            [[-0.5, -0.5], [n - 0.5, -0.5], [n - 0.5, n - 0.5], [-0.5, n - 0.5]], dtype=np.float32
+        )
+        h = cv2.getPerspectiveTransform(src, (uv - [x0, y0]).astype(np.float32))
+        patch = cv2.warpPerspective(
+            src_img,
+            h,
+            (x1 - x0, y1 - y0),
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=0,
+        )
+        lit = cv2.cvtColor(cv2.convertScaleAbs(patch, alpha=light), cv2.COLOR_GRAY2BGR)
+        cv2.copyTo(lit, patch, img[y0:y1, x0:x1])
+
+    # -- shadows ------------------------------------------------------------------
+
+    def _draw_shadows(self, img: np.ndarray, drawables: list[Drawable], r_cw, t_cw) -> None:
+        """Shadows cast on the table by the point lamp (seed 004 notes moving shadows)."""
+        lamp = np.asarray(self.light.position, dtype=float)
+        h = self.table.height
+        polys = []
+        for d in drawables:
+            if not d.shadow or d.shape == "spot":
+                continue
+            corners = UNIT_BOX * np.asarray(d.size) @ d.pose[:3, :3].T + d.pose[:3, 3]
+            if np.all(corners[:, 2] <= h + 0.5) or np.any(corners[:, 2] >= lamp[2] - 1.0):
+                continue
+            t = (h - lamp[2]) / (corners[:, 2] - lamp[2])
+            ground = lamp[:2] + (corners[:, :2] - lamp[:2]) * t[:, None]
+            hull = cv2.convexHull(ground.astype(np.float32)).reshape(-1, 2)
+            uv = self._pixels(np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw)
+            if uv is not None:
+                polys.append(uv)
+        if not polys:
+            return
+        ih, iw = img.shape[:2]
+        allpts = np.vstack(polys)
+        x0, y0 = np.maximum(np.floor(allpts.min(axis=0)).astype(int), 0)
+        x1, y1 = np.minimum(np.ceil(allpts.max(axis=0)).astype(int) + 1, [iw, ih])
+        if x1 <= x0 or y1 <= y0:
+            return
+        mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillPoly(
+            mask,
+            [np.round((p - [x0, y0]) * _SCALE).astype(np.int32) for p in polys],
+            255,
+            cv2.LINE_8,
+            _SHIFT,
+        )
+        roi = img[y0:y1, x0:x1]
+        # The lamp's direct light is blocked: what is left is the ambient share (plus some bounce).
+        dark = cv2.convertScaleAbs(roi, alpha=min(1.0, self.light.ambient + 0.1))
+        cv2.copyTo(dark, mask, roi)
+
+    # -- blur and noise -------------------------------------------------------------
+
+    def _camera_blur(self, img, pose_now, pose_before, frame_dt) -> np.ndarray:
+        ahead = pose_now[:3, :3] @ np.array([0, 0, 1.0])
+        depth = (
+            (pose_now[2, 3] - self.table.height) / max(1e-6, -ahead[2])
+            if ahead[2] < -0.1
+            else 300.0
+        )
+        point = pose_now[:3, 3] + ahead * depth
+        r_b = pose_before[:3, :3].T
+        pc = r_b @ (point - pose_before[:3, 3])
+        if pc[2] <= NEAR:
+            return img
+        k = self.camera.k
+        moved = np.array(
+            [
+                k[0, 0] * pc[0] / pc[2] + k[0, 2] - k[0, 2],
+                k[1, 1] * pc[1] / pc[2] + k[1, 2] - k[1, 2],
+            ]
+        )
+        streak = -moved * min(1.0, self.exposure / max(frame_dt, 1e-6))
+        return _streak(img, streak)
+
+    def _object_blur(self, canvas, d: Drawable, bbox, r_cw, t_cw) -> None:
+        assert d.velocity is not None
+        centre = d.pose[:3, 3]
+        ahead = centre + d.velocity * self.exposure
+        pc = np.array([centre, ahead]) @ r_cw.T + t_cw
+        if np.any(pc[:, 2] <= NEAR):
+            return
+        uv = self.camera.pixels(pc)
+        streak = uv[1] - uv[0]
+        if np.hypot(*streak) < 1.0:
+            return
+        pad = int(np.ceil(np.abs(streak).max())) + 2
+        ch, cw = canvas.shape[:2]
+        x0, y0 = np.maximum(np.floor(bbox.min(axis=0)).astype(int) - pad, 0)
+        x1, y1 = np.ceil(bbox.max(axis=0)).astype(int) + pad
+        x1, y1 = min(x1, cw), min(y1, ch)
+        if x1 > x0 and y1 > y0:
+            canvas[y0:y1, x0:x1] = _streak(canvas[y0:y1, x0:x1], streak)
+
+    def _add_noise(self, img: np.ndarray, frame_index: int) -> np.ndarray:
+        rng = np.random.default_rng([self.seed, 11, frame_index])
+        pos, neg = self._noise_bank[int(rng.integers(len(self._noise_bank)))]
+        dy, dx = (int(v) for v in rng.integers(0, 16, 2))
+        h, w = img.shape[:2]
+        img = cv2.add(img, pos[dy : dy + h, dx : dx + w])
+        return cv2.subtract(img, neg[dy : dy + h, dx : dx + w])
+
+
+def _streak(img: np.ndarray, streak: np.ndarray) -> np.ndarray:
+    """Average ``img`` along the pixel displacement ``streak`` (motion blur); unchanged below 1 px."""
+    length = float(np.hypot(*streak))
+    if length < 1.0:
+        return img
+    n = int(math.ceil(length)) | 1
+    kernel = np.zeros((n, n), np.float32)
+    c = n // 2
+    direction = np.asarray(streak) / length
+    for t in np.linspace(-length / 2, length / 2, 2 * n):
+        x, y = int(round(c + t * direction[0])), int(round(c + t * direction[1]))
+        kernel[min(max(y, 0), n - 1), min(max(x, 0), n - 1)] += 1
+    kernel /= kernel.sum()
+    return cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+
+
+def _clip_near(pc: np.ndarray) -> np.ndarray:
+    """Clip a convex polygon in camera coordinates against the near plane (Sutherland-Hodgman)."""
+    out = []
+    n = len(pc)
+    for i in range(n):
+        a, b = pc[i], pc[(i + 1) % n]
+        ina, inb = a[2] > NEAR, b[2] > NEAR
+        if ina:
+            out.append(a)
+        if ina != inb:
+            t = (NEAR + 1e-6 - a[2]) / (b[2] - a[2])
+            out.append(a + t * (b - a))
+    return np.array(out) if out else np.zeros((0, 3))
+
+
+def _contains(d: Drawable, point: np.ndarray) -> bool:
+    local = d.pose[:3, :3].T @ (point - d.pose[:3, 3])
+    return bool(np.all(np.abs(local) <= 0.5 * np.asarray(d.size) + 1.0))
+
+
+@dataclass(frozen=True)
+class _Mesh:
+    """A convex solid centred at the origin: vertices, faces, outward normals, face centres."""
+
+    vertices: np.ndarray
+    faces: tuple[tuple[int, ...], ...]
+    normals: np.ndarray
+    centres: np.ndarray
+
+
+def _mesh(vertices: np.ndarray, faces: tuple[tuple[int, ...], ...]) -> _Mesh:
+    centres = np.array([vertices[list(f)].mean(axis=0) for f in faces])
+    normals = []
+    for f, c in zip(faces, centres, strict=True):
+        p = vertices[list(f)]
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        norm = np.linalg.norm(n)
+        normals.append(n / norm if norm > 1e-12 else c / max(np.linalg.norm(c), 1e-12))
+    return _Mesh(vertices, faces, np.array(normals), centres)
+
+
+@functools.lru_cache(maxsize=256)
+def _box_mesh(dx: float, dy: float, dz: float) -> _Mesh:
+    """A box of those extents (mm)."""
+    return _mesh(UNIT_BOX * [dx, dy, max(dz, 1e-3)], BOX_FACES)
+
+
+@functools.lru_cache(maxsize=64)
+def _cylinder_mesh(dx: float, dy: float, dz: float) -> _Mesh:
+    """A 16-sided prism standing for a cylinder of those extents (mm)."""
+    a = np.linspace(0, 2 * np.pi, CYLINDER_SIDES, endpoint=False)
+    ring = np.column_stack([0.5 * dx * np.cos(a), 0.5 * dy * np.sin(a)])
+    bottom = np.column_stack([ring, np.full(CYLINDER_SIDES, -0.5 * dz)])
+    top = np.column_stack([ring, np.full(CYLINDER_SIDES, 0.5 * dz)])
+    n = CYLINDER_SIDES
+    faces = [tuple(range(n, 2 * n)), tuple(reversed(range(n)))]
+    faces += [(i, (i + 1) % n, n + (i + 1) % n, n + i) for i in range(n)]
+    return _mesh(np.vstack([bottom, top]), tuple(faces))

@@ -1,0 +1,722 @@
+"""The scene a profile's ``world:`` section describes, validated before anything runs.
+
+``parse_scene(profile)`` reads ``world:`` (plus ``tags:``, ``tracker:`` and
+``obstacles:``) and returns a :class:`SceneSpec`; every problem is a
+:class:`armtree.ConfigError` naming the entry (``world.objects.NAME``) and,
+when the profile records where it came from, its file, line and column.
+
+Coordinates are the robot base frame in millimetres (z up, the table top at
+``table.height``); yaw and headings are degrees in the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from armtree.errors import ConfigError
+
+from .duckybot import DuckybotParams, Leg, RouteSpec
+from .geometry import footprint_overlap, point_in_polygon, rot_z
+
+#: Object kinds, their default shape, size (mm), colour (BGR) and tag role.
+KINDS: dict[str, dict[str, Any]] = {
+    "ducky": {"size": (32.0, 32.0, 30.0), "color": (40, 205, 250), "role": "ducky"},
+    "trash": {"size": (30.0, 30.0, 20.0), "color": (90, 110, 130), "role": "trash"},
+    "obstacle": {"size": (60.0, 60.0, 80.0), "color": (120, 70, 40), "role": "obstacle"},
+    "bin": {"size": (90.0, 90.0, 35.0), "color": (60, 110, 50), "role": None},
+    "spot": {"size": (50.0, 50.0, 0.0), "color": (200, 200, 215), "role": None},
+    "duckybot": {"size": (90.0, 70.0, 40.0), "color": (50, 50, 60), "role": "duckybot"},
+}
+SHAPES = ("box", "cylinder")
+FAMILIES = ("aruco", "hamming")
+
+_OBJECT_KEYS = ("kind", "shape", "size", "at", "yaw", "color", "marker", "wall_mm", "mass_g")
+_DUCKYBOT_KEYS = (
+    "size",
+    "color",
+    "marker",
+    "start",
+    "route",
+    "loop",
+    "speed_mm_s",
+    "turn_deg_s",
+    "gains",
+    "noise",
+    "max_speed_mm_s",
+)
+_WORLD_KEYS = ("seed", "table", "objects", "duckybots", "faults", "physics", "light", "tool_marker")
+
+
+@dataclass(frozen=True)
+class MarkerSpec:
+    """A printed marker on a top face: family, dictionary (aruco), id and side (mm)."""
+
+    family: str
+    id: int
+    size_mm: float
+    dictionary: str = "4x4_50"
+
+
+@dataclass
+class ObjectSpec:
+    """One object as the profile places it.
+
+    ``size`` is (x, y, z) extents in mm (a cylinder's x and y are its diameter);
+    ``position`` is the centre of its bottom face; ``yaw`` is radians.
+    """
+
+    name: str
+    kind: str
+    shape: str
+    size: np.ndarray
+    position: np.ndarray
+    yaw: float
+    color: tuple[int, int, int]
+    marker: MarkerSpec | None
+    wall: float = 0.0
+
+    def footprint(self) -> np.ndarray:
+        """Corners (4, 2) of the footprint in the table plane, counter-clockwise."""
+        hx, hy = 0.5 * self.size[0], 0.5 * self.size[1]
+        local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
+        return local @ rot_z(self.yaw)[:2, :2].T + self.position[:2]
+
+
+@dataclass
+class DuckybotSpec:
+    """A Duckybot: its body, marker, route and controller parameters."""
+
+    body: ObjectSpec
+    route: RouteSpec
+    params: DuckybotParams
+
+
+@dataclass
+class TableSpec:
+    """The table top: x and y ranges (mm), height of its surface (mm), texture."""
+
+    x: tuple[float, float] = (-250.0, 450.0)
+    y: tuple[float, float] = (-400.0, 400.0)
+    height: float = 0.0
+    texture: str = "wood"
+
+    def polygon(self) -> np.ndarray:
+        """Table outline (4, 2), counter-clockwise."""
+        (x0, x1), (y0, y1) = self.x, self.y
+        return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+@dataclass
+class PhysicsSpec:
+    """Tool and collision physics options (mm)."""
+
+    pick_tolerance_mm: float = 5.0
+    collision_tolerance_mm: float = 3.0
+    halt_on_collision: bool = True
+    gripper_mm_per_unit: float = 1.0
+
+
+@dataclass
+class LightSpec:
+    """A point lamp above the table (mm) and the ambient share of light (0-1)."""
+
+    position: tuple[float, float, float] = (150.0, -250.0, 900.0)
+    ambient: float = 0.55
+
+
+@dataclass
+class SceneSpec:
+    """Everything the ``world:`` section sets, validated."""
+
+    seed: int = 0
+    table: TableSpec = field(default_factory=TableSpec)
+    objects: list[ObjectSpec] = field(default_factory=list)
+    duckybots: list[DuckybotSpec] = field(default_factory=list)
+    faults: dict[str, dict[str, float]] = field(default_factory=dict)
+    physics: PhysicsSpec = field(default_factory=PhysicsSpec)
+    light: LightSpec = field(default_factory=LightSpec)
+    tool_marker: MarkerSpec | None = None
+    tool_marker_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+# ---------------------------------------------------------------------------
+# Profile access (the Profile object may be a mapping or offer get / data)
+# ---------------------------------------------------------------------------
+
+
+def profile_section(profile: Any, key: str, default: Any = None) -> Any:
+    """The profile's top-level ``key`` whatever form the profile object takes."""
+    if profile is None:
+        return default
+    if isinstance(profile, Mapping):
+        return profile.get(key, default)
+    data = getattr(profile, "data", None)
+    if isinstance(data, Mapping):
+        return data.get(key, default)
+    getter = getattr(profile, "get", None)
+    if callable(getter):
+        return getter(key, default)
+    return getattr(profile, key, default)
+
+
+def _locate(profile: Any, path: tuple[Any, ...]) -> tuple[str | None, int | None, int | None]:
+    """File, line and column of a profile entry when the profile records marks."""
+    file = getattr(profile, "path", None) or getattr(profile, "file", None)
+    file = str(file) if file is not None else None
+    finder = getattr(profile, "mark", None)
+    while callable(finder) and path:
+        try:
+            mark = finder(*path)
+        except (KeyError, TypeError, ValueError, IndexError):
+            mark = None
+        if mark is not None:
+            return (
+                getattr(mark, "file", file),
+                getattr(mark, "line", None),
+                getattr(mark, "column", None),
+            )
+        path = path[:-1]
+    return file, None, None
+
+
+class _Errors:
+    """Builds ConfigErrors that name the entry and point into the profile."""
+
+    def __init__(self, profile: Any) -> None:
+        self.profile = profile
+
+    def __call__(self, path: tuple[Any, ...], message: str) -> ConfigError:
+        where = ".".join(str(p) for p in path)
+        error = getattr(self.profile, "error", None)
+        if callable(error):
+            return error(where, message)
+        file, line, column = _locate(self.profile, path)
+        return ConfigError(f"{where}: {message}", file=file, line=line, column=column)
+
+
+# ---------------------------------------------------------------------------
+# Parsing
+# ---------------------------------------------------------------------------
+
+
+def _number(err: _Errors, path: tuple[Any, ...], value: Any, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise err(path, f"expected a number, got {value!r}")
+    if positive and value <= 0:
+        raise err(path, f"must be positive, got {value!r}")
+    return float(value)
+
+
+def _vector(
+    err: _Errors, path: tuple[Any, ...], value: Any, lengths: tuple[int, ...]
+) -> list[float]:
+    if (
+        isinstance(value, (str, bytes))
+        or not isinstance(value, Sequence)
+        or len(value) not in lengths
+    ):
+        want = " or ".join(str(n) for n in lengths)
+        raise err(path, f"expected a list of {want} numbers, got {value!r}")
+    return [_number(err, path, v) for v in value]
+
+
+def _mapping(
+    err: _Errors, path: tuple[Any, ...], value: Any, keys: Sequence[str]
+) -> Mapping[str, Any]:
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise err(path, f"expected a mapping, got {value!r}")
+    for key in value:
+        if key not in keys:
+            close = difflib.get_close_matches(str(key), keys, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise err((*path, key), f"unknown key {key!r}{hint}; expected one of {', '.join(keys)}")
+    return value
+
+
+@dataclass
+class _Tags:
+    """The profile's tag roles: role -> (ids, size)."""
+
+    roles: dict[str, tuple[tuple[int, ...], float]]
+
+    def role_of(self, marker_id: int) -> str | None:
+        for role, (ids, _) in self.roles.items():
+            if marker_id in ids:
+                return role
+        return None
+
+
+def _read_tags(profile: Any) -> _Tags:
+    roles: dict[str, tuple[tuple[int, ...], float]] = {}
+    tags = profile_section(profile, "tags", {}) or {}
+    if isinstance(tags, Mapping):
+        for role, spec in tags.items():
+            if not isinstance(spec, Mapping):
+                continue
+            ids = spec.get("ids", [spec["id"]] if "id" in spec else [])
+            size = spec.get("size_mm", 25.0)
+            roles[str(role)] = (tuple(int(i) for i in ids), float(size))
+    return _Tags(roles)
+
+
+def _marker_defaults(profile: Any) -> tuple[str, str]:
+    tracker = profile_section(profile, "tracker", {}) or {}
+    family = tracker.get("type", "aruco") if isinstance(tracker, Mapping) else "aruco"
+    family = family if family in FAMILIES else "aruco"
+    dictionary = tracker.get("dictionary", "4x4_50") if isinstance(tracker, Mapping) else "4x4_50"
+    return str(family), str(dictionary)
+
+
+def aruco_dictionary_size(name: str) -> int | None:
+    """Number of ids in OpenCV's predefined ArUco dictionary ``name`` (e.g. 4x4_50), or None."""
+    import cv2
+
+    for attr in (f"DICT_{name.upper()}", f"DICT_{name}", "DICT_" + name.upper().replace("H", "h")):
+        const = getattr(cv2.aruco, attr, None)
+        if const is not None:
+            return int(cv2.aruco.getPredefinedDictionary(const).bytesList.shape[0])
+    return None
+
+
+def _parse_marker(
+    err: _Errors,
+    path: tuple[Any, ...],
+    value: Any,
+    kind: str,
+    tags: _Tags,
+    defaults: tuple[str, str],
+    auto_index: int,
+    top: tuple[float, float],
+) -> MarkerSpec | None:
+    role = KINDS[kind]["role"] if kind in KINDS else kind
+    if value is False or (value is None and (role is None or role not in tags.roles)):
+        return None
+    if value is None:
+        value = {}
+    spec = _mapping(err, path, value, ("id", "size_mm", "family", "dictionary"))
+    family = spec.get("family", defaults[0])
+    if family not in FAMILIES:
+        raise err((*path, "family"), f"unknown marker family {family!r}; expected aruco or hamming")
+    dictionary = str(spec.get("dictionary", defaults[1]))
+    if "id" in spec:
+        mid = spec["id"]
+        if isinstance(mid, bool) or not isinstance(mid, int) or mid < 0:
+            raise err((*path, "id"), f"expected a marker id (integer >= 0), got {mid!r}")
+    elif role in tags.roles and tags.roles[role][0]:
+        ids = tags.roles[role][0]
+        mid = ids[auto_index % len(ids)]
+    else:
+        raise err(path, f"a {kind} marker needs an id (no tags: entry for role {role!r})")
+    owner = tags.role_of(mid)
+    if owner is not None and owner != role:
+        raise err((*path, "id"), f"marker id {mid} is the {owner!r} tag in tags:, not a {kind}")
+    if owner is None and role in tags.roles:
+        raise err(
+            (*path, "id"),
+            f"marker id {mid} is not among the {role!r} ids in tags: {list(tags.roles[role][0])}",
+        )
+    size = spec.get("size_mm")
+    if size is None:
+        size = tags.roles[role][1] if role in tags.roles else 25.0
+    size = _number(err, (*path, "size_mm"), size, positive=True)
+    if owner is not None and abs(size - tags.roles[owner][1]) > 1e-6:
+        raise err(
+            (*path, "size_mm"),
+            f"marker side {size} mm differs from the {owner!r} tag "
+            f"size {tags.roles[owner][1]} mm in tags:",
+        )
+    if size > min(top) + 1e-6:
+        raise err(
+            (*path, "size_mm"), f"a {size} mm marker does not fit on a {top[0]} x {top[1]} mm top"
+        )
+    if family == "aruco":
+        n = aruco_dictionary_size(dictionary)
+        if n is None:
+            raise err((*path, "dictionary"), f"unknown ArUco dictionary {dictionary!r}")
+        if mid >= n:
+            raise err(
+                (*path, "id"), f"marker id {mid} is outside ArUco {dictionary} (ids 0-{n - 1})"
+            )
+    elif mid >= 2**28:
+        raise err((*path, "id"), f"hamming marker id {mid} exceeds 28 bits")
+    return MarkerSpec(family=family, id=int(mid), size_mm=size, dictionary=dictionary)
+
+
+def _parse_body(
+    err: _Errors,
+    path: tuple[Any, ...],
+    name: str,
+    entry: Any,
+    tags: _Tags,
+    defaults: tuple[str, str],
+    auto_index: dict[str, int],
+    table: TableSpec,
+    forced_kind: str | None = None,
+    keys: Sequence[str] = _OBJECT_KEYS,
+) -> ObjectSpec:
+    entry = _mapping(err, path, entry, keys)
+    kind = forced_kind or entry.get("kind")
+    if kind is None:
+        raise err(path, f"missing 'kind' (one of {', '.join(k for k in KINDS if k != 'duckybot')})")
+    if kind not in KINDS or (forced_kind is None and kind == "duckybot"):
+        close = difflib.get_close_matches(str(kind), list(KINDS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        what = (
+            "duckybots go under world.duckybots"
+            if kind == "duckybot"
+            else f"unknown kind {kind!r}{hint}"
+        )
+        raise err((*path, "kind"), what)
+    shape = entry.get("shape", "box")
+    if shape not in SHAPES:
+        raise err((*path, "shape"), f"unknown shape {shape!r}; expected one of {', '.join(SHAPES)}")
+    default_size = KINDS[kind]["size"]
+    size_value = entry.get("size", default_size)
+    size = _vector(err, (*path, "size"), size_value, (3, 2) if shape == "cylinder" else (3,))
+    if shape == "cylinder" and len(size) == 2:
+        size = [size[0], size[0], size[1]]
+    if min(size[:2]) <= 0 or size[2] < 0 or (size[2] == 0 and kind != "spot"):
+        raise err((*path, "size"), f"sizes must be positive, got {size_value!r}")
+    at = entry.get("at")
+    if at is None:
+        raise err(path, "missing 'at': the position [x, y] (mm) on the table")
+    at_v = _vector(err, (*path, "at"), at, (2, 3))
+    z = at_v[2] if len(at_v) == 3 else table.height
+    yaw = math.radians(_number(err, (*path, "yaw"), entry.get("yaw", 0.0)))
+    color = entry.get("color", KINDS[kind]["color"])
+    color_v = _vector(err, (*path, "color"), color, (3,))
+    wall = _number(err, (*path, "wall_mm"), entry.get("wall_mm", 3.0 if kind == "bin" else 0.0))
+    if kind == "bin" and not 0 < wall < min(size[:2]) / 2:
+        raise err((*path, "wall_mm"), f"wall {wall} mm does not fit a {size[0]} x {size[1]} mm bin")
+    role = KINDS[kind]["role"]
+    index = auto_index.get(role or kind, 0)
+    marker = None
+    if kind not in ("bin", "spot") or "marker" in entry:
+        marker = _parse_marker(
+            err,
+            (*path, "marker"),
+            entry.get("marker"),
+            kind,
+            tags,
+            defaults,
+            index,
+            (size[0], size[1]),
+        )
+    auto_index[role or kind] = index + 1
+    return ObjectSpec(
+        name=name,
+        kind=kind,
+        shape=shape,
+        size=np.array(size, dtype=float),
+        position=np.array([at_v[0], at_v[1], z], dtype=float),
+        yaw=yaw,
+        color=(int(color_v[0]), int(color_v[1]), int(color_v[2])),
+        marker=marker,
+        wall=wall,
+    )
+
+
+def _parse_route(err: _Errors, path: tuple[Any, ...], entry: Mapping[str, Any]) -> RouteSpec:
+    start = _vector(err, (*path, "start"), entry.get("start", [0, 0, 0]), (2, 3))
+    heading = math.radians(start[2]) if len(start) == 3 else 0.0
+    legs: list[Leg] = []
+    route = entry.get("route", [])
+    if not isinstance(route, Sequence) or isinstance(route, (str, bytes)):
+        raise err((*path, "route"), f"expected a list of legs, got {route!r}")
+    for i, leg in enumerate(route):
+        lp = (*path, "route", i)
+        if isinstance(leg, Sequence) and not isinstance(leg, (str, bytes)):
+            xy = _vector(err, lp, leg, (2,))
+            legs.append(Leg("drive", (xy[0], xy[1])))
+            continue
+        spec = _mapping(err, lp, leg, ("drive_to", "park", "until", "wait_s", "timeout_s"))
+        if ("drive_to" in spec) == ("park" in spec):
+            raise err(lp, "a leg is [x, y], {drive_to: [x, y]} or {park: [x, y, heading_deg], ...}")
+        if "drive_to" in spec:
+            xy = _vector(err, (*lp, "drive_to"), spec["drive_to"], (2,))
+            legs.append(Leg("drive", (xy[0], xy[1])))
+            continue
+        target = _vector(err, (*lp, "park"), spec["park"], (2, 3))
+        until = spec.get("until", "loaded")
+        if until not in ("loaded", "time"):
+            raise err((*lp, "until"), f"expected 'loaded' or 'time', got {until!r}")
+        wait = _number(err, (*lp, "wait_s"), spec.get("wait_s", 1.0))
+        timeout = math.inf
+        if spec.get("timeout_s") is not None:
+            timeout = _number(err, (*lp, "timeout_s"), spec["timeout_s"], positive=True)
+        legs.append(
+            Leg(
+                "park",
+                (target[0], target[1]),
+                math.radians(target[2]) if len(target) == 3 else None,
+                until,
+                wait,
+                timeout,
+            )
+        )
+    loop = entry.get("loop", False)
+    if not isinstance(loop, bool):
+        raise err((*path, "loop"), f"expected true or false, got {loop!r}")
+    return RouteSpec((start[0], start[1], heading), legs, loop)
+
+
+def _parse_duckybot(
+    err: _Errors,
+    path: tuple[Any, ...],
+    name: str,
+    entry: Any,
+    tags: _Tags,
+    defaults: tuple[str, str],
+    auto_index: dict[str, int],
+    table: TableSpec,
+) -> DuckybotSpec:
+    entry = _mapping(err, path, entry, _DUCKYBOT_KEYS)
+    route = _parse_route(err, path, entry)
+    body_entry = {k: entry[k] for k in ("size", "color", "marker") if k in entry}
+    body_entry["at"] = list(route.start[:2])
+    body_entry["yaw"] = math.degrees(route.start[2])
+    body = _parse_body(
+        err, path, name, body_entry, tags, defaults, auto_index, table, forced_kind="duckybot"
+    )
+    gains = _mapping(err, (*path, "gains"), entry.get("gains"), ("kp", "ktheta"))
+    params = DuckybotParams(
+        speed=_number(err, (*path, "speed_mm_s"), entry.get("speed_mm_s", 50.0), positive=True),
+        turn_rate=math.radians(
+            _number(err, (*path, "turn_deg_s"), entry.get("turn_deg_s", 90.0), positive=True)
+        ),
+        kp=_number(err, (*path, "gains", "kp"), gains.get("kp", 2.0), positive=True),
+        ktheta=_number(err, (*path, "gains", "ktheta"), gains.get("ktheta", 4.0), positive=True),
+        max_speed=_number(
+            err, (*path, "max_speed_mm_s"), entry.get("max_speed_mm_s", 120.0), positive=True
+        ),
+        noise=_number(err, (*path, "noise"), entry.get("noise", 0.03)),
+    )
+    for i, leg in enumerate(route.legs):
+        if not point_in_polygon(np.array(leg.target), table.polygon()):
+            raise err((*path, "route", i), f"route point {list(leg.target)} is off the table")
+    return DuckybotSpec(body=body, route=route, params=params)
+
+
+def _parse_table(err: _Errors, value: Any) -> TableSpec:
+    spec = _mapping(err, ("world", "table"), value, ("x", "y", "height", "texture"))
+    t = TableSpec()
+    x = _vector(err, ("world", "table", "x"), spec.get("x", list(t.x)), (2,))
+    y = _vector(err, ("world", "table", "y"), spec.get("y", list(t.y)), (2,))
+    if x[0] >= x[1] or y[0] >= y[1]:
+        raise err(("world", "table"), "x and y must be [min, max] with min < max")
+    texture = spec.get("texture", t.texture)
+    if texture not in ("wood", "plain", "checker"):
+        raise err(
+            ("world", "table", "texture"), f"unknown texture {texture!r}; wood, plain or checker"
+        )
+    height = _number(err, ("world", "table", "height"), spec.get("height", t.height))
+    return TableSpec((x[0], x[1]), (y[0], y[1]), height, str(texture))
+
+
+def _profile_obstacles(err: _Errors, profile: Any, table: TableSpec) -> list[ObjectSpec]:
+    out = []
+    for i, entry in enumerate(profile_section(profile, "obstacles", []) or []):
+        box = entry.get("box") if isinstance(entry, Mapping) else None
+        if not isinstance(box, Mapping):
+            continue
+        center = _vector(err, ("obstacles", i, "box", "center"), box.get("center"), (3,))
+        size = _vector(err, ("obstacles", i, "box", "size"), box.get("size"), (3,))
+        out.append(
+            ObjectSpec(
+                name=f"obstacles[{i}]",
+                kind="obstacle",
+                shape="box",
+                size=np.array(size),
+                position=np.array([center[0], center[1], center[2] - size[2] / 2]),
+                yaw=0.0,
+                color=KINDS["obstacle"]["color"],
+                marker=None,
+            )
+        )
+    return out
+
+
+def parse_scene(profile: Any) -> SceneSpec:
+    """Validate the profile's ``world:`` section and return the scene it describes.
+
+    Raises :class:`armtree.ConfigError` naming the entry for unknown keys,
+    kinds or shapes, objects off the table or inside each other, and markers
+    whose id or size clashes with the profile's ``tags:``.
+    """
+    err = _Errors(profile)
+    world = _mapping(err, ("world",), profile_section(profile, "world", {}), _WORLD_KEYS)
+    tags = _read_tags(profile)
+    defaults = _marker_defaults(profile)
+    table = _parse_table(err, world.get("table"))
+    seed = world.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise err(("world", "seed"), f"expected an integer, got {seed!r}")
+    auto_index: dict[str, int] = {}
+    objects: list[ObjectSpec] = []
+    entries = world.get("objects") or {}
+    if not isinstance(entries, Mapping):
+        raise err(("world", "objects"), "expected a mapping of name: {kind: ..., at: [x, y]}")
+    for name, entry in entries.items():
+        objects.append(
+            _parse_body(
+                err, ("world", "objects", name), str(name), entry, tags, defaults, auto_index, table
+            )
+        )
+    bots_entry = world.get("duckybots") or {}
+    if not isinstance(bots_entry, Mapping):
+        raise err(("world", "duckybots"), "expected a mapping of name: {route: [...], ...}")
+    duckybots = [
+        _parse_duckybot(
+            err, ("world", "duckybots", name), str(name), entry, tags, defaults, auto_index, table
+        )
+        for name, entry in bots_entry.items()
+    ]
+    objects += _profile_obstacles(err, profile, table)
+    _check_layout(err, table, objects + [b.body for b in duckybots])
+    faults = _parse_faults(err, world.get("faults"))
+    physics = _parse_physics(err, world.get("physics"))
+    light = _parse_light(err, world.get("light"))
+    tool_marker, tool_offset = None, np.zeros(3)
+    if world.get("tool_marker") is not None:
+        tm = _mapping(
+            err,
+            ("world", "tool_marker"),
+            world["tool_marker"],
+            ("id", "size_mm", "family", "dictionary", "offset"),
+        )
+        tool_offset = np.array(
+            _vector(err, ("world", "tool_marker", "offset"), tm.get("offset", [0, 0, 20]), (3,))
+        )
+        marker_entry = {k: v for k, v in tm.items() if k != "offset"}
+        tool_marker = _parse_marker(
+            err, ("world", "tool_marker"), marker_entry, "tool", tags, defaults, 0, (1e9, 1e9)
+        )
+    return SceneSpec(
+        seed=seed,
+        table=table,
+        objects=objects,
+        duckybots=duckybots,
+        faults=faults,
+        physics=physics,
+        light=light,
+        tool_marker=tool_marker,
+        tool_marker_offset=tool_offset,
+    )
+
+
+def _check_layout(err: _Errors, table: TableSpec, bodies: list[ObjectSpec]) -> None:
+    """Every body on the table and no two inside each other (bins may hold things)."""
+    poly = table.polygon()
+    for b in bodies:
+        path = _body_path(b)
+        if not all(point_in_polygon(c, poly) for c in b.footprint()):
+            raise err(
+                path,
+                f"{b.name} at {b.position[:2].tolist()} mm is (partly) off the table "
+                f"x {list(table.x)}, y {list(table.y)}",
+            )
+        if b.position[2] < table.height - 1e-6:
+            raise err(path, f"{b.name} is below the table top (z {b.position[2]} < {table.height})")
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1 :]:
+            if "spot" in (a.kind, b.kind):
+                continue
+            za = (a.position[2], a.position[2] + a.size[2])
+            zb = (b.position[2], b.position[2] + b.size[2])
+            if za[1] <= zb[0] + 1e-6 or zb[1] <= za[0] + 1e-6:
+                continue
+            if not footprint_overlap(a.footprint(), b.footprint()):
+                continue
+            if _inside_bin(a, b) or _inside_bin(b, a):
+                continue
+            raise err(
+                _body_path(b), f"{b.name} overlaps {a.name}: objects cannot be inside each other"
+            )
+
+
+def _inside_bin(container: ObjectSpec, item: ObjectSpec) -> bool:
+    if container.kind != "bin":
+        return False
+    wall = 2 * container.wall
+    inner = dataclasses.replace(container, size=container.size - np.array([wall, wall, 0.0]))
+    return (
+        all(point_in_polygon(c, inner.footprint()) for c in item.footprint())
+        and item.position[2] >= container.position[2] + container.wall - 1e-6
+    )
+
+
+def _body_path(body: ObjectSpec) -> tuple[Any, ...]:
+    if body.name.startswith("obstacles["):
+        return ("obstacles", int(body.name[len("obstacles[") : -1]))
+    group = "duckybots" if body.kind == "duckybot" else "objects"
+    return ("world", group, body.name)
+
+
+def _parse_faults(err: _Errors, value: Any) -> dict[str, dict[str, float]]:
+    spec = _mapping(err, ("world", "faults"), value, ("missed_steps", "corrupt", "drop", "cut"))
+    out: dict[str, dict[str, float]] = {}
+    for name, options in spec.items():
+        if options is None or options is False:
+            continue
+        if options is True:
+            options = {}
+        if not isinstance(options, Mapping):
+            raise err(("world", "faults", name), f"expected a mapping of options, got {options!r}")
+        out[name] = {
+            str(k): _number(err, ("world", "faults", name, k), v) for k, v in options.items()
+        }
+    return out
+
+
+def _parse_physics(err: _Errors, value: Any) -> PhysicsSpec:
+    spec = _mapping(
+        err,
+        ("world", "physics"),
+        value,
+        ("pick_tolerance_mm", "collision_tolerance_mm", "halt_on_collision", "gripper_mm_per_unit"),
+    )
+    p = PhysicsSpec()
+    halt = spec.get("halt_on_collision", p.halt_on_collision)
+    if not isinstance(halt, bool):
+        raise err(
+            ("world", "physics", "halt_on_collision"), f"expected true or false, got {halt!r}"
+        )
+    return PhysicsSpec(
+        pick_tolerance_mm=_number(
+            err,
+            ("world", "physics", "pick_tolerance_mm"),
+            spec.get("pick_tolerance_mm", p.pick_tolerance_mm),
+            positive=True,
+        ),
+        collision_tolerance_mm=_number(
+            err,
+            ("world", "physics", "collision_tolerance_mm"),
+            spec.get("collision_tolerance_mm", p.collision_tolerance_mm),
+        ),
+        halt_on_collision=halt,
+        gripper_mm_per_unit=_number(
+            err,
+            ("world", "physics", "gripper_mm_per_unit"),
+            spec.get("gripper_mm_per_unit", p.gripper_mm_per_unit),
+            positive=True,
+        ),
+    )
+
+
+def _parse_light(err: _Errors, value: Any) -> LightSpec:
+    spec = _mapping(err, ("world", "light"), value, ("position", "ambient"))
+    d = LightSpec()
+    pos = _vector(err, ("world", "light", "position"), spec.get("position", list(d.position)), (3,))
+    ambient = _number(err, ("world", "light", "ambient"), spec.get("ambient", d.ambient))
+    if not 0 <= ambient <= 1:
+        raise err(("world", "light", "ambient"), f"must be between 0 and 1, got {ambient}")
+    return LightSpec((pos[0], pos[1], pos[2]), ambient)

@@ -1,0 +1,571 @@
+"""The simulated world: bodies on a table, the arm from its emulator, Duckybots, scoring.
+
+A :class:`World` is built from a validated :class:`~.scene.SceneSpec` and lives
+only in ``RigContext.shared`` (never on the Rig), so skills cannot reach it.
+:meth:`World.step` advances it to the run's time after the arm emulators:
+it reads the arm's true joints and tool, moves the Duckybots, applies
+suction and gripper physics, lets released objects fall and records
+collisions. :meth:`World.score` is the ground truth for tests and the run summary.
+
+Millimetres and the robot base frame (z up); times are seconds on the run's clock.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .duckybot import Duckybot
+from .geometry import point_in_polygon, pose, rot_z
+from .physics import CollisionMonitor, SolidBox
+from .renderer import Drawable
+from .scene import MarkerSpec, ObjectSpec, SceneSpec, parse_scene
+
+#: Kinds an end effector can lift.
+MOVABLE = ("ducky", "trash")
+#: Gravity, mm/s^2.
+GRAVITY = 9810.0
+#: Where an object that falls off the table ends up, below the table top (mm).
+FLOOR_DROP = 750.0
+#: Colour of the arm's links (dark anodised aluminium), BGR.
+LINK_COLOR = (70, 70, 75)
+
+
+@dataclass
+class Body:
+    """An object's state: ``pose`` is the 4x4 pose of its bottom-face centre (mm)."""
+
+    spec: ObjectSpec
+    pose: np.ndarray
+    support: str | None = "table"
+    held: bool = False
+    falling: bool = False
+    vz: float = 0.0
+    off_table: bool = False
+
+    @property
+    def name(self) -> str:
+        """The name given in the profile."""
+        return self.spec.name
+
+    @property
+    def kind(self) -> str:
+        """ducky, trash, obstacle, bin, spot or duckybot."""
+        return self.spec.kind
+
+    @property
+    def size(self) -> np.ndarray:
+        """(x, y, z) extents, mm."""
+        return self.spec.size
+
+    @property
+    def marker(self) -> MarkerSpec | None:
+        """The marker on its top face, if any."""
+        return self.spec.marker
+
+    @property
+    def bottom(self) -> float:
+        """Height of its lowest point, mm (bodies are kept level except while held)."""
+        return float(self.pose[2, 3])
+
+    @property
+    def top(self) -> float:
+        """Height of its top face, mm."""
+        return float(self.pose[2, 3] + self.size[2])
+
+    @property
+    def yaw(self) -> float:
+        """Heading about z, radians."""
+        return math.atan2(self.pose[1, 0], self.pose[0, 0])
+
+    def center_pose(self) -> np.ndarray:
+        """4x4 pose of the body's centre."""
+        return self.pose @ pose(np.eye(3), [0.0, 0.0, 0.5 * self.size[2]])
+
+    def top_pose(self) -> np.ndarray:
+        """4x4 pose of the top-face centre: the marker frame (x, y in the face, z up)."""
+        return self.pose @ pose(np.eye(3), [0.0, 0.0, self.size[2]])
+
+    def footprint(self, shrink: float = 0.0) -> np.ndarray:
+        """Footprint corners (4, 2) in the table plane, optionally shrunk by ``shrink`` mm."""
+        hx, hy = 0.5 * self.size[0] - shrink, 0.5 * self.size[1] - shrink
+        local = np.array([[-hx, -hy, 0], [hx, -hy, 0], [hx, hy, 0], [-hx, hy, 0]], dtype=float)
+        return (local @ self.pose[:3, :3].T + self.pose[:3, 3])[:, :2]
+
+    def solids(self) -> list[SolidBox]:
+        """Collision boxes: one for a solid, five (floor and walls) for a bin, none for a spot."""
+        if self.kind == "spot":
+            return []
+        if self.kind != "bin":
+            return [SolidBox(self.name, self.center_pose(), self.size)]
+        sx, sy, sz = self.size
+        w = self.spec.wall
+        parts = [
+            ((0, 0, w / 2), (sx, sy, w)),
+            ((sx / 2 - w / 2, 0, sz / 2), (w, sy, sz)),
+            ((-sx / 2 + w / 2, 0, sz / 2), (w, sy, sz)),
+            ((0, sy / 2 - w / 2, sz / 2), (sx, w, sz)),
+            ((0, -sy / 2 + w / 2, sz / 2), (sx, w, sz)),
+        ]
+        return [SolidBox(self.name, self.pose @ pose(np.eye(3), c), np.array(s)) for c, s in parts]
+
+
+@dataclass
+class ArmView:
+    """The arm as the world sees it at one instant: joints, tool pose, link boxes."""
+
+    joints: np.ndarray
+    tool_pose: np.ndarray
+    box_poses: np.ndarray
+    box_sizes: np.ndarray
+    box_names: tuple[str, ...]
+    suction: bool = False
+    gripper: float | None = None
+
+
+@dataclass
+class WorldEvent:
+    """Something that happened, for the run summary: pick, release, land, collision."""
+
+    time: float
+    kind: str
+    detail: dict[str, Any] = field(default_factory=dict)
+
+
+class World:
+    """Ground truth of a simulated run. Thread-safe: step and render may run on two threads."""
+
+    def __init__(self, scene: SceneSpec, seed: int = 0) -> None:
+        self.scene = scene
+        self.table = scene.table
+        self.physics = scene.physics
+        self.seed = int(seed)
+        self._seq = np.random.SeedSequence([scene.seed, self.seed])
+        self.lock = threading.RLock()
+        self.time = 0.0
+        self.version = 0
+        self.bodies: dict[str, Body] = {}
+        for spec in scene.objects:
+            self.bodies[spec.name] = Body(spec, pose(rot_z(spec.yaw), spec.position))
+        for spec in scene.objects:
+            self.bodies[spec.name].support = self._support_below(self.bodies[spec.name])[0]
+        bot_rng = np.random.default_rng(self._seq.spawn(1)[0])
+        self.duckybots: dict[str, Duckybot] = {}
+        for bot in scene.duckybots:
+            self.bodies[bot.body.name] = Body(
+                bot.body, pose(rot_z(bot.body.yaw), bot.body.position)
+            )
+            name = bot.body.name
+            self.duckybots[name] = Duckybot(
+                name,
+                bot.route.start,
+                bot.route.legs,
+                bot.params,
+                np.random.default_rng(bot_rng.integers(2**63)),
+                loaded=lambda name=name: bool(self._carried_by(name, kinds=("ducky",))),
+                loop=bot.route.loop,
+            )
+        self.emulator: Any = None
+        self.model: Any = None
+        self.arm: ArmView | None = None
+        self.held: str | None = None
+        self._held_rel: np.ndarray | None = None
+        self._last_suction = False
+        self._last_gripper: float | None = None
+        self._grip_mode = "suction"
+        self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
+        self.events: list[WorldEvent] = []
+        self.planned_path: np.ndarray | None = None
+
+    # -- wiring -------------------------------------------------------------------
+
+    def attach_arm(self, emulator: Any) -> None:
+        """Take the arm's true state from ``emulator`` (a FirmwareEmulator) from now on.
+
+        Faults the profile's ``world.faults`` requests are injected into it here.
+        """
+        with self.lock:
+            self.emulator = emulator
+            self.model = emulator.model
+            for fault, options in self.scene.faults.items():
+                emulator.inject(fault, **options)
+            self._read_arm()
+
+    def _read_arm(self) -> None:
+        if self.emulator is None:
+            return
+        q = np.asarray(self.emulator.true_joints(), dtype=float)
+        tool = self.emulator.tool()
+        model = self.model
+        frames = model.link_frames(q)
+        boxes = model.box_poses(q) if model.boxes else np.zeros((0, 4, 4))
+        self.arm = ArmView(
+            joints=q,
+            tool_pose=frames[-1],
+            box_poses=boxes,
+            box_sizes=model.box_sizes() if model.boxes else np.zeros((0, 3)),
+            box_names=tuple(b.name for b in model.boxes),
+            suction=bool(getattr(tool, "suction", False)),
+            gripper=getattr(tool, "gripper", None),
+        )
+
+    # -- stepping -------------------------------------------------------------------
+
+    def step(self, now: float) -> None:
+        """Advance the world to ``now`` seconds (after the arm emulators have stepped)."""
+        with self.lock:
+            dt = max(0.0, now - self.time)
+            self._read_arm()
+            for name, bot in self.duckybots.items():
+                before = self.bodies[name].pose.copy()
+                bot.advance(now)
+                body = self.bodies[name]
+                body.pose = pose(rot_z(bot.state.theta), [bot.state.x, bot.state.y, body.bottom])
+                delta = body.pose @ np.linalg.inv(before)
+                for carried in self._carried_by(name):
+                    carried.pose = delta @ carried.pose
+            self._tool_physics(now)
+            self._fall(dt, now)
+            self._check_collisions(now)
+            self.time = now
+            self.version += 1
+
+    def _tool_physics(self, now: float) -> None:
+        arm = self.arm
+        if arm is None:
+            return
+        tip = arm.tool_pose[:3, 3]
+        if self.held is not None:
+            body = self.bodies[self.held]
+            assert self._held_rel is not None
+            body.pose = arm.tool_pose @ self._held_rel
+            if not self._still_holding(arm, body):
+                self._release(now)
+        elif arm.suction:
+            target = self._suction_target(tip)
+            if target is not None:
+                self._grab(target, arm, now, "suction")
+        elif arm.gripper is not None:
+            target = self._gripper_target(arm)
+            if target is not None:
+                self._grab(target, arm, now, "gripper")
+        self._last_suction = arm.suction
+        self._last_gripper = arm.gripper
+
+    def _opening_mm(self, arm: ArmView) -> float | None:
+        if arm.gripper is None:
+            return None
+        return float(arm.gripper) * self.physics.gripper_mm_per_unit
+
+    def _still_holding(self, arm: ArmView, body: Body) -> bool:
+        if self._grip_mode == "suction":
+            return arm.suction
+        opening = self._opening_mm(arm)
+        return opening is not None and opening <= min(body.size[:2]) + 1.0
+
+    def _suction_target(self, tip: np.ndarray) -> Body | None:
+        """The highest movable body whose top face is within the pick tolerance of the cup."""
+        tol = self.physics.pick_tolerance_mm
+        best = None
+        for body in self.bodies.values():
+            if body.kind not in MOVABLE or body.falling or body.held:
+                continue
+            if abs(tip[2] - body.top) > tol:
+                continue
+            if not point_in_polygon(tip[:2], body.footprint()):
+                continue
+            if best is None or body.top > best.top:
+                best = body
+        return best
+
+    def _gripper_target(self, arm: ArmView) -> Body | None:
+        """A movable body between the jaws when they close on it."""
+        opening = self._opening_mm(arm)
+        if opening is None:
+            return None
+        was = (
+            None
+            if self._last_gripper is None
+            else self._last_gripper * self.physics.gripper_mm_per_unit
+        )
+        tip = arm.tool_pose[:3, 3]
+        for body in self.bodies.values():
+            if body.kind not in MOVABLE or body.falling or body.held:
+                continue
+            width = float(min(body.size[:2]))
+            closing_on_it = opening <= width + 1.0 and (was is None or was > width + 1.0)
+            inside = body.bottom - 1.0 <= tip[2] <= body.top + 1.0
+            centred = np.linalg.norm(tip[:2] - body.pose[:2, 3]) <= 0.25 * width
+            if closing_on_it and inside and centred:
+                return body
+        return None
+
+    def _grab(self, body: Body, arm: ArmView, now: float, mode: str) -> None:
+        self.held = body.name
+        self._grip_mode = mode
+        body.held, body.falling, body.vz, body.support = True, False, 0.0, None
+        self._held_rel = np.linalg.inv(arm.tool_pose) @ body.pose
+        for other in self.bodies.values():
+            if other.support == body.name:
+                other.support, other.falling, other.vz = None, True, 0.0
+        self.events.append(WorldEvent(now, "pick", {"object": body.name, "by": mode}))
+
+    def _release(self, now: float) -> None:
+        assert self.held is not None
+        body = self.bodies[self.held]
+        # A released object hangs level: keep only its heading and position.
+        body.pose = pose(rot_z(body.yaw), body.pose[:3, 3])
+        body.held, body.falling, body.vz = False, True, 0.0
+        self.held, self._held_rel = None, None
+        self.events.append(
+            WorldEvent(
+                now, "release", {"object": body.name, "at": body.pose[:3, 3].round(2).tolist()}
+            )
+        )
+
+    def _support_below(self, body: Body) -> tuple[str, float]:
+        """The surface under the body's centre: (name, height mm); the table at least."""
+        centre = body.pose[:2, 3]
+        if not point_in_polygon(centre, self.table.polygon()):
+            return "floor", self.table.height - FLOOR_DROP
+        best_name, best_z = "table", self.table.height
+        for other in self.bodies.values():
+            if other is body or other.held or other.kind == "spot" or other.falling:
+                continue
+            if other.support == body.name:
+                continue
+            if other.kind == "bin":
+                inner = other.footprint(shrink=other.spec.wall)
+                z = other.bottom + other.spec.wall if point_in_polygon(centre, inner) else other.top
+            else:
+                z = other.top
+            if (
+                z > best_z
+                and z <= body.bottom + 1e-6
+                and point_in_polygon(centre, other.footprint())
+            ):
+                best_name, best_z = other.name, z
+        return best_name, best_z
+
+    def _fall(self, dt: float, now: float) -> None:
+        for body in self.bodies.values():
+            if not body.falling:
+                continue
+            name, z = self._support_below(body)
+            body.vz += GRAVITY * dt
+            new_bottom = body.bottom - body.vz * dt
+            if new_bottom <= z:
+                body.pose[2, 3] = z
+                body.falling, body.vz, body.support = False, 0.0, name
+                body.off_table = name == "floor"
+                self.events.append(WorldEvent(now, "land", {"object": body.name, "on": name}))
+            else:
+                body.pose[2, 3] = new_bottom
+
+    def _check_collisions(self, now: float) -> None:
+        arm = self.arm
+        if arm is None:
+            return
+        links = [
+            SolidBox(n, p, s)
+            for n, p, s in zip(arm.box_names, arm.box_poses, arm.box_sizes, strict=True)
+        ]
+        if self.held is not None:
+            held = self.bodies[self.held]
+            links += [SolidBox(f"held {held.name}", held.center_pose(), held.size)]
+        tip = arm.tool_pose[:3, 3]
+        tol = self.physics.pick_tolerance_mm
+        # A tool pressing on a top face from above is touching it, not crashing into it
+        # (the link boxes of the end effector may reach below the tool centre).
+        others = [
+            solid
+            for b in self.bodies.values()
+            if not b.held
+            and not (tip[2] >= b.top - tol and point_in_polygon(tip[:2], b.footprint()))
+            for solid in b.solids()
+        ]
+        below_table = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
+        fresh = self.collisions.update(now, links, others, below_table)
+        for hit in fresh:
+            self.events.append(WorldEvent(now, "collision", dataclasses.asdict(hit)))
+            if self.physics.halt_on_collision and self.emulator is not None:
+                self.emulator.halt(f"collision: {hit.link} hit {hit.other} ({hit.depth_mm:.1f} mm)")
+
+    # -- queries --------------------------------------------------------------------
+
+    def _carried_by(self, name: str, kinds: tuple[str, ...] | None = None) -> list[Body]:
+        """Bodies resting on ``name``, directly or on top of each other."""
+        out: list[Body] = []
+        frontier = [name]
+        while frontier:
+            base = frontier.pop()
+            for body in self.bodies.values():
+                if body.support == base and not body.held and body not in out:
+                    out.append(body)
+                    frontier.append(body.name)
+        return [b for b in out if kinds is None or b.kind in kinds]
+
+    def in_bin(self, body: Body) -> str | None:
+        """The bin whose inside holds ``body`` (through any stack), or None."""
+        seen = set()
+        current = body
+        while current.support not in (None, "table", "floor") and current.support not in seen:
+            seen.add(current.support)
+            support = self.bodies.get(current.support)
+            if support is None:
+                return None
+            if support.kind == "bin":
+                inner = support.footprint(shrink=support.spec.wall)
+                return support.name if point_in_polygon(body.pose[:2, 3], inner) else None
+            current = support
+        return None
+
+    def drawables(self) -> list[Drawable]:
+        """What a camera can see now: bodies, the arm's link boxes, the tool's marker."""
+        with self.lock:
+            out = []
+            velocity: dict[str, np.ndarray] = {}
+            for name, bot in self.duckybots.items():
+                v = bot.command[0]
+                vel = np.array([v * math.cos(bot.state.theta), v * math.sin(bot.state.theta), 0.0])
+                velocity[name] = vel
+                for carried in self._carried_by(name):
+                    velocity[carried.name] = vel
+            for b in self.bodies.values():
+                if b.off_table:
+                    continue
+                size = b.size.copy()
+                centre = b.center_pose()
+                if b.kind == "spot":
+                    size[2] = 0.4  # a painted patch: just above the table so it shows
+                    centre = b.pose @ pose(np.eye(3), [0.0, 0.0, 0.2])
+                shape = b.kind if b.kind in ("bin", "spot") else b.spec.shape
+                out.append(
+                    Drawable(
+                        name=b.name,
+                        shape=shape,
+                        pose=centre,
+                        size=size,
+                        color=b.spec.color,
+                        marker=b.marker,
+                        marker_pose=b.top_pose() if b.marker is not None else None,
+                        wall=b.spec.wall,
+                        container=self.in_bin(b),
+                        velocity=velocity.get(b.name),
+                    )
+                )
+            if self.arm is not None:
+                for name, p, s in zip(
+                    self.arm.box_names, self.arm.box_poses, self.arm.box_sizes, strict=True
+                ):
+                    out.append(Drawable(f"link {name}", "link", p, s, LINK_COLOR))
+                if self.scene.tool_marker is not None:
+                    plate = self.arm.tool_pose @ pose(np.eye(3), self.scene.tool_marker_offset)
+                    plate[:3, :3] = rot_z(math.atan2(plate[1, 0], plate[0, 0]))
+                    side = self.scene.tool_marker.size_mm * 1.3
+                    out.append(
+                        Drawable(
+                            "tool marker",
+                            "plate",
+                            plate @ pose(np.eye(3), [0.0, 0.0, -1.0]),
+                            np.array([side, side, 2.0]),
+                            (220, 220, 220),
+                            marker=self.scene.tool_marker,
+                            marker_pose=plate,
+                        )
+                    )
+            return out
+
+    def camera_pose(self, mount: str, extrinsics: np.ndarray) -> np.ndarray:
+        """The camera's pose in the base frame: on the tool (eye-in-hand) or fixed."""
+        with self.lock:
+            if mount == "eye_in_hand":
+                if self.arm is None:
+                    self._read_arm()
+                if self.arm is not None:
+                    return self.arm.tool_pose @ extrinsics
+            return extrinsics
+
+    def state(self) -> dict[str, Any]:
+        """Every body's pose and support and the arm's joints, rounded to 1e-6 mm (for comparisons)."""
+        with self.lock:
+            return {
+                "time": round(self.time, 9),
+                "bodies": {
+                    n: (b.pose.round(6).tolist(), b.support, b.held)
+                    for n, b in sorted(self.bodies.items())
+                },
+                "arm": None if self.arm is None else self.arm.joints.round(6).tolist(),
+            }
+
+    def score(self) -> dict[str, Any]:
+        """Ground truth for scoring a run (never for deciding): bins, Duckybots, collisions."""
+        with self.lock:
+            objects = {}
+            in_bin = []
+            for name, b in sorted(self.bodies.items()):
+                where = self.in_bin(b)
+                if where is not None:
+                    in_bin.append(name)
+                objects[name] = {
+                    "kind": b.kind,
+                    "position_mm": b.pose[:3, 3].round(2).tolist(),
+                    "yaw_deg": round(math.degrees(b.yaw), 2),
+                    "on": b.support,
+                    "held": b.held,
+                    "in_bin": where,
+                    "marker": None if b.marker is None else b.marker.id,
+                }
+            on_bots = {
+                name: sorted(c.name for c in self._carried_by(name, kinds=("ducky",)))
+                for name in self.duckybots
+            }
+            trash = [n for n, b in self.bodies.items() if b.kind == "trash"]
+            return {
+                "time_s": round(self.time, 6),
+                "objects": objects,
+                "in_bin": in_bin,
+                "trash_total": len(trash),
+                "trash_in_bin": sum(1 for n in trash if n in in_bin),
+                "duckies_on_duckybots": on_bots,
+                "ducky_on_duckybot": any(on_bots.values()),
+                "held": self.held,
+                "fell_off_table": sorted(n for n, b in self.bodies.items() if b.off_table),
+                "collision_count": len(self.collisions.log),
+                "collisions": [dataclasses.asdict(c) for c in self.collisions.log],
+                "duckybots": {
+                    name: {
+                        "pose": [
+                            round(bot.state.x, 2),
+                            round(bot.state.y, 2),
+                            round(math.degrees(bot.state.theta), 2),
+                        ],
+                        "phase": bot.phase,
+                        "max_tracking_error_mm": round(bot.max_tracking_error, 3),
+                    }
+                    for name, bot in self.duckybots.items()
+                },
+                "events": len(self.events),
+            }
+
+
+#: Key of the world in ``RigContext.shared``.
+SHARED_KEY = "sim.world"
+
+
+def world_for(context: Any) -> World:
+    """The rig's simulated world, built from its profile on first use (idempotent).
+
+    Raises :class:`armtree.ConfigError` naming the entry when the profile's
+    ``world:`` section is invalid.
+    """
+    world = context.shared.get(SHARED_KEY)
+    if world is None:
+        world = World(parse_scene(context.profile), seed=context.seed)
+        context.shared[SHARED_KEY] = world
+    return world
