@@ -1,0 +1,79 @@
+"""The ``direct`` planner: a straight joint-space move, validated before it is returned.
+
+Seed 002's motion algorithm: the target's inverse-kinematics solutions are
+tried nearest-first (:meth:`armtree.rig.Planner.plan_to`), and each straight
+move is validated (limits, collisions, singularity margin) before use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from armtree.collision import CollisionChecker
+from armtree.errors import Unreachable
+from armtree.kinematics import KinematicModel
+from armtree.params import Param
+from armtree.rig import Planner
+from armtree.validation import check_config, validate_samples
+
+
+class DirectPlanner(Planner):
+    """Straight joint-space moves, refused with a reason when they are not safe.
+
+    ``resolution`` is the largest joint step (deg / mm) between checked samples;
+    ``min_singular`` the smallest allowed singular value of the Jacobian (mm/deg),
+    or None to skip that check.
+    """
+
+    def __init__(
+        self, checker: CollisionChecker, resolution: float = 2.0, min_singular: float | None = 0.2
+    ) -> None:
+        self.checker = checker
+        self.model = checker.model
+        self.resolution = float(resolution)
+        self.min_singular = min_singular
+
+    def plan(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """``[start, goal]`` ``(2, n)`` deg / mm, or PlanningError naming why not."""
+        start = check_config(self.checker, start, "start")
+        goal = check_config(self.checker, goal, "goal", self.min_singular)
+        # The start is where the arm already is: only the samples after it must keep the margin.
+        samples = sample_segment(start, goal, self.resolution)[1:]
+        validate_samples(self.checker, samples, self.min_singular).raise_if_bad()
+        return np.stack([start, goal])
+
+    def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+        """Waypoints to a tool position (mm); a non-finite target is refused before any IK."""
+        xyz = np.asarray(xyz, dtype=float)
+        if not np.all(np.isfinite(xyz)):
+            raise Unreachable(f"target {xyz.tolist()} is not finite")
+        return super().plan_to(start, xyz)
+
+
+def sample_segment(q0: np.ndarray, q1: np.ndarray, step: float) -> np.ndarray:
+    """Configurations from ``q0`` to ``q1`` inclusive, no joint moving more than ``step`` between two."""
+    n = max(1, int(np.ceil(np.abs(q1 - q0).max() / step)))
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    return q0 + t * (q1 - q0)
+
+
+def direct_factory(
+    config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
+) -> DirectPlanner:
+    """Straight joint-space moves, validated for limits, collisions and singularities."""
+    checker = CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+    checker.check_start(model.home, "home")
+    min_sv = config.get("min_singular", 0.2)
+    return DirectPlanner(checker, float(config.get("resolution_deg", 2.0)), min_sv)
+
+
+direct_factory.PARAMS = (
+    Param("resolution_deg", "float", 2.0, "deg", "largest joint step between checked samples"),
+    Param("margin_mm", "float", 0.0, "mm", "clearance added around every link box"),
+    Param(
+        "min_singular", "any", 0.2, "mm/deg", "smallest allowed Jacobian singular value, or null"
+    ),
+)

@@ -1,0 +1,222 @@
+"""The direct and prm planners: valid paths, clear refusals, the roadmap cache, registration."""
+
+import numpy as np
+import pytest
+from planning_models import PlanarArm, wide_dobot
+
+from armtree.collision import CollisionChecker
+from armtree.errors import ConfigError, PlanningError, Unreachable
+from armtree.plugin_manager import make_plugin_manager
+from armtree.plugins.planners.direct import DirectPlanner, direct_factory, sample_segment
+from armtree.plugins.planners.prm import PRMPlanner, Roadmap, prm_factory
+from armtree.rig import RigContext
+from armtree.scene import Scene
+from armtree.validation import validate_samples
+
+WALL = {"box": {"center": [0, 250, 50], "size": [400, 20, 300], "name": "wall"}}
+PROFILE = {"table": {"z": -110}, "obstacles": [WALL]}
+
+
+@pytest.fixture(scope="module")
+def checker():
+    return CollisionChecker(wide_dobot(), Scene.from_profile(PROFILE))
+
+
+def _path_is_valid(checker, path, step=0.5):
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        assert validate_samples(checker, sample_segment(a, b, step)).ok
+
+
+def _prm(checker, tmp_path, **kw):
+    args = {"milestones": 300, "neighbours": 6, "seed": 4, "resolution": 2.0, "cache_dir": tmp_path}
+    args.update(kw)
+    return PRMPlanner(checker, **args)
+
+
+# -- direct ------------------------------------------------------------------------
+
+
+def test_direct_returns_the_straight_move_when_it_is_free(checker):
+    planner = DirectPlanner(checker)
+    start, goal = np.array([-60.0, 20.0, 30.0]), np.array([30.0, 30.0, 40.0])
+    path = planner.plan(start, goal)
+    np.testing.assert_allclose(path, [start, goal])
+
+
+@pytest.mark.parametrize(
+    ("goal", "reason"),
+    [
+        ([130.0, 30.0, 20.0], "collision"),  # sweeps through the wall
+        ([90.0, 30.0, 20.0], "goal_in_collision"),
+        ([0.0, 95.0, 20.0], "outside_limits"),
+        ([0.0, float("nan"), 20.0], "not_finite"),
+        ([0.0, 20.0], "bad_shape"),
+    ],
+)
+def test_direct_refuses_with_a_reason(checker, goal, reason):
+    with pytest.raises(PlanningError) as err:
+        DirectPlanner(checker).plan(np.array([30.0, 30.0, 20.0]), np.array(goal))
+    assert err.value.reason == reason
+
+
+def test_direct_refuses_singular_goals():
+    planar = CollisionChecker(PlanarArm(), Scene())
+    with pytest.raises(PlanningError, match="singularity") as err:
+        DirectPlanner(planar, min_singular=0.5).plan(np.array([0.0, 90.0]), np.array([0.0, 0.0]))
+    assert err.value.reason == "singular"
+    assert (
+        len(
+            DirectPlanner(planar, min_singular=None).plan(
+                np.array([0.0, 90.0]), np.array([0.0, 0.0])
+            )
+        )
+        == 2
+    )
+
+
+def test_direct_plan_to_tries_ik_solutions_nearest_first_and_refuses_nan():
+    model = PlanarArm()
+    planner = DirectPlanner(CollisionChecker(model, Scene()))
+    target = model.position(np.array([30.0, 60.0]))
+    path = planner.plan_to(np.array([25.0, 50.0]), target)
+    np.testing.assert_allclose(path[-1], [30.0, 60.0], atol=1e-6)  # the elbow on the start's side
+    path = planner.plan_to(np.array([90.0, -50.0]), target)
+    np.testing.assert_allclose(model.position(path[-1]), target, atol=1e-6)
+    assert path[-1][1] < 0
+    with pytest.raises(Unreachable, match="not finite"):
+        planner.plan_to(np.array([0.0, 90.0]), np.array([np.nan, 0.0, 50.0]))
+    with pytest.raises(Unreachable):
+        planner.plan_to(np.array([0.0, 90.0]), np.array([900.0, 0.0, 50.0]))
+
+
+# -- prm ------------------------------------------------------------------------------
+
+
+def test_prm_goes_around_the_wall(checker, tmp_path):
+    planner = _prm(checker, tmp_path)
+    start, goal = np.array([30.0, 30.0, 20.0]), np.array([130.0, 30.0, 20.0])
+    assert not checker.segment_free(start, goal)
+    path = planner.plan(start, goal)
+    np.testing.assert_allclose(path[0], start)
+    np.testing.assert_allclose(path[-1], goal)
+    assert len(path) >= 3
+    _path_is_valid(checker, path)
+
+
+def test_prm_cache_is_reused_and_rebuilt_when_the_scene_changes(checker, tmp_path):
+    first = _prm(checker, tmp_path)
+    roadmap = first.build()
+    assert not first.loaded_from_cache and first.cache_path.exists()
+    again = _prm(checker, tmp_path)
+    again.build()
+    assert again.loaded_from_cache
+    np.testing.assert_array_equal(again.roadmap.nodes, roadmap.nodes)
+    moved = Scene.from_profile(
+        {"table": {"z": -110}, "obstacles": [{"box": {**WALL["box"], "center": [0, 260, 50]}}]}
+    )
+    other = _prm(CollisionChecker(checker.model, moved), tmp_path)
+    other.build()
+    assert not other.loaded_from_cache and other.cache_path != first.cache_path
+    # Different limits: a different model fingerprint, a different roadmap.
+    narrow = _prm(
+        CollisionChecker(
+            wide_dobot().__class__(lower=(-90, 0, 0), upper=(90, 80, 80), coupled=None),
+            Scene.from_profile(PROFILE),
+        ),
+        tmp_path,
+    )
+    assert narrow.key != first.key
+
+
+def test_prm_is_reproducible_for_a_seed(checker, tmp_path):
+    a = _prm(checker, tmp_path / "a").build()
+    b = _prm(checker, tmp_path / "b").build()
+    c = _prm(checker, tmp_path / "c", seed=5).build()
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    np.testing.assert_array_equal(a.edges, b.edges)
+    assert not np.array_equal(a.nodes, c.nodes)
+    assert checker.valid(a.nodes).all()
+    assert checker.segments_free(a.nodes[a.edges[:, 0]], a.nodes[a.edges[:, 1]], 2.0).all()
+
+
+def test_corrupt_cache_file_is_rebuilt(checker, tmp_path):
+    planner = _prm(checker, tmp_path)
+    planner.cache_path.parent.mkdir(parents=True, exist_ok=True)
+    planner.cache_path.write_bytes(b"not a roadmap")
+    planner.build()
+    assert not planner.loaded_from_cache
+    assert Roadmap.load(planner.cache_path, planner.key) is not None
+
+
+def test_prm_refusals_name_the_reason(checker, tmp_path):
+    planner = _prm(checker, tmp_path)
+    ok = np.array([30.0, 30.0, 20.0])
+    cases = [
+        (np.array([90.0, 30.0, 20.0]), "goal_in_collision"),
+        (np.array([0.0, 30.0, 120.0]), "outside_limits"),
+        (np.array([np.inf, 30.0, 20.0]), "not_finite"),
+    ]
+    for goal, reason in cases:
+        with pytest.raises(PlanningError) as err:
+            planner.plan(ok, goal)
+        assert err.value.reason == reason
+    with pytest.raises(PlanningError) as err:
+        planner.plan(np.array([90.0, 30.0, 20.0]), ok)
+    assert err.value.reason == "start_in_collision"
+
+
+def test_prm_reports_a_disconnected_roadmap(tmp_path):
+    # A wall across the whole reach cuts the joint space in two halves.
+    model = PlanarArm()
+    scene = Scene.from_profile(
+        {"obstacles": [{"box": {"center": [0, 220, 50], "size": [20, 390, 200], "name": "wall"}}]}
+    )
+    checker = CollisionChecker(model, scene)
+    planner = PRMPlanner(checker, milestones=200, neighbours=5, cache_dir=None)
+    with pytest.raises(PlanningError, match="different components") as err:
+        planner.plan(np.array([-30.0, 0.0]), np.array([160.0, 0.0]))
+    assert err.value.reason == "disconnected"
+
+
+def test_prm_with_few_milestones_is_a_config_error(checker):
+    with pytest.raises(ConfigError):
+        PRMPlanner(checker, milestones=1)
+
+
+def test_progress_bar_can_be_forced_on(checker, capsys):
+    PRMPlanner(checker, milestones=50, neighbours=3, cache_dir=None, progress=True).build()
+    capsys.readouterr()  # drawn on stderr without error
+
+
+# -- factories and registration ---------------------------------------------------------
+
+
+def test_planners_are_registered_and_factories_build(tmp_path):
+    registry = make_plugin_manager(autoload=False).registry
+    assert registry.get("planner", "prm").factory is prm_factory
+    assert registry.get("planner", "direct").factory is direct_factory
+    ctx = RigContext(profile=None, clock=None)
+    scene = Scene.from_profile(PROFILE)
+    prm = prm_factory(
+        {"type": "prm", "milestones": 100, "neighbours": 4, "cache_dir": str(tmp_path)},
+        ctx,
+        wide_dobot(),
+        scene,
+    )
+    assert prm.milestones == 100 and prm.cache_dir == tmp_path
+    assert direct_factory({"type": "direct"}, ctx, wide_dobot(), scene).resolution == 2.0
+    assert {p.name for p in prm_factory.PARAMS} >= {
+        "milestones",
+        "neighbours",
+        "seed",
+        "resolution_deg",
+        "cache_dir",
+    }
+
+
+def test_factory_refuses_a_home_inside_an_obstacle():
+    scene = Scene.from_profile(
+        {"obstacles": [{"box": {"center": [150, 0, 10], "size": [60, 60, 60], "name": "crate"}}]}
+    )
+    with pytest.raises(ConfigError, match="crate"):
+        direct_factory({}, RigContext(profile=None, clock=None), wide_dobot(), scene)
