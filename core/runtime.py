@@ -381,9 +381,9 @@ class Run:
             # ``_value_`` is a plain attribute (Enum.value is a slow descriptor) and its
             # string hash is cached, so the log's per-change cache lookup stays cheap.
             changes = [
-                (paths[i], last[i]._value_, status._value_)
-                for i, status in enumerate(current)
-                if status is not last[i]
+                (path, old._value_, new._value_)
+                for path, old, new in zip(paths, last, current, strict=True)
+                if old is not new
             ]
             self._last = current
             if logging:
