@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import textwrap
 from pathlib import Path
@@ -110,6 +111,7 @@ def test_schema_command_writes_valid_json_schema(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out) == schema
 
 
+@functools.cache
 def _validator() -> jsonschema.Draft7Validator:
     return jsonschema.Draft7Validator(build_schema(get_plugin_manager().registry))
 
@@ -152,3 +154,34 @@ def test_shipped_trees_reference_the_shipped_schema():
     for path in trees.glob("*.yaml"):
         first = path.read_text().splitlines()[0]
         assert first == "# yaml-language-server: $schema=armtree.schema.json", path.name
+
+
+def test_armtree_check_in_a_subprocess_exits_0_or_2_with_positions(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    good = write(tmp_path, "good.yaml", TREE)
+    bad = write(tmp_path, "bad.yaml", "root:\n  sequence:\n    - sucess: {}\n    - retry: {}\n")
+    code = "import sys; from armtree.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = dict(os.environ, ARMTREE_DISABLE_PLUGIN_AUTOLOAD="1")
+
+    def check(path: Path) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-c", code, "check", str(path)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            env=env,
+            cwd=tmp_path,
+        )
+
+    ok = check(good)
+    assert ok.returncode == 0, ok.stderr
+    assert "ok: demo" in ok.stdout
+    failed = check(bad)
+    assert failed.returncode == 2
+    output = failed.stdout + failed.stderr
+    assert f"{bad}:3:7: unknown node type 'sucess'; did you mean 'success'?" in output
+    assert f"{bad}:4:7: retry needs parameter 'num_failures'" in output
+    assert "Traceback" not in output

@@ -321,3 +321,44 @@ def test_unknown_profile_name_suggests_a_shipped_one():
     with pytest.raises(armtree.ConfigError) as info:
         armtree.load_profile("sim_dobbot", manager=manager())
     assert "did you mean 'sim_dobot'?" in info.value.message
+
+
+def test_plugins_listed_in_a_profile_register_its_components(tmp_path):
+    write(
+        tmp_path,
+        "custom_arm.py",
+        '''
+        import armtree
+
+
+        def custom(config, context):
+            """An arm from the profile's own plugin."""
+            return config
+
+
+        custom.PARAMS = (armtree.Param("port", "str"),)
+
+
+        @armtree.hookimpl
+        def armtree_arms():
+            return {"custom_arm": custom}
+        ''',
+    )
+    path = write(
+        tmp_path, "p.yaml", "plugins: [custom_arm.py]\narm: {type: custom_arm, port: sim, x: 1}\n"
+    )
+    base = manager()
+    with pytest.raises(armtree.ConfigError) as info:
+        armtree.load_profile(path, manager=base)
+    assert (info.value.line, info.value.column) == (2, 36)
+    assert "custom_arm has no parameter 'x'" in info.value.message
+    path.write_text("plugins: [custom_arm.py]\narm: {type: custom_arm, port: sim}\n")
+    profile = armtree.load_profile(path, manager=manager())
+    assert profile.plugins == [str(tmp_path / "custom_arm.py")]
+    assert (
+        profile.manager.registry.get("arm", "custom_arm").summary
+        == "An arm from the profile's own plugin."
+    )
+    tree_path = write(tmp_path, "t.yaml", "rig: p.yaml\nroot: {success: {}}\n")
+    tree = armtree.load_tree(tree_path, manager=manager())
+    assert tree.manager.registry.has("arm", "custom_arm") and tree.profile.name == "p"
