@@ -192,3 +192,49 @@ def render_markers(
         draw_plane(image, tex, full_mm, full_mm, camera_matrix, p.rvec, p.tvec)
         truth[p.marker_id] = project_corners(p.size_mm, camera_matrix, p.rvec, p.tvec)
     return (effects or Effects()).apply(image), truth
+
+
+def board_views(
+    board_image: np.ndarray,
+    width_mm: float,
+    height_mm: float,
+    camera_matrix: np.ndarray,
+    count: int,
+    seed: int = 0,
+    margin_px: int = 40,
+    size: tuple[int, int] = (640, 480),
+) -> list[np.ndarray]:
+    """``count`` grey uint8 views of a printed board at random distances and angles.
+
+    The board (``width_mm`` x ``height_mm`` of ``board_image``, which is
+    drawn with a white margin of ``margin_px`` texture pixels) is tilted up
+    to 35 degrees about both axes, 350 to 500 mm away, with mild noise.
+    """
+    rng = np.random.default_rng(seed)
+    h, w = board_image.shape[:2]
+    tex = (
+        cv2.copyMakeBorder(
+            board_image, margin_px, margin_px, margin_px, margin_px, cv2.BORDER_CONSTANT, value=255
+        ).astype(np.float32)
+        * 0.75
+        + 30.0
+    )
+    full_w = width_mm * (w + 2 * margin_px) / w
+    full_h = height_mm * (h + 2 * margin_px) / h
+    views = []
+    for i in range(count):
+        rvec, tvec = look_at_pose(
+            rng.uniform(350, 500),
+            tilt_deg=rng.uniform(-35, 35),
+            spin_deg=rng.uniform(-20, 20),
+            offset_mm=(rng.uniform(-30, 30), rng.uniform(-20, 20)),
+        )
+        rotation, _ = cv2.Rodrigues(rvec)
+        a = np.radians(rng.uniform(-30, 30))
+        turn = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+        rvec, _ = cv2.Rodrigues(rotation @ turn)
+        image = draw_plane(
+            blank(size[0], size[1], 90.0), tex, full_w, full_h, camera_matrix, rvec.reshape(3), tvec
+        )
+        views.append(Effects(noise=1.5, seed=seed * 1000 + i).apply(image))
+    return views

@@ -1,0 +1,320 @@
+"""``armtree detect`` and ``armtree markers``.
+
+``detect`` runs any registered tracker on images or videos and prints what
+it found (``--json``: one JSON record per image), draws it (``--annotate``),
+or measures the marker detection rate of seed 004 eq. 15 (``--rate``).
+``markers`` writes printable markers, one per PNG or a sheet of many on A4.
+Bad input raises :class:`ConfigError` naming the file or option (exit 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from armtree.clock import WallClock
+from armtree.errors import ConfigError
+from armtree.rig import Detection, Frame, RigContext
+
+from . import hamming_code
+from .annotate import annotate
+from .aruco import get_dictionary
+from .detection_rate import marker_detection_rate
+from .inputs import Source, add_intrinsics_options, intrinsics_from_args, is_video, sources
+from .markers import FAMILIES, printable_marker, write_png, write_sheet
+
+
+def registry_of(args: argparse.Namespace) -> Any:
+    """The plugin registry the CLI built (or the process's shared one)."""
+    manager = getattr(args, "manager", None)
+    if manager is None:
+        from armtree.plugin_manager import get_plugin_manager
+
+        manager = get_plugin_manager()
+    return manager.registry
+
+
+def detection_record(det: Detection) -> dict[str, Any]:
+    """A detection as plain JSON data (pixels, mm, radians)."""
+    return {
+        "id": int(det.id),
+        "family": det.family,
+        "corners": np.round(np.asarray(det.corners, dtype=float), 3).tolist(),
+        "quality": round(float(det.quality), 4),
+        "role": det.role,
+        "size_mm": det.size_mm,
+        "ambiguous": bool(det.ambiguous),
+        "rvec": None if det.rvec is None else np.round(np.asarray(det.rvec, float), 5).tolist(),
+        "tvec": None if det.tvec is None else np.round(np.asarray(det.tvec, float), 3).tolist(),
+    }
+
+
+class DetectCommand:
+    """``armtree detect``: run a tracker on images or videos."""
+
+    help = (
+        "find markers in images or videos with a tracker (JSON, annotated images, detection rate)"
+    )
+
+    def configure(self, parser: argparse.ArgumentParser) -> None:
+        """Add detect's arguments."""
+        parser.add_argument("images", nargs="+", metavar="IMAGE", help="image or video files")
+        parser.add_argument("--tracker", default="aruco", help="tracker name (default aruco)")
+        parser.add_argument("--dictionary", help="ArUco dictionary (aruco; default 4x4_50)")
+        parser.add_argument("--size-mm", type=float, help="marker side for poses (mm)")
+        parser.add_argument(
+            "--rig", metavar="PROFILE", help="take tracker settings and tags from a profile"
+        )
+        parser.add_argument(
+            "--threshold", type=float, help="preprocess: threshold at this fraction (0.4)"
+        )
+        parser.add_argument(
+            "--adaptive", action="store_true", help="preprocess: adaptive threshold"
+        )
+        parser.add_argument("--blur", type=int, help="preprocess: Gaussian blur kernel (odd px)")
+        parser.add_argument("--json", action="store_true", help="one JSON record per image")
+        parser.add_argument("--annotate", metavar="OUT_DIR", help="write annotated images here")
+        parser.add_argument(
+            "--rate",
+            action="store_true",
+            help="marker detection rate (seed 004 eq. 15) over all frames",
+        )
+        parser.add_argument(
+            "--fps", type=float, help="frame rate for --rate (a video's own by default)"
+        )
+        parser.add_argument("--marker-id", type=int, help="count only this id for --rate")
+        add_intrinsics_options(parser)
+
+    def run(self, args: argparse.Namespace) -> int:
+        """Detect, print, draw; the exit code (0, or ConfigError for bad input)."""
+        tracker = self._tracker(args)
+        intr = intrinsics_from_args(args)
+        if args.rate:
+            return self._rate(args, tracker, intr)
+        out_dir = Path(args.annotate) if args.annotate else None
+        if out_dir is not None:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        for n, src in enumerate(sources(args.images)):
+            frame = self._frame(src, n, intr)
+            dets = _detect(tracker, frame, src.path)
+            self._report(args, src, dets)
+            if out_dir is not None:
+                name = (
+                    Path(src.path).stem
+                    + ("" if src.frame is None else f"_{src.frame:05d}")
+                    + ".png"
+                )
+                drawn = annotate(src.image, dets, frame.camera_matrix, frame.distortion)
+                cv2.imwrite(str(out_dir / name), drawn)
+        return 0
+
+    def _rate(self, args: argparse.Namespace, tracker: Any, intr: Any) -> int:
+        fps = self._fps(args)
+        frames = (self._frame(src, n, intr) for n, src in enumerate(sources(args.images)))
+        try:
+            result = marker_detection_rate(tracker, frames, fps, args.marker_id)
+        except ValueError as exc:
+            raise ConfigError(f"cannot process the frames: {exc}") from None
+        if args.json:
+            record = {
+                "frames": result.frames,
+                "detections": result.detections,
+                "fps": result.fps,
+                "per_frame": round(result.per_frame, 5),
+                "mdr": round(result.rate, 4),
+                "marker_id": args.marker_id,
+            }
+            print(json.dumps(record))
+        else:
+            what = "any marker" if args.marker_id is None else f"marker {args.marker_id}"
+            print(
+                f"marker detection rate ({what}): {result.rate:.2f} markers/s "
+                f"({result.detections} detections in {result.frames} frames at {result.fps:g} fps)"
+            )
+        return 0
+
+    def _tracker(self, args: argparse.Namespace) -> Any:
+        registry = registry_of(args)
+        profile = None
+        config: dict[str, Any] = {}
+        if args.rig:
+            from armtree.profile import load_profile
+
+            profile = load_profile(args.rig)
+            section = profile.section("tracker") or {}
+            if section.get("type", args.tracker) == args.tracker:
+                config = {k: v for k, v in section.items() if k != "type"}
+        if args.dictionary is not None:
+            if args.tracker != "aruco":
+                raise ConfigError(
+                    f"--dictionary applies to the aruco tracker, not {args.tracker!r}"
+                )
+            get_dictionary(args.dictionary)
+            config["dictionary"] = args.dictionary
+        if args.size_mm is not None:
+            if not args.size_mm > 0:
+                raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
+            config["size_mm"] = args.size_mm
+        prep = dict(config.get("preprocess") or {})
+        if args.threshold is not None:
+            prep["threshold"] = args.threshold
+        if args.adaptive:
+            prep["adaptive"] = True
+        if args.blur is not None:
+            prep["blur"] = args.blur
+        if prep:
+            config["preprocess"] = prep
+        factory = registry.get("tracker", args.tracker).factory
+        return factory(config, RigContext(profile=profile, clock=WallClock()))
+
+    def _fps(self, args: argparse.Namespace) -> float:
+        if args.fps is not None:
+            if not args.fps > 0:
+                raise ConfigError(f"--fps {args.fps:g}: must be positive")
+            return float(args.fps)
+        videos = [p for p in args.images if is_video(p)]
+        if videos:
+            from armtree.plugins.cameras.replay import video_fps
+
+            fps = video_fps(videos[0])
+            if fps:
+                return fps
+        raise ConfigError("--rate needs --fps (the rate the frames were taken at)")
+
+    @staticmethod
+    def _frame(src: Source, n: int, intr: Any) -> Frame:
+        if intr is not None:
+            h, w = src.image.shape[:2]
+            intr = intr.for_size(w, h)
+        return Frame(
+            image=src.image,
+            timestamp=float(n),
+            camera_matrix=None if intr is None else intr.camera_matrix,
+            distortion=None if intr is None else intr.distortion,
+            index=n,
+        )
+
+    @staticmethod
+    def _report(args: argparse.Namespace, src: Source, dets: list[Detection]) -> None:
+        if args.json:
+            record: dict[str, Any] = {"path": src.path}
+            if src.frame is not None:
+                record["frame"] = src.frame
+            record["detections"] = [detection_record(d) for d in dets]
+            print(json.dumps(record))
+            return
+        where = src.path if src.frame is None else f"{src.path}#{src.frame}"
+        print(f"{where}: {len(dets)} marker(s)")
+        for d in dets:
+            centre = np.asarray(d.corners).mean(axis=0)
+            line = f"  id {d.id}" + (" (ambiguous)" if d.ambiguous else "")
+            line += f" {d.role} at ({centre[0]:.1f}, {centre[1]:.1f}) px"
+            if d.tvec is not None:
+                t = np.asarray(d.tvec, float)
+                line += f", t = [{t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}] mm"
+            print(line)
+
+
+def _detect(tracker: Any, frame: Frame, path: str) -> list[Detection]:
+    try:
+        return tracker.detect(frame)
+    except ValueError as exc:
+        raise ConfigError(f"cannot process this image: {exc}", file=path) from None
+
+
+def parse_ids(text: str) -> list[int]:
+    """``"0-5,8,10"`` -> ``[0, 1, 2, 3, 4, 5, 8, 10]``; ConfigError for anything else."""
+    ids: list[int] = []
+    for part in text.replace(" ", "").split(","):
+        if not part:
+            continue
+        try:
+            if "-" in part[1:]:
+                lo, hi = part.split("-", 1)
+                a, b = int(lo), int(hi)
+                if b < a:
+                    raise ValueError
+                ids.extend(range(a, b + 1))
+            else:
+                ids.append(int(part))
+        except ValueError:
+            raise ConfigError(f"--sheet {text!r}: give ids like 0-5,8,10") from None
+    if not ids:
+        raise ConfigError(f"--sheet {text!r}: no ids")
+    return ids
+
+
+def check_marker_id(family: str, marker_id: int, dictionary: str) -> None:
+    """ConfigError unless ``marker_id`` exists in the family (and dictionary)."""
+    if family == "hamming":
+        if not 0 <= marker_id < hamming_code.MAX_ID:
+            raise ConfigError(f"--id {marker_id}: Hamming ids run from 0 to 2**28 - 1")
+        return
+    count = get_dictionary(dictionary).bytesList.shape[0]
+    if not 0 <= marker_id < count:
+        raise ConfigError(f"--id {marker_id}: dictionary {dictionary} has ids 0 to {count - 1}")
+
+
+class MarkersCommand:
+    """``armtree markers``: printable marker PNGs, or A4 sheets (PNG or PDF)."""
+
+    help = "write printable ArUco or Hamming markers (PNG with DPI, or A4 sheets as PNG/PDF)"
+
+    def configure(self, parser: argparse.ArgumentParser) -> None:
+        """Add markers' arguments."""
+        parser.add_argument("--family", required=True, choices=FAMILIES, help="marker family")
+        parser.add_argument("--id", type=int, help="marker id")
+        parser.add_argument("--sheet", metavar="IDS", help="several ids on A4, e.g. 0-5,8")
+        parser.add_argument(
+            "--size-mm", type=float, default=25.0, help="side of the black square (mm)"
+        )
+        parser.add_argument(
+            "--dpi", type=float, default=300.0, help="print resolution (default 300)"
+        )
+        parser.add_argument(
+            "--dictionary", default="4x4_50", help="ArUco dictionary (default 4x4_50)"
+        )
+        parser.add_argument(
+            "-o", "--output", required=True, metavar="FILE", help=".png (or .pdf sheet)"
+        )
+
+    def run(self, args: argparse.Namespace) -> int:
+        """Write the marker(s); 0, or ConfigError for bad options."""
+        if not args.size_mm > 0:
+            raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
+        if not args.dpi > 0:
+            raise ConfigError(f"--dpi {args.dpi:g}: must be positive")
+        if args.family == "aruco":
+            get_dictionary(args.dictionary)
+        if (args.id is None) == (args.sheet is None):
+            raise ConfigError("give --id N for one marker or --sheet IDS for a sheet")
+        out = Path(args.output)
+        suffix = out.suffix.lower()
+        if suffix not in (".png", ".pdf"):
+            raise ConfigError(f"-o {args.output}: write a .png (or a .pdf sheet)")
+        ids = [args.id] if args.id is not None else parse_ids(args.sheet)
+        for marker_id in ids:
+            check_marker_id(args.family, marker_id, args.dictionary)
+        if args.sheet is None and suffix == ".png":
+            printed = printable_marker(
+                args.family, args.id, args.size_mm, args.dpi, args.dictionary
+            )
+            write_png(out, printed.image, args.dpi)
+            print(
+                f"{out}: {args.family} id {args.id}, {printed.side_px} px = {printed.size_mm:.2f} mm "
+                f"at {args.dpi:g} dpi (print at 100 %)"
+            )
+            return 0
+        try:
+            pages = write_sheet(out, args.family, ids, args.size_mm, args.dpi, args.dictionary)
+        except ValueError as exc:
+            raise ConfigError(str(exc), file=str(out)) from None
+        print(
+            f"{out}: {len(ids)} {args.family} marker(s) of {args.size_mm:g} mm on {pages} A4 page(s)"
+        )
+        return 0
