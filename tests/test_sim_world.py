@@ -1,0 +1,225 @@
+"""Suction, gripper, falling, collisions, Duckybot cargo and scoring in the simulated world."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from sim_fakes import FakeEmulator
+
+from armtree.plugins.sim.scene import parse_scene
+from armtree.plugins.sim.world import World
+
+PROFILE = {
+    "tracker": {"type": "aruco", "dictionary": "4x4_50"},
+    "tags": {
+        "ducky": {"id": 0, "size_mm": 25},
+        "duckybot": {"id": 1, "size_mm": 25},
+        "trash": {"ids": [2, 3, 4], "size_mm": 25},
+    },
+    "world": {
+        "table": {"x": [-300, 400], "y": [-400, 400]},
+        "objects": {
+            "ducky": {"kind": "ducky", "at": [200, -100]},
+            "trash": {"kind": "trash", "at": [150, 150]},
+            "bin": {"kind": "bin", "at": [0, 250], "size": [90, 90, 35]},
+            "wall": {"kind": "obstacle", "at": [250, 100], "size": [40, 40, 150]},
+        },
+        "duckybots": {
+            "bot": {
+                "start": [220, -300, 90],
+                "size": [90, 70, 40],
+                "route": [
+                    {"park": [220, 0, 90], "until": "loaded", "wait_s": 1.0},
+                    {"drive_to": [220, 200]},
+                ],
+            }
+        },
+    },
+}
+
+DT = 0.05
+
+
+def make_world(**world_changes):
+    profile = copy.deepcopy(PROFILE)
+    profile["world"].update(world_changes)
+    world = World(parse_scene(profile), seed=3)
+    emulator = FakeEmulator()
+    emulator.put([200, 0, 200])
+    world.attach_arm(emulator)
+    world.step(0.0)
+    return world, emulator
+
+
+def run(world, emulator, seconds, t0=None):
+    t = world.time if t0 is None else t0
+    end = t + seconds
+    while t < end - 1e-9:
+        t = round(t + DT, 9)
+        emulator.step(t)
+        world.step(t)
+    return t
+
+
+def test_suction_picks_only_within_the_tolerance_and_carries_rigidly():
+    world, emu = make_world()
+    ducky = world.bodies["ducky"]
+    emu.put([200, -100, ducky.top + 12])
+    emu.suction = True
+    run(world, emu, 0.2)
+    assert world.held is None, "12 mm above the top face is too far for the cup"
+    emu.suction = False
+    run(world, emu, 0.1)
+    emu.put([203, -98, ducky.top + 2])
+    emu.suction = True
+    run(world, emu, 0.1)
+    assert world.held == "ducky"
+
+    def in_tool():
+        tool = emu.model.fk(emu.q)
+        return np.linalg.inv(tool) @ ducky.pose
+
+    held = in_tool()
+    emu.put([120, 40, 150])
+    run(world, emu, 0.1)
+    assert np.allclose(in_tool(), held), "carried rigidly in the tool frame"
+    assert world.score()["held"] == "ducky"
+
+
+def test_released_trash_falls_into_the_bin_and_scores():
+    world, emu = make_world()
+    trash = world.bodies["trash"]
+    emu.put([150, 150, trash.top])
+    emu.suction = True
+    run(world, emu, 0.1)
+    emu.put([0, 250, 120])
+    run(world, emu, 0.1)
+    emu.suction = False
+    run(world, emu, 0.05)
+    assert trash.falling and trash.bottom > 3.0, "it takes time to fall"
+    run(world, emu, 1.0)
+    score = world.score()
+    assert not trash.falling
+    assert trash.bottom == pytest.approx(3.0)  # the bin's floor (wall 3 mm)
+    assert score["in_bin"] == ["trash"] and score["trash_in_bin"] == 1
+    assert score["objects"]["trash"]["in_bin"] == "bin"
+    assert score["collision_count"] == 0
+
+
+def test_ducky_dropped_on_the_parked_duckybot_leaves_with_it():
+    world, emu = make_world()
+    bot = world.duckybots["bot"]
+    run(world, emu, 15.0)
+    assert bot.parked, "the Duckybot waits at its loading spot"
+    ducky = world.bodies["ducky"]
+    emu.put([200, -100, ducky.top])
+    emu.suction = True
+    run(world, emu, 0.1)
+    top = world.bodies["bot"].top
+    here = world.bodies["bot"].pose[:2, 3]
+    emu.put([here[0], here[1], top + ducky.size[2] + 5])
+    run(world, emu, 0.1)
+    emu.suction = False
+    emu.put([here[0], here[1], 200])
+    run(world, emu, 0.5)
+    score = world.score()
+    assert score["ducky_on_duckybot"] and score["duckies_on_duckybots"] == {"bot": ["ducky"]}
+    assert ducky.bottom == pytest.approx(top)
+    run(world, emu, 10.0)
+    assert bot.phase in ("driving", "done") and bot.leg_index >= 1, "loaded: it leaves"
+    assert world.bodies["bot"].pose[1, 3] > here[1] + 50
+    assert np.allclose(ducky.pose[:2, 3], world.bodies["bot"].pose[:2, 3], atol=1.0)
+
+
+def test_object_released_off_the_table_is_lost():
+    world, emu = make_world(table={"x": [-300, 300], "y": [-400, 400]})
+    ducky = world.bodies["ducky"]
+    emu.put([200, -100, ducky.top])
+    emu.suction = True
+    run(world, emu, 0.1)
+    emu.put([330, -100, 100])
+    run(world, emu, 0.1)
+    emu.suction = False
+    run(world, emu, 1.5)
+    assert world.score()["fell_off_table"] == ["ducky"]
+
+
+def test_gripper_grasps_when_closing_around_an_object():
+    world, emu = make_world()
+    ducky = world.bodies["ducky"]
+    emu.gripper = 60.0
+    emu.put([200, -100, ducky.bottom + 15])
+    run(world, emu, 0.1)
+    assert world.held is None
+    emu.gripper = 31.0
+    run(world, emu, 0.1)
+    assert world.held == "ducky"
+    emu.put([200, -100, 100])
+    run(world, emu, 0.1)
+    assert ducky.bottom == pytest.approx(100 - 15)
+    emu.gripper = 60.0
+    run(world, emu, 1.0)
+    assert world.held is None and ducky.bottom == pytest.approx(0.0)
+
+
+def test_collision_is_recorded_once_and_halts_the_arm():
+    world, emu = make_world()
+    emu.put([200, 100, 60])
+    emu.target = emu.model.ik(np.array([300, 100, 60.0]))
+    run(world, emu, 2.0)
+    score = world.score()
+    assert score["collision_count"] == 1
+    hit = score["collisions"][0]
+    assert hit["other"] == "wall" and hit["depth_mm"] > 3
+    assert emu.halted and "wall" in emu.halted[0]
+    assert emu.model.position(emu.q)[0] < 260, "halted at the wall, not through it"
+
+
+def test_collision_without_halting_when_configured():
+    world, emu = make_world(physics={"halt_on_collision": False})
+    emu.put([200, 100, 60])
+    emu.target = emu.model.ik(np.array([300, 100, 60.0]))
+    run(world, emu, 2.0)
+    score = world.score()
+    assert score["collision_count"] >= 1, "the tool, then the boom, pass through the wall"
+    assert {c["other"] for c in score["collisions"]} == {"wall"}
+    assert not emu.halted
+    assert emu.model.position(emu.q)[0] == pytest.approx(300)
+
+
+def test_touching_a_top_face_is_not_a_collision():
+    world, emu = make_world()
+    ducky = world.bodies["ducky"]
+    emu.put([200, -100, ducky.top + 30])
+    emu.target = emu.model.ik(np.array([200, -100, ducky.top - 1.0]))
+    run(world, emu, 1.0)
+    assert world.score()["collision_count"] == 0
+
+
+def test_configured_faults_are_passed_to_the_emulator():
+    world, emu = make_world(faults={"missed_steps": {"probability": 0.1, "max_steps": 8}})
+    assert emu.injected == [("missed_steps", {"probability": 0.1, "max_steps": 8.0})]
+
+
+def script(world, emu):
+    """A scripted pick-and-place used to compare runs."""
+    ducky = world.bodies["ducky"]
+    emu.target = emu.model.ik(np.array([200, -100, ducky.top]))
+    run(world, emu, 3.0)
+    emu.suction = True
+    emu.target = emu.model.ik(np.array([50, 200, 120]))
+    run(world, emu, 4.0)
+    emu.suction = False
+    run(world, emu, 3.0)
+
+
+def test_same_seed_same_world_state():
+    a, ea = make_world()
+    b, eb = make_world()
+    script(a, ea)
+    script(b, eb)
+    assert a.state() == b.state()
+    assert a.score() == b.score()
+    assert a.duckybots["bot"].trail == b.duckybots["bot"].trail
