@@ -86,8 +86,16 @@ class Interval:
             c = np.asarray(other, dtype=float)
             a, b = self.lo * c, self.hi * c
             return Interval(np.minimum(a, b), np.maximum(a, b))
-        p1, p2 = self.lo * other.lo, self.lo * other.hi
-        p3, p4 = self.hi * other.lo, self.hi * other.hi
+        with np.errstate(invalid="ignore"):
+            p1, p2 = self.lo * other.lo, self.lo * other.hi
+            p3, p4 = self.hi * other.lo, self.hi * other.hi
+        if not np.all(np.isfinite(self.lo) & np.isfinite(self.hi)) or not np.all(
+            np.isfinite(other.lo) & np.isfinite(other.hi)
+        ):
+            # 0 * inf is 0 for intervals (the zero factor is exact); numpy says NaN.
+            p1, p2, p3, p4 = (
+                np.nan_to_num(p, nan=0.0, posinf=np.inf, neginf=-np.inf) for p in (p1, p2, p3, p4)
+            )
         return Interval(
             np.minimum(np.minimum(p1, p2), np.minimum(p3, p4)),
             np.maximum(np.maximum(p1, p2), np.maximum(p3, p4)),
