@@ -43,7 +43,7 @@ class NullView:
         """Called once before the first tick."""
 
     def update(self, run: Run, changes: Sequence[Change]) -> None:
-        """Called after a tick that changed at least one status."""
+        """Called after every tick with the status changes it made (possibly none)."""
 
     def message(self, text: str) -> None:
         """An event worth telling the user (interrupt, preemption, hook error)."""
@@ -65,6 +65,8 @@ class PlainView(NullView):
 
     def update(self, run: Run, changes: Sequence[Change]) -> None:
         """Print each change with the tick and the run time."""
+        if not changes:
+            return
         head = f"tick {run.tick_count} t={run.clock.now():.3f}s"
         self._print("\n".join(f"{head} {path}: {old} -> {new}" for path, old, new in changes))
 

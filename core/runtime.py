@@ -376,19 +376,20 @@ class Run:
     def _track(self, now: float, logging: bool) -> None:
         last = self._last
         current = [n.status for n in self._nodes]
+        changes: list[tuple[str, str, str]] = []
         if current != last:
-            paths = self._paths
             # ``_value_`` is a plain attribute (Enum.value is a slow descriptor) and its
             # string hash is cached, so the log's per-change cache lookup stays cheap.
             changes = [
                 (path, old._value_, new._value_)
-                for path, old, new in zip(paths, last, current, strict=True)
+                for path, old, new in zip(self._paths, last, current, strict=True)
                 if old is not new
             ]
             self._last = current
             if logging:
                 self.log.status_changes(self.tick_count, now, changes)
-            self.view.update(self, changes)
+        # Every tick, so a live view can show time passing; views throttle themselves.
+        self.view.update(self, changes)
         if logging:
             stream = Blackboard.activity_stream
             if stream is not None and stream.data:
