@@ -13,7 +13,7 @@ centre, C the camera, A a marker.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,19 +172,24 @@ def tool_for_camera_over(
     tool_T_camera: np.ndarray,
     near: np.ndarray | None = None,
     iterations: int = 4,
+    rotation_at: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray:
     """Tool position (mm) that puts an eye-in-hand camera ``height`` mm above ``point``.
 
     The camera's offset turns with the tool, and the tool's orientation depends
-    on where it is, so the position is found by fixed-point iteration through the
-    model's inverse and forward kinematics. Raises
-    :class:`~armtree.errors.Unreachable` when a step leaves the workspace.
+    on where it is, so the position is found by fixed-point iteration.
+    ``rotation_at(xyz)`` gives the tool's 3x3 orientation at a position; by
+    default the model's forward kinematics of its inverse kinematics, which
+    raises :class:`~armtree.errors.Unreachable` when a step leaves the workspace.
     """
+    if rotation_at is None:
+
+        def rotation_at(xyz: np.ndarray) -> np.ndarray:
+            return model.fk(model.ik(xyz, near=near))[:3, :3]
+
     want = np.asarray(point, dtype=float).reshape(3) + np.array([0.0, 0.0, height])
     offset = np.asarray(tool_T_camera, dtype=float)[:3, 3]
     tool = want - offset
     for _ in range(iterations):
-        q = model.ik(tool, near=near)
-        rot = model.fk(q)[:3, :3]
-        tool = want - rot @ offset
+        tool = want - rotation_at(tool) @ offset
     return tool

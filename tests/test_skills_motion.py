@@ -105,3 +105,12 @@ def test_a_rig_without_an_arm_fails_with_a_message():
     node.setup(rig=rig, clock=rig.clock)
     node.tick_once()
     assert node.status is Status.FAILURE and "no arm" in node.feedback_message
+
+
+def test_a_stalled_motion_times_out_and_stops_the_arm():
+    rig = make_rig(ticks=10**6)  # the arm never reports the move done
+    node = MoveTo("go", to="home", offset=[0, 0, 20])
+    status, ticks = run(node, rig, max_ticks=1000)
+    assert status is Status.FAILURE and "did not finish in time" in node.feedback_message
+    assert rig.arm.stops >= 1
+    assert ticks * 0.05 < 30.0

@@ -66,8 +66,16 @@ class Move(Action):
 
     With a planner the path is planned (limits, reachability, collisions) and its
     waypoints are sent one after another; without one the arm's own target checks
-    apply. A refused target fails the step with the reason; nothing is sent.
+    apply. A refused target fails the step with the reason; nothing is sent. A
+    motion that has not ended after :data:`TIMEOUT_FACTOR` times its expected
+    duration plus :data:`TIMEOUT_SLACK` seconds (a stalled or halted arm) stops
+    the arm and fails the step.
     """
+
+    #: Multiple of a motion's expected duration after which it has stalled.
+    TIMEOUT_FACTOR = 3.0
+    #: Seconds added to every motion's allowance (acceleration, serial round trips).
+    TIMEOUT_SLACK = 5.0
 
     def __init__(
         self,
@@ -85,6 +93,7 @@ class Move(Action):
         self.label = label
         self._waypoints: list[np.ndarray] = []
         self._handle: MotionHandle | None = None
+        self._deadline = float("inf")
 
     def describe(self) -> str:
         """What this move goes to, for messages."""
@@ -97,10 +106,13 @@ class Move(Action):
         self.message = ""
         try:
             if planner is None:
+                goal = self.joints
                 if self.xyz is not None:
+                    goal = arm.model.ik(self.xyz, near=arm.joints())
                     self._handle = arm.move_to(self.xyz, self.speed)
                 else:
                     self._handle = arm.move_joints(self.joints, self.speed)
+                self._allow(goal)
                 return
             q0 = np.asarray(arm.joints(), dtype=float)
             if self.xyz is not None:
@@ -122,7 +134,17 @@ class Move(Action):
         return self._handle
 
     def _next(self) -> None:
-        self._handle = self.rig.arm.move_joints(self._waypoints.pop(0), self.speed)
+        goal = self._waypoints.pop(0)
+        self._allow(goal)
+        self._handle = self.rig.arm.move_joints(goal, self.speed)
+
+    def _allow(self, goal: np.ndarray) -> None:
+        """Set the deadline of the motion to joints ``goal`` starting now."""
+        arm = self.rig.arm
+        speeds = np.array([j.max_speed for j in arm.model.joints], dtype=float)
+        delta = np.abs(np.asarray(goal, dtype=float) - np.asarray(arm.joints(), dtype=float))
+        expected = float(np.max(delta / speeds)) / max(self.speed, 1e-3) if len(speeds) else 0.0
+        self._deadline = self.rig.clock.now() + self.TIMEOUT_FACTOR * expected + self.TIMEOUT_SLACK
 
     def poll(self) -> State:
         if self.message:
@@ -137,7 +159,12 @@ class Move(Action):
                 return State.DONE
             self._next()
             handle = self._handle
-        return State.RUNNING if handle is not None else State.DONE
+        if handle is None:
+            return State.DONE
+        if self.rig.clock.now() > self._deadline:
+            self.stop()
+            return self.fail(f"{self.describe()} did not finish in time: the arm stalled")
+        return State.RUNNING
 
     def stop(self) -> None:
         self._waypoints = []

@@ -24,7 +24,7 @@ def camera_over(
 ) -> np.ndarray:
     """Tool position (mm) putting the camera ``height`` mm over ``point``, or as near as reachable.
 
-    Eye-in-hand: lower heights down to ``min_height`` are tried in 10 mm steps,
+    Eye-in-hand: lower heights down to ``min_height`` are tried in 5 mm steps,
     then the reachable tool position nearest the wanted one. Eye-to-hand: the
     tool simply goes ``height`` above the point (out of the way is the caller's
     business). Raises :class:`SkillFailure` when nothing near is reachable.
@@ -33,21 +33,20 @@ def camera_over(
     model = rig.arm.model
     if rig.camera.mount != EYE_IN_HAND:
         return point + UP * height
-    wanted = None
-    for h in np.arange(height, min(min_height, height) - 1e-9, -10.0):
-        try:
-            tool = tool_for_camera_over(
-                model, point, h, rig.camera.extrinsics, near=rig.arm.joints()
-            )
-        except ValueError:
-            continue
-        if wanted is None:
-            wanted = tool
+    q_near = rig.arm.joints()
+
+    def rotation_at(xyz: np.ndarray) -> np.ndarray:
+        reach = nearest_reachable(model, xyz)
+        if reach is None:
+            return np.eye(3)
+        return model.fk(model.ik(reach, near=q_near))[:3, :3]
+
+    tool = point + UP * height
+    for h in np.arange(height, min(min_height, height) - 1e-9, -5.0):
+        tool = tool_for_camera_over(model, point, h, rig.camera.extrinsics, rotation_at=rotation_at)
         if reachable(model, tool):
             return tool
-    if wanted is None:
-        wanted = point + UP * height - rig.camera.extrinsics[:3, 3]
-    near = nearest_reachable(model, wanted)
+    near = nearest_reachable(model, tool)
     if near is None:
         raise SkillFailure(f"cannot bring the camera over {fmt(point)}: nothing near is reachable")
     return near

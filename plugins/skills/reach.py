@@ -35,23 +35,34 @@ def highest_reachable(
 
 
 def nearest_reachable(
-    model: KinematicModel, target: np.ndarray, span: float = 150.0, step: float = 2.0
+    model: KinematicModel, target: np.ndarray, span: float = 150.0, step: float = 1.0
 ) -> np.ndarray | None:
     """The reachable point closest to ``target`` in the vertical plane through it and the base z-axis.
 
-    Searches reach and height within ``span`` mm of the target's on a ``step`` mm
-    grid; None when nothing there is reachable.
+    Searches reach and height within ``span`` mm of the target's, coarse to fine
+    down to ``step`` mm; None when nothing there is reachable.
     """
     t = np.asarray(target, dtype=float).reshape(3)
     if reachable(model, t):
         return t
     r0 = float(np.hypot(t[0], t[1]))
     angle = np.arctan2(t[1], t[0]) if r0 > 1e-9 else 0.0
-    offsets = np.arange(-span, span + 1e-9, step)
-    rr, zz = np.meshgrid(np.maximum(r0 + offsets, 0.0), t[2] + offsets, indexing="ij")
-    cands = np.stack([rr * np.cos(angle), rr * np.sin(angle), zz], axis=-1).reshape(-1, 3)
-    ok = reachable(model, cands)
-    if not ok.any():
-        return None
-    cands = cands[ok]
-    return cands[int(np.argmin(np.linalg.norm(cands - t, axis=-1)))]
+    center = np.array([r0, t[2]])
+    best: np.ndarray | None = None
+    coarse = max(step, span / 15.0)
+    for grid, half in ((coarse, span), (step, coarse * 1.5)):
+        offsets = np.arange(-half, half + 1e-9, grid)
+        rr, zz = np.meshgrid(center[0] + offsets, center[1] + offsets, indexing="ij")
+        rr = np.maximum(rr, 0.0)
+        cands = np.stack([rr * np.cos(angle), rr * np.sin(angle), zz], axis=-1).reshape(-1, 3)
+        ok = reachable(model, cands)
+        if not ok.any():
+            if best is None:
+                return None
+            break
+        cands = cands[ok]
+        found = cands[int(np.argmin(np.linalg.norm(cands - t, axis=-1)))]
+        if best is None or np.linalg.norm(found - t) < np.linalg.norm(best - t):
+            best = found
+        center = np.array([np.hypot(best[0], best[1]), best[2]])
+    return best

@@ -9,6 +9,7 @@ garbage bin and returns to where it was.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -16,8 +17,7 @@ from armtree import Param
 
 from .actions import Look, Move, Sighting, SkillFailure, fmt
 from .base import ActionFailed, Procedure, as_list
-from .manipulation import ArmSkill, pick_steps, release_steps
-from .reach import nearest_reachable
+from .manipulation import ArmSkill, camera_over, pick_steps, release_steps
 
 
 def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
@@ -77,8 +77,11 @@ class CleanUpParams:
 
 
 SCAN_PARAMS = (
-    Param("radius_mm", "float", 200.0, "mm", "radius of the scan arc"),
-    Param("height_mm", "float", 120.0, "mm", "tool height of the scan arc"),
+    Param("radius_mm", "float", 200.0, "mm", "radius of the ring of the table the camera looks at"),
+    Param(
+        "height_mm", "float", 120.0, "mm", "camera height above the ring (lowered if unreachable)"
+    ),
+    Param("surface_z_mm", "float", 0.0, "mm", "height of the surface the ring lies on"),
     Param("step_deg", "float", 5.0, "deg", "base-angle step between scan poses"),
     Param("range_deg", "vector", [-100.0, 100.0], "deg", "base-angle range of the sweep"),
     Param("sweeps", "int", 2, "", "legs of the back-and-forth sweep"),
@@ -87,11 +90,17 @@ SCAN_PARAMS = (
 )
 
 
-def scan_poses(skill: ArmSkill) -> list[np.ndarray]:
-    """The tool positions (mm) a sweeping skill looks from, in order (see :data:`SCAN_PARAMS`)."""
+def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
+    """The tool positions (mm) a sweeping skill looks from, in order (see :data:`SCAN_PARAMS`).
+
+    On the arc, each puts the camera ``height_mm`` over a point of the ring
+    (seed 004, appendix B turns the base in 5 degree steps), or as near to that
+    as the arm reaches; computed one at a time as the sweep goes.
+    """
     explicit = skill.param("poses")
     if explicit:
-        return [skill.point(p, f"{skill.name}: poses") for p in explicit]
+        yield from (skill.point(p, f"{skill.name}: poses") for p in explicit)
+        return
     lo, hi = (float(v) for v in skill.param("range_deg"))
     here = skill.rig.arm.pose()[:3, 3]
     start = math.degrees(math.atan2(here[1], here[0]))
@@ -101,14 +110,11 @@ def scan_poses(skill: ArmSkill) -> list[np.ndarray]:
         )
     except ValueError as exc:
         raise SkillFailure(f"{skill.name}: {exc}") from exc
-    r, z = float(skill.param("radius_mm")), float(skill.param("height_mm"))
-    model = skill.rig.arm.model
-    poses = []
+    r, h = float(skill.param("radius_mm")), float(skill.param("height_mm"))
+    z = float(skill.param("surface_z_mm"))
     for a in angles:
-        want = np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), z])
-        near = nearest_reachable(model, want)
-        poses.append(want if near is None else near)
-    return poses
+        ring = np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), z])
+        yield camera_over(skill, ring, h)
 
 
 def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, cleared: int) -> Procedure:
@@ -148,7 +154,7 @@ class CleanUp(ArmSkill):
     ROLE_PARAMS = ("trash",)
 
     def procedure(self) -> Procedure:
-        poses = scan_poses(self) if self.param("sweep") else [self.rig.arm.pose()[:3, 3].copy()]
+        poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
         cleared = 0
         for n, pose in enumerate(poses):
             if self.param("sweep") or n > 0:
@@ -187,8 +193,9 @@ class Search(ArmSkill):
         tag = self.param("tag")
         refused: list[str] = []
         cleared = 0
-        poses = scan_poses(self)
-        for pose in poses:
+        count = 0
+        for pose in scan_poses(self):
+            count += 1
             try:
                 yield Move(self.rig, pose, speed=self.speed(), label="scan")
             except ActionFailed as exc:
@@ -211,7 +218,7 @@ class Search(ArmSkill):
                 self.feedback_message = f"found {tag!r} at {fmt(position)}"
                 return position
         detail = f"; {len(refused)} refused, first: {refused[0]}" if refused else ""
-        raise SkillFailure(f"{self.name}: no {tag!r} tag seen from {len(poses)} scan poses{detail}")
+        raise SkillFailure(f"{self.name}: no {tag!r} tag seen from {count} scan poses{detail}")
 
 
 __all__ = ["CleanUp", "Search", "sweep_angles"]
