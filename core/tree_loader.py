@@ -103,8 +103,9 @@ def load_tree(
     :class:`Profile` used instead of the tree's ``rig:``. ``overrides``:
     ``KEY=VALUE`` strings; a key whose first part is a profile section (arm,
     camera, tracker, planner, tags, places, obstacles, world, plugins) overrides
-    the profile, a declared tree parameter is given, any other key sets an
-    initial blackboard value (dotted keys make nested mappings). ``manager``: the
+    the profile, ``tick_hz`` the tick rate, a declared tree parameter is given,
+    any other key sets an initial blackboard value (dotted keys make nested
+    mappings). ``manager``: the
     plugin manager to use (default: the process-wide one).
 
     Raises :class:`ConfigError` listing every problem found, each with its position.
@@ -198,7 +199,11 @@ class _Loader:
         parsed, bad = parse_overrides(overrides)
         self.errors.extend(bad)
         profile_overrides = [o for o in parsed if o.keys[0] in OVERRIDE_SECTIONS]
-        other = [o for o in parsed if o.keys[0] not in OVERRIDE_SECTIONS]
+        for o in parsed:
+            if o.keys == ("tick_hz",):
+                data["tick_hz"] = o.value
+                data.value_marks["tick_hz"] = o.mark
+        other = [o for o in parsed if o.keys[0] not in OVERRIDE_SECTIONS and o.keys != ("tick_hz",)]
         self.load_plugins(data, ctx)
         profile = self.load_profile(data, ctx, rig, profile_overrides)
         try:
@@ -580,7 +585,7 @@ class _Loader:
                 incomplete = True
                 continue
             binding = BINDING.match(value) if isinstance(value, str) else None
-            if binding and param.type != "str" or binding and bindable:
+            if binding and (bindable or param.type != "str"):
                 if not bindable:
                     self.error(
                         f"{node.type}.{key} cannot be bound to the blackboard; give a value",

@@ -420,3 +420,14 @@ def test_plugins_listed_in_a_tree_are_loaded_relative_to_it(tmp_path):
         load(bad)
     assert (info.value.line, info.value.column) == (1, 11)
     assert "plugin 'not_a_module_xyz' failed to import" in info.value.message
+
+
+def test_tick_rate_override(tmp_path):
+    path = write(tmp_path, "t.yaml", "tick_hz: 10\nroot: {success: {}}\n")
+    assert load(path, overrides=["tick_hz=50"]).tick_hz == 50.0
+    with pytest.raises(armtree.ConfigError) as info:
+        load(path, overrides=["tick_hz=-5"])
+    assert (
+        info.value.file == "--set tick_hz=-5"
+        and "tick_hz: expected a rate > 0 Hz" in info.value.message
+    )
