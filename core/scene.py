@@ -6,10 +6,15 @@ Built from a hardware profile (:meth:`Scene.from_profile`)::
     obstacles:
       - box: {center: [250, 0, 60], size: [20, 300, 120], rpy: [0, 0, 15], name: wall}
       - mesh: {file: fixtures/bin.stl, position: [60, 230, 0], rpy: [0, 0, 90], scale: 1.0}
+      - cylinder: {center: [0, 200, 50], radius: 20, height: 100}   # axis along z, or rpy
+      - sphere: {center: [150, 150, 30], radius: 25}
       - table: {z: -10}                 # the same as the top-level key
     places: {garbage_bin: [60, 230, 40], ...}
 
-Units: mm and degrees. Mesh paths are relative to the profile's folder. Every
+Units: mm and degrees. Mesh paths are relative to the profile's folder.
+Cylinders and spheres are checked as closed polyhedra that contain them (a
+24-sided prism, a 12 x 24 faceted ball), so a contact is never missed and a
+near miss may be reported as a contact by at most a few percent of the radius. Every
 place must lie outside every obstacle and above the table ("kept clear"),
 otherwise :class:`~armtree.errors.ConfigError`.
 """
@@ -18,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +34,9 @@ import numpy as np
 from .errors import ConfigError
 from .geometry import box_triangles, from_rpy_deg, transform
 from .meshio import load_mesh
+
+#: Obstacle kinds a profile may list (cylinders and spheres become enclosing meshes).
+SHAPES = ("box", "cylinder", "sphere", "mesh", "table")
 
 
 @dataclass(frozen=True)
@@ -110,38 +119,37 @@ class Scene:
         boxes, meshes that fail to load and places inside an obstacle.
         """
         data, source = _profile_mapping(profile)
+        fail = _Fail(profile, source)
         if base_dir is None:
             base_dir = Path(source).parent if source else Path.cwd()
         base_dir = Path(base_dir)
         table_z: float | None = None
         if data.get("table") is not None:
-            table_z = _table(data["table"], source, "table")
+            table_z = _table(data["table"], fail, "table")
         boxes: list[BoxObstacle] = []
         meshes: list[MeshObstacle] = []
         obstacles = data.get("obstacles") or []
         if not isinstance(obstacles, Sequence) or isinstance(obstacles, str):
-            raise ConfigError("'obstacles' must be a list", file=source)
+            raise fail("obstacles", "must be a list")
         for k, entry in enumerate(obstacles):
-            where = f"obstacles[{k}]"
+            where = f"obstacles.{k}"
             if not isinstance(entry, Mapping) or len(entry) != 1:
-                raise ConfigError(
-                    f"{where}: expected one of {{box: ...}}, {{mesh: ...}}, {{table: ...}}",
-                    file=source,
-                )
+                raise fail(where, f"expected one shape ({', '.join(SHAPES)}), got {entry!r}")
             ((kind, spec),) = entry.items()
+            at = f"{where}.{kind}"
             if kind == "box":
-                boxes.append(_box(spec, source, where, f"box{k}"))
+                boxes.append(_box(spec, fail, at, f"box{k}"))
             elif kind == "mesh":
-                meshes.append(_mesh(spec, source, where, base_dir, f"mesh{k}"))
-            elif kind in ("table", "plane"):
-                table_z = _table(spec, source, where)
+                meshes.append(_mesh(spec, fail, at, base_dir, f"mesh{k}"))
+            elif kind in ("cylinder", "sphere"):
+                meshes.append(_solid(kind, spec, fail, at, f"{kind}{k}"))
+            elif kind == "table":
+                table_z = _table(spec, fail, at)
             else:
-                raise ConfigError(
-                    f"{where}: unknown obstacle kind {kind!r}; use box, mesh or table", file=source
-                )
+                raise fail(where, f"unknown obstacle kind {kind!r}; use one of {', '.join(SHAPES)}")
         places = {}
         for name, value in (data.get("places") or {}).items():
-            places[str(name)] = _vector(value, source, f"places.{name}", min_len=3)[:3]
+            places[str(name)] = _vector(value, fail, f"places.{name}", min_len=3)[:3]
         scene = cls(table_z, tuple(boxes), tuple(meshes), places, source)
         scene.check_places()
         return scene
@@ -190,7 +198,7 @@ class Scene:
 
 def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
     source = None
-    for attr in ("path", "file", "source"):
+    for attr in ("source", "path", "file"):
         value = getattr(profile, attr, None)
         if isinstance(value, (str, Path)):
             source = str(value)
@@ -201,15 +209,31 @@ def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
         value = getattr(profile, attr, None)
         if isinstance(value, Mapping):
             return value, source
-    return {
-        key: getattr(profile, key)
-        for key in ("table", "obstacles", "places")
-        if hasattr(profile, key)
-    }, source
+    keys = ("table", "obstacles", "places")
+    return {key: getattr(profile, key) for key in keys if hasattr(profile, key)}, source
+
+
+class _Fail:
+    """Makes ConfigErrors at the position of a dotted profile path when the profile knows it."""
+
+    def __init__(self, profile: Any, source: str | None) -> None:
+        self.profile = profile
+        self.source = source
+
+    def __call__(self, path: str, message: str) -> ConfigError:
+        shown = re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", path)
+        make = getattr(self.profile, "error", None)
+        if callable(make):
+            err = make(path, message)
+            if isinstance(err, ConfigError):
+                err.message = f"{shown}: {message}"
+                err.errors = [err]
+                return err
+        return ConfigError(f"{shown}: {message}", file=self.source)
 
 
 def _vector(
-    value: Any, source: str | None, where: str, min_len: int = 3, exact: bool = False
+    value: Any, fail: _Fail, where: str, min_len: int = 3, exact: bool = False
 ) -> np.ndarray:
     ok = isinstance(value, Sequence) and not isinstance(value, str)
     ok = ok and (len(value) == min_len if exact else len(value) >= min_len)
@@ -218,69 +242,118 @@ def _vector(
     )
     if not ok:
         n = f"exactly {min_len}" if exact else f"at least {min_len}"
-        raise ConfigError(
-            f"{where}: expected a list of {n} finite numbers, got {value!r}", file=source
-        )
+        raise fail(where, f"expected a list of {n} finite numbers, got {value!r}")
     return np.array(value, dtype=float)
 
 
-def _number(value: Any, source: str | None, where: str) -> float:
+def _number(value: Any, fail: _Fail, where: str, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{where}: expected a finite number, got {value!r}", file=source)
+        raise fail(where, f"expected a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise fail(where, f"must be > 0 mm, got {value!r} (degenerate)")
     return float(value)
 
 
-def _table(spec: Any, source: str | None, where: str) -> float:
+def _table(spec: Any, fail: _Fail, where: str) -> float:
     if isinstance(spec, Mapping):
-        unknown = set(spec) - {"z"}
-        if unknown or "z" not in spec:
-            raise ConfigError(f"{where}: expected {{z: MM}}, got {dict(spec)!r}", file=source)
-        return _number(spec["z"], source, f"{where}.z")
-    return _number(spec, source, where)
+        if set(spec) != {"z"}:
+            raise fail(where, f"expected {{z: MM}}, got {dict(spec)!r}")
+        return _number(spec["z"], fail, f"{where}.z")
+    return _number(spec, fail, where)
 
 
-def _check_keys(
-    spec: Any, allowed: set[str], required: set[str], source: str | None, where: str
-) -> None:
+def _check_keys(spec: Any, allowed: set[str], required: set[str], fail: _Fail, where: str) -> None:
     if not isinstance(spec, Mapping):
-        raise ConfigError(f"{where}: expected a mapping, got {spec!r}", file=source)
+        raise fail(where, f"expected a mapping, got {spec!r}")
     unknown = set(spec) - allowed
     if unknown:
-        raise ConfigError(
-            f"{where}: unknown key(s) {sorted(unknown)}; allowed: {sorted(allowed)}", file=source
-        )
+        raise fail(where, f"unknown key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
     missing = required - set(spec)
     if missing:
-        raise ConfigError(f"{where}: missing {sorted(missing)}", file=source)
+        raise fail(where, f"missing {sorted(missing)}")
 
 
-def _box(spec: Any, source: str | None, where: str, default_name: str) -> BoxObstacle:
-    _check_keys(spec, {"center", "size", "rpy", "name"}, {"center", "size"}, source, where)
-    center = _vector(spec["center"], source, f"{where}.center", exact=True)
-    size = _vector(spec["size"], source, f"{where}.size", exact=True)
+def _box(spec: Any, fail: _Fail, where: str, default_name: str) -> BoxObstacle:
+    _check_keys(spec, {"center", "size", "rpy", "name"}, {"center", "size"}, fail, where)
+    center = _vector(spec["center"], fail, f"{where}.center", exact=True)
+    size = _vector(spec["size"], fail, f"{where}.size", exact=True)
     if np.any(size <= 0):
-        raise ConfigError(
-            f"{where}.size: every edge must be > 0 mm, got {size.tolist()} (a degenerate box)",
-            file=source,
+        raise fail(
+            f"{where}.size", f"every edge must be > 0 mm, got {size.tolist()} (a degenerate box)"
         )
-    rpy = _vector(spec.get("rpy", [0, 0, 0]), source, f"{where}.rpy", exact=True)
+    rpy = _vector(spec.get("rpy", [0, 0, 0]), fail, f"{where}.rpy", exact=True)
     return BoxObstacle(str(spec.get("name", default_name)), center, size, from_rpy_deg(rpy))
 
 
-def _mesh(
-    spec: Any, source: str | None, where: str, base_dir: Path, default_name: str
-) -> MeshObstacle:
-    _check_keys(spec, {"file", "position", "rpy", "scale", "name"}, {"file"}, source, where)
+def _prism(radius: float, height: float, sides: int = 24) -> np.ndarray:
+    """A closed prism around the z axis that contains the cylinder (radius, height), centred."""
+    # Circumscribed: the flat faces touch the cylinder, so no contact is ever missed.
+    r = radius / np.cos(np.pi / sides)
+    a = np.linspace(0.0, 2 * np.pi, sides, endpoint=False)
+    ring = np.stack([r * np.cos(a), r * np.sin(a), np.zeros(sides)], axis=1)
+    lo, hi = ring - [0, 0, height / 2], ring + [0, 0, height / 2]
+    nxt = np.roll(np.arange(sides), -1)
+    c_lo, c_hi = np.array([0, 0, -height / 2]), np.array([0, 0, height / 2])
+    tris = []
+    for i, j in zip(range(sides), nxt, strict=True):
+        tris += [
+            [lo[i], lo[j], hi[j]],
+            [lo[i], hi[j], hi[i]],
+            [c_lo, lo[j], lo[i]],
+            [c_hi, hi[i], hi[j]],
+        ]
+    return np.array(tris)
+
+
+def _ball(radius: float, rings: int = 12, sectors: int = 24) -> np.ndarray:
+    """A closed polyhedron that contains the sphere of ``radius`` (vertices pushed outward)."""
+    # Inflating by the worst face-to-sphere gap keeps every face outside the sphere.
+    r = radius / (np.cos(np.pi / sectors) * np.cos(np.pi / (2 * rings)))
+    th = np.linspace(0.0, np.pi, rings + 1)
+    ph = np.linspace(0.0, 2 * np.pi, sectors + 1)
+    v = r * np.stack(
+        [
+            np.outer(np.sin(th), np.cos(ph)),
+            np.outer(np.sin(th), np.sin(ph)),
+            np.outer(np.cos(th), np.ones_like(ph)),
+        ],
+        axis=-1,
+    )
+    tris = []
+    for i in range(rings):
+        for j in range(sectors):
+            a, b, c, d = v[i, j], v[i + 1, j], v[i + 1, j + 1], v[i, j + 1]
+            if i > 0:
+                tris.append([a, b, d])
+            if i < rings - 1:
+                tris.append([b, c, d])
+    return np.array(tris)
+
+
+def _solid(kind: str, spec: Any, fail: _Fail, where: str, default_name: str) -> MeshObstacle:
+    keys = {"center", "radius", "name"} | ({"height", "rpy"} if kind == "cylinder" else set())
+    _check_keys(spec, keys, keys - {"name", "rpy"}, fail, where)
+    center = _vector(spec["center"], fail, f"{where}.center", exact=True)
+    radius = _number(spec["radius"], fail, f"{where}.radius", positive=True)
+    if kind == "cylinder":
+        height = _number(spec["height"], fail, f"{where}.height", positive=True)
+        rot = from_rpy_deg(_vector(spec.get("rpy", [0, 0, 0]), fail, f"{where}.rpy", exact=True))
+        tris = _prism(radius, height) @ rot.T + center
+    else:
+        tris = _ball(radius) + center
+    return MeshObstacle(str(spec.get("name", default_name)), tris, kind)
+
+
+def _mesh(spec: Any, fail: _Fail, where: str, base_dir: Path, default_name: str) -> MeshObstacle:
+    _check_keys(spec, {"file", "position", "rpy", "scale", "name"}, {"file"}, fail, where)
     if not isinstance(spec["file"], str) or not spec["file"]:
-        raise ConfigError(f"{where}.file: expected a path", file=source)
+        raise fail(f"{where}.file", "expected a path")
     path = Path(spec["file"]).expanduser()
     if not path.is_absolute():
         path = base_dir / path
-    scale = _number(spec.get("scale", 1.0), source, f"{where}.scale")
-    if scale <= 0:
-        raise ConfigError(f"{where}.scale: must be > 0, got {scale}", file=source)
-    position = _vector(spec.get("position", [0, 0, 0]), source, f"{where}.position", exact=True)
-    rotation = from_rpy_deg(_vector(spec.get("rpy", [0, 0, 0]), source, f"{where}.rpy", exact=True))
+    scale = _number(spec.get("scale", 1.0), fail, f"{where}.scale", positive=True)
+    position = _vector(spec.get("position", [0, 0, 0]), fail, f"{where}.position", exact=True)
+    rotation = from_rpy_deg(_vector(spec.get("rpy", [0, 0, 0]), fail, f"{where}.rpy", exact=True))
     tris = load_mesh(path) * scale @ rotation.T + position
     area2 = np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
     extent = float(np.ptp(tris.reshape(-1, 3), axis=0).max())

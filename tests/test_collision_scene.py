@@ -129,7 +129,8 @@ def test_missing_mesh_file_and_degenerate_mesh(tmp_path):
         ([{"box": {"center": [0, 0], "size": [1, 1, 1]}}], "exactly 3"),
         ([{"box": {"center": [0, 0, float("nan")], "size": [1, 1, 1]}}], "finite"),
         ([{"box": {"centre": [0, 0, 0], "size": [1, 1, 1]}}], "unknown key"),
-        ([{"cylinder": {}}], "unknown obstacle kind"),
+        ([{"cone": {}}], "unknown obstacle kind"),
+        ([{"sphere": {"center": [0, 0, 0], "radius": 0}}], "must be > 0"),
         ([{"table": {"height": 3}}], "expected"),
         ("wall", "must be a list"),
     ],
@@ -237,3 +238,40 @@ def test_start_overlapping_an_obstacle_is_a_config_error():
     )
     with pytest.raises(ConfigError, match="brick.*fixed part 'base'"):
         CollisionChecker(model, on_base)
+
+
+def test_cylinders_and_spheres_are_enclosing_meshes():
+    scene = Scene.from_profile(
+        {
+            "obstacles": [
+                {"cylinder": {"center": [0, 0, 50], "radius": 20, "height": 100, "name": "post"}},
+                {"sphere": {"center": [100, 0, 0], "radius": 10, "name": "ball"}},
+            ]
+        }
+    )
+    post, ball = scene.meshes
+    rng = np.random.default_rng(0)
+    p = rng.uniform(-1, 1, (4000, 3)) * [25, 25, 60] + [0, 0, 50]
+    in_cylinder = (np.hypot(p[:, 0], p[:, 1]) < 20) & (np.abs(p[:, 2] - 50) < 50)
+    assert np.all(post.contains(p)[in_cylinder])  # never smaller than the cylinder
+    q = rng.uniform(-12, 12, (4000, 3)) + [100, 0, 0]
+    assert np.all(ball.contains(q)[np.linalg.norm(q - [100, 0, 0], axis=1) < 10])
+    assert scene.blocker_of([0, 0, 50]) == "mesh 'post'"
+    assert scene.blocker_of([100, 0, 11.5]) is None  # the faceting adds at most a few percent
+
+
+def test_errors_carry_the_profile_position(tmp_path):
+    from armtree.profile import load_profile
+
+    path = tmp_path / "rig.yaml"
+    path.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        "obstacles:\n"
+        "  - box: {center: [0, 250, 50], size: [400, 20, 300]}\n"
+        "  - mesh: {file: missing.stl, scale: -1}\n"
+    )
+    profile = load_profile(path)
+    with pytest.raises(ConfigError) as err:
+        Scene.from_profile(profile)
+    assert err.value.line == 5 and "obstacles[1].mesh.scale" in str(err.value)
