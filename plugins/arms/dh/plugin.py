@@ -1,1 +1,131 @@
-"""Registration of the built-in dh plugin (filled in as the components land)."""
+"""Registration of the built-in dh plugin: ``arm: {type: dh, dh: {convention, table}}``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+import armtree
+from armtree.clock import Clock
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.rig import RigContext
+
+from .driver import SSC32Driver
+from .emulator import SSC32Emulator
+from .kinematics import DHModel, model_from_config
+from .ssc32 import ServoMap, servo_maps_from_config
+
+
+def _servos(config: dict[str, Any], n: int) -> list[ServoMap]:
+    return servo_maps_from_config(config.get("servos"), n)
+
+
+def _gripper(config: dict[str, Any]) -> ServoMap | None:
+    spec = config.get("gripper")
+    if spec is None:
+        return None
+    maps = servo_maps_from_config([spec], 1)
+    return maps[0]
+
+
+def _model(config: dict[str, Any]) -> DHModel:
+    """The arm's DH model; each joint's limits are cut to what its servo reaches."""
+    base = model_from_config(config)
+    servos = _servos(config, base.dof)
+    limits = []
+    for joint, servo in zip(base.joints, servos, strict=True):
+        lo, hi = servo.range()
+        lo, hi = max(lo, joint.lower), min(hi, joint.upper)
+        if lo >= hi:
+            raise ConfigError(
+                f"arm.servos: joint {joint.name}'s servo range does not overlap its limits "
+                f"[{joint.lower:g}, {joint.upper:g}]"
+            )
+        limits.append((lo, hi))
+    dh = config["dh"]
+    home = dh.get("home")
+    return DHModel(
+        base.rows,
+        limits,
+        base.convention,
+        name=str(config.get("name", "dh")),
+        tool_offset=base.tool_offset,
+        base=base.base,
+        home=None if home is None else np.asarray(home, dtype=float),
+        seeds=int(dh.get("ik_seeds", 12)),
+    )
+
+
+def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> SSC32Emulator:
+    """The SSC-32 board emulator (not started) for the arm in ``config``."""
+    model = _model(config)
+    return SSC32Emulator(
+        model,
+        clock,
+        _servos(config, model.dof),
+        gripper=_gripper(config),
+        suction_channel=config.get("suction_channel"),
+        seed=seed,
+    )
+
+
+def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
+    """Any serial arm from a DH table, its joints on an SSC-32 servo board (``port: sim``)."""
+    model = _model(config)
+    servos = _servos(config, model.dof)
+    port = config.get("port", "sim")
+    options: dict[str, Any] = {}
+    if port == "sim":
+        emulator = SSC32Emulator(
+            model,
+            context.clock,
+            servos,
+            gripper=_gripper(config),
+            suction_channel=config.get("suction_channel"),
+            seed=context.seed,
+        )
+        port = serve_in_run(emulator, context)
+        options = sim_driver_options(emulator)
+    return SSC32Driver(
+        model,
+        port,
+        servos,
+        gripper=_gripper(config),
+        suction_channel=config.get("suction_channel"),
+        baud=int(config.get("baud", 115200)),
+        clock=context.clock,
+        interrupt=context.interrupt,
+        **options,
+    )
+
+
+dh_factory.PARAMS = (
+    Param("port", "str", "sim", doc="serial device of the SSC-32, or sim for the emulator"),
+    Param("baud", "int", 115200, doc="SSC-32 baud rate (jumpers: 2400, 9600, 38400, 115200)"),
+    Param("name", "str", "dh", doc="the arm's name in messages"),
+    Param(
+        "dh",
+        "dict",
+        doc="convention (modified|standard), table of {a, alpha, d, theta, type, limits} "
+        "in mm and degrees, tool_offset_mm, base_mm, home, ik_seeds",
+    ),
+    Param(
+        "servos",
+        "list",
+        None,
+        doc="one {channel, table: [[pulse_us, angle], ...]} per joint, fitted by least squares",
+    ),
+    Param("gripper", "dict", None, doc="gripper servo {channel, table}"),
+    Param("suction_channel", "int", None, doc="SSC-32 output driving a pump (#<ch>H / #<ch>L)"),
+)
+dh_factory.model = _model
+dh_factory.emulator = _emulator
+
+
+@armtree.hookimpl
+def armtree_arms() -> dict[str, Any]:
+    """Register ``dh``."""
+    return {"dh": dh_factory}

@@ -1,1 +1,73 @@
-"""Registration of the built-in dobot_magician plugin (filled in as the components land)."""
+"""Registration of the built-in dobot_magician plugin: ``arm: {type: dobot_magician}``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import armtree
+from armtree.clock import Clock
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.rig import RigContext
+
+from .driver import MagicianDriver
+from .emulator import MagicianEmulator
+from .kinematics import MagicianModel
+
+
+def _model(config: dict[str, Any]) -> MagicianModel:
+    """The Magician's kinematic model from a profile's ``arm`` mapping."""
+    links = config.get("links_mm", [135.0, 147.0])
+    tool = config.get("tool_offset_mm", [59.7, 0.0, 0.0])
+    if isinstance(tool, (int, float)):
+        tool = [float(tool), 0.0, 0.0]
+    if len(links) != 2 or len(tool) != 3:
+        raise ConfigError("arm.links_mm must be [rear arm, forearm] and tool_offset_mm [x, y, z]")
+    return MagicianModel(links[0], links[1], tool)
+
+
+def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MagicianEmulator:
+    """The Magician firmware emulator (not started) on ``clock``."""
+    return MagicianEmulator(_model(config), clock, seed=seed)
+
+
+def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDriver:
+    """Dobot Magician over its 0xAA 0xAA serial protocol (``port: sim`` for the emulator)."""
+    model = _model(config)
+    port = config.get("port", "sim")
+    options: dict[str, Any] = {}
+    if port == "sim":
+        emulator = MagicianEmulator(model, context.clock, seed=context.seed)
+        port = serve_in_run(emulator, context)
+        options = sim_driver_options(emulator)
+    return MagicianDriver(
+        model,
+        port,
+        baud=int(config.get("baud", 115200)),
+        clock=context.clock,
+        interrupt=context.interrupt,
+        **options,
+    )
+
+
+magician_factory.PARAMS = (
+    Param("port", "str", "sim", doc="serial device, or sim for the built-in emulator"),
+    Param("baud", "int", 115200, doc="serial speed (the Magician uses 115200)"),
+    Param("links_mm", "vector", [135.0, 147.0], unit="mm", doc="rear arm and forearm lengths"),
+    Param(
+        "tool_offset_mm",
+        "any",
+        [59.7, 0.0, 0.0],
+        unit="mm",
+        doc="end-effector offset from the wrist: forward, sideways, down",
+    ),
+)
+magician_factory.model = _model
+magician_factory.emulator = _emulator
+
+
+@armtree.hookimpl
+def armtree_arms() -> dict[str, Any]:
+    """Register ``dobot_magician``."""
+    return {"dobot_magician": magician_factory}

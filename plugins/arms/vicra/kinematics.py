@@ -47,9 +47,9 @@ class VicraModel(KinematicModel):
         self.l1, self.l2 = float(l1), float(l2)
         (t1lo, t1hi), (t2lo, t2hi), (wlo, whi) = limits
         self.joints = (
-            Joint("z", "prismatic", 0.0, float(z_travel), max_speed=50.0, max_accel=200.0),
-            Joint("theta1", "revolute", float(t1lo), float(t1hi), max_speed=60.0, max_accel=240.0),
-            Joint("theta2", "revolute", float(t2lo), float(t2hi), max_speed=60.0, max_accel=240.0),
+            Joint("z", "prismatic", 0.0, float(z_travel), max_speed=100.0, max_accel=400.0),
+            Joint("theta1", "revolute", float(t1lo), float(t1hi), max_speed=90.0, max_accel=360.0),
+            Joint("theta2", "revolute", float(t2lo), float(t2hi), max_speed=90.0, max_accel=360.0),
             Joint("wrist", "revolute", float(wlo), float(whi), max_speed=180.0, max_accel=1800.0),
         )
         self.tool_offset = np.array([0.0, 0.0, -TOOL_DROP])

@@ -1,1 +1,80 @@
-"""Registration of the built-in vicra plugin (filled in as the components land)."""
+"""Registration of the built-in vicra plugin: ``arm: {type: vicra}``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import armtree
+from armtree.clock import Clock
+from armtree.errors import ConfigError
+from armtree.params import Param
+from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.rig import RigContext
+
+from .driver import VicraDriver
+from .emulator import MarlinEmulator
+from .kinematics import VicraModel
+
+
+def _model(config: dict[str, Any]) -> VicraModel:
+    """The VICRA's kinematic model from a profile's ``arm`` mapping."""
+    links = config.get("links_mm", [300.0, 300.0])
+    if not isinstance(links, (list, tuple)) or len(links) != 2 or min(links) <= 0:
+        raise ConfigError(f"arm.links_mm must be two positive lengths, got {links!r}")
+    travel = config.get("z_travel_mm", 600.0)
+    return VicraModel(float(links[0]), float(links[1]), float(travel))
+
+
+def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MarlinEmulator:
+    """The VICRA's Marlin firmware emulator (not started) on ``clock``."""
+    return MarlinEmulator(_model(config), clock, seed=seed)
+
+
+def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
+    """VICRA SCARA arm on Marlin G-code (Mega + RAMPS); ``port: sim`` for the emulator."""
+    model = _model(config)
+    port = config.get("port", "sim")
+    tool = config.get("tool", "gripper")
+    if tool not in ("gripper", "suction"):
+        raise ConfigError(f"arm.tool must be gripper or suction, got {tool!r}")
+    options: dict[str, Any] = {}
+    if port == "sim":
+        emulator = MarlinEmulator(model, context.clock, seed=context.seed)
+        port = serve_in_run(emulator, context)
+        options = sim_driver_options(emulator)
+    return VicraDriver(
+        model,
+        port,
+        baud=int(config.get("baud", 115200)),
+        clock=context.clock,
+        interrupt=context.interrupt,
+        home_on_connect=bool(config.get("home_on_connect", True)),
+        tool=tool,
+        feed=float(config.get("feed", 6000.0)),
+        **options,
+    )
+
+
+vicra_factory.PARAMS = (
+    Param("port", "str", "sim", doc="serial device, or sim for the built-in Marlin emulator"),
+    Param("baud", "int", 115200, doc="serial speed (Marlin's BAUDRATE)"),
+    Param("links_mm", "vector", [300.0, 300.0], unit="mm", doc="shoulder and elbow link lengths"),
+    Param("z_travel_mm", "float", 600.0, unit="mm", doc="travel of the vertical column"),
+    Param(
+        "tool",
+        "str",
+        "gripper",
+        doc="gripper (servo 1) or suction (pump on the fan output)",
+        choices=("gripper", "suction"),
+    ),
+    Param("home_on_connect", "bool", True, doc="run G28 as soon as the link is up"),
+    Param("feed", "float", 6000.0, unit="units/min", doc="G1 feed rate at full speed"),
+)
+vicra_factory.model = _model
+vicra_factory.emulator = _emulator
+
+
+@armtree.hookimpl
+def armtree_arms() -> dict[str, Any]:
+    """Register ``vicra``."""
+    return {"vicra": vicra_factory}

@@ -1,0 +1,273 @@
+"""Dobot Magician driver against its firmware emulator over a real pseudo-terminal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from armtree.clock import VirtualClock, WallClock
+from armtree.emulation import SHARED_KEY
+from armtree.errors import HardwareFault, Unreachable
+from armtree.plugins.arms.dobot_magician import protocol as P
+from armtree.plugins.arms.dobot_magician.plugin import magician_factory
+from armtree.plugins.arms.vicra.plugin import vicra_factory
+from armtree.rig import MotionStatus, RigContext
+
+
+class Sim:
+    """A factory-built driver on ``port: sim`` stepped as the runtime does it."""
+
+    def __init__(self, factory=magician_factory, **config):
+        self.clock = VirtualClock()
+        self.interrupts = []
+        self.context = RigContext(
+            profile=None,
+            clock=self.clock,
+            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
+        )
+        self.arm = factory({"port": "sim", **config}, self.context)
+        self.emu = self.context.shared[SHARED_KEY]
+
+    def tick(self, n=1, dt=0.05):
+        for _ in range(n):
+            now = self.clock.advance(dt)
+            for step in self.context.steppers:
+                step(now)
+
+    def until(self, handle, limit=400):
+        for _ in range(limit):
+            if handle.done:
+                return handle
+            self.tick()
+        raise AssertionError(f"{handle} did not finish")
+
+    def received(self) -> int:
+        return sum(len(b) for _, d, b in self.emu.transcript if d == "rx")
+
+    def close(self):
+        self.arm.close()
+        for closer in reversed(self.context.closers):
+            closer()
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    s.arm.connect()
+    yield s
+    s.close()
+
+
+def test_connect_reads_the_pose(sim):
+    assert np.allclose(sim.arm.joints(), sim.arm.model.home, atol=1e-4)
+    assert sim.context.steppers == [sim.emu.step]
+    assert sim.emu.running  # the driver restarted the queue
+
+
+def test_move_done_when_the_queue_index_reaches_it(sim):
+    target = np.array([20.0, 30.0, 40.0, 10.0])
+    handle = sim.arm.move_joints(target)
+    sim.tick()
+    assert handle.status is MotionStatus.RUNNING
+    progress = []
+    while not handle.done:
+        sim.tick()
+        progress.append(handle.progress)
+    assert handle.status is MotionStatus.DONE
+    assert np.all(np.diff(progress) >= -1e-9)
+    assert np.allclose(sim.arm.joints(), target, atol=1e-3)
+    assert np.allclose(sim.emu.true_joints(), target, atol=1e-3)
+    assert sim.emu.current_index >= 1
+
+
+@pytest.mark.parametrize("mode", list(P.PTPMode))
+def test_every_ptp_mode_reaches_its_target(sim, mode):
+    model = sim.arm.model
+    q_goal = np.array([15.0, 35.0, 30.0, 5.0])
+    q_now = sim.arm.joints()
+    if mode in (P.PTPMode.JUMP_ANGLE, P.PTPMode.MOVJ_ANGLE, P.PTPMode.MOVL_ANGLE):
+        target = q_goal
+    elif mode is P.PTPMode.MOVJ_INC:
+        target = q_goal - q_now
+    elif mode in (P.PTPMode.MOVL_INC, P.PTPMode.MOVJ_XYZ_INC):
+        target = model.pose_xyzr(q_goal) - model.pose_xyzr(q_now)
+    else:
+        target = model.pose_xyzr(q_goal)
+    handle = sim.until(sim.arm.move_ptp(mode, target))
+    assert handle.status is MotionStatus.DONE, handle.error
+    assert np.allclose(sim.emu.true_joints(), q_goal, atol=1e-3)
+    assert sim.emu.alarms == []
+
+
+def test_movl_runs_a_straight_line(sim):
+    start = sim.arm.model.position(sim.arm.joints())
+    goal = start + np.array([0.0, 60.0, -30.0])
+    handle = sim.arm.move_linear(goal)
+    path = []
+    while not handle.done:
+        sim.tick(dt=0.02)
+        path.append(sim.arm.model.position(sim.emu.true_joints()))
+    path = np.array(path)
+    direction = (goal - start) / np.linalg.norm(goal - start)
+    off_line = np.linalg.norm(np.cross(path - start, direction), axis=1)
+    assert off_line.max() < 0.01
+    assert np.allclose(path[-1], goal, atol=1e-3)
+
+
+def test_jump_lifts_above_both_ends(sim):
+    model = sim.arm.model
+    a, b = model.pose_xyzr(sim.arm.joints()), model.pose_xyzr(np.array([-20.0, 40.0, 35.0, 0.0]))
+    handle = sim.arm.move_ptp(P.PTPMode.JUMP_XYZ, b)
+    top = -np.inf
+    while not handle.done:
+        sim.tick(dt=0.02)
+        top = max(top, model.position(sim.emu.true_joints())[2])
+    assert top >= max(a[2], b[2]) + sim.emu.planner.jump_height - 1e-6
+
+
+def test_suction_and_gripper_execute_in_queue_order(sim):
+    move = sim.arm.move_joints([10.0, 40.0, 40.0, 0.0])
+    suck = sim.arm.set_suction(True)
+    sim.tick(2)
+    assert not sim.emu.tool().suction  # still moving: the cup waits its turn in the queue
+    sim.until(suck)
+    assert move.status is MotionStatus.DONE and suck.status is MotionStatus.DONE
+    assert sim.emu.tool().suction and sim.arm.tool.suction
+    grip = sim.until(sim.arm.set_gripper(0.0))
+    assert grip.status is MotionStatus.DONE and sim.emu.tool().gripper == 0.0
+
+
+def test_wait_and_home_commands(sim):
+    sim.until(sim.arm.move_joints([30.0, 20.0, 20.0, 0.0]))
+    t0 = sim.clock.now()
+    sim.until(sim.arm.wait(500))
+    assert sim.clock.now() - t0 >= 0.5
+    sim.until(sim.arm.home())
+    assert np.allclose(sim.emu.true_joints(), sim.arm.model.home, atol=1e-3)
+
+
+def test_stop_acts_at_once_and_the_arm_brakes(sim):
+    handle = sim.arm.move_joints([80.0, 45.0, 45.0, 0.0])
+    follow = sim.arm.set_suction(True)
+    sim.tick(4)
+    assert handle.status is MotionStatus.RUNNING
+    sim.arm.stop()
+    assert handle.status is MotionStatus.STOPPED and follow.status is MotionStatus.STOPPED
+    sim.tick(60)
+    q = sim.emu.true_joints()
+    assert 0.0 < q[0] < 80.0
+    assert not sim.emu.tool().suction  # the queued suction was cleared, not executed
+    # the queue runs again afterwards
+    assert sim.until(sim.arm.move_joints([0.0, 45.0, 45.0, 0.0])).status is MotionStatus.DONE
+
+
+def test_duplicate_of_the_last_command_is_not_resent(sim):
+    first = sim.arm.move_joints([25.0, 40.0, 40.0, 0.0])
+    sim.tick()
+    sent = sim.received()
+    again = sim.arm.move_joints([25.0, 40.0, 40.0, 0.0])
+    assert again is first
+    sim.tick()
+    ptp_frames = [b for _, d, b in sim.emu.transcript if d == "rx" and b[3:4] == bytes([84])]
+    assert len(ptp_frames) == 1 and sim.received() >= sent
+
+
+@pytest.mark.parametrize(
+    ("target", "match"),
+    [
+        ([120.0, 40.0, 40.0, 0.0], "j1"),
+        ([0.0, 95.0, 40.0, 0.0], "j2"),
+        ([0.0, 40.0, np.nan, 0.0], "not finite"),
+        ([0.0, 40.0, 40.0], "four"),
+    ],
+)
+def test_bad_joint_targets_are_refused_and_nothing_is_sent(sim, target, match):
+    sim.tick()
+    before = sim.received()
+    handle = sim.arm.move_joints(target)
+    assert handle.status is MotionStatus.FAILED
+    assert isinstance(handle.error, Unreachable) and match in str(handle.error)
+    frames = [b for _, d, b in sim.emu.transcript if d == "rx" and P.Cmd.PTP in b[3:4]]
+    sim.tick(2)
+    assert [b for _, d, b in sim.emu.transcript if d == "rx" and P.Cmd.PTP in b[3:4]] == frames
+    assert sim.received() >= before
+
+
+def test_unreachable_point_is_refused(sim):
+    for target in ([1000.0, 0.0, 0.0], [np.nan, 0.0, 0.0]):
+        handle = sim.arm.move_to(target)
+        assert handle.status is MotionStatus.FAILED and isinstance(handle.error, Unreachable)
+
+
+def test_wrong_checksum_gets_no_reply_as_on_the_arm(sim):
+    sim.tick()
+    sim.arm.close()
+    bad = bytearray(P.encode(P.Cmd.GET_POSE, 0))
+    bad[-1] ^= 0xFF
+    replies_before = [b for _, d, b in sim.emu.transcript if d == "tx"]
+    import serial
+
+    with serial.Serial(sim.arm.device, 115200, timeout=0.05) as port:
+        port.write(bytes(bad))
+        sim.tick()
+        assert port.read(64) == b""
+        port.write(P.encode(P.Cmd.GET_POSE, 0))
+        sim.tick()
+        reply = P.FrameParser().feed(port.read(64))
+    assert [f.id for f in reply] == [P.Cmd.GET_POSE] and len(reply[0].params) == 32
+    assert sim.emu.parser.bad_checksums == 1
+    assert len([b for _, d, b in sim.emu.transcript if d == "tx"]) == len(replies_before) + 1
+
+
+def test_link_cut_mid_move_fails_the_handle_and_interrupts(sim):
+    handle = sim.arm.move_joints([60.0, 40.0, 40.0, 0.0])
+    sim.tick(3)
+    sim.emu.inject("cut")
+    assert handle.wait(2.0)
+    assert handle.status is MotionStatus.FAILED and isinstance(handle.error, HardwareFault)
+    assert sim.interrupts and sim.arm.device in sim.interrupts[0][0]
+
+
+def test_corrupted_replies_are_survived(sim):
+    sim.emu.inject("corrupt", count=3)
+    handle = sim.until(sim.arm.move_joints([-15.0, 35.0, 35.0, 0.0]))
+    assert handle.status is MotionStatus.DONE
+    assert not sim.interrupts
+
+
+def test_missing_port_is_a_clear_hardware_fault():
+    context = RigContext(profile=None, clock=VirtualClock())
+    arm = magician_factory({"port": "/dev/ttyUSB-armtree-missing"}, context)
+    with pytest.raises(HardwareFault, match="no such serial port") as err:
+        arm.connect()
+    assert err.value.device == "/dev/ttyUSB-armtree-missing"
+    assert arm.move_joints([0.0, 45.0, 45.0, 0.0]).status is MotionStatus.FAILED
+
+
+def test_a_marlin_board_is_recognised_as_the_wrong_protocol():
+    # the VICRA's Marlin emulator (serving itself on the wall clock) where a Magician was expected
+    emu = vicra_factory.emulator({}, WallClock())
+    path = emu.start()
+    try:
+        arm = magician_factory({"port": path}, RigContext(profile=None, clock=WallClock()))
+        arm.connect_timeout = 1.0
+        with pytest.raises(HardwareFault, match="wrong protocol.*Marlin") as err:
+            arm.connect()
+        assert err.value.device == path
+    finally:
+        emu.close()
+
+
+def test_two_runs_exchange_identical_bytes():
+    def run():
+        s = Sim()
+        try:
+            s.arm.connect()
+            s.until(s.arm.move_to([220.0, 30.0, 20.0]))
+            s.until(s.arm.set_suction(True))
+            s.until(s.arm.move_linear([200.0, -40.0, 40.0]))
+            return [(t, d, b) for t, d, b in s.emu.transcript], s.arm.joints().tolist()
+        finally:
+            s.close()
+
+    assert run() == run()

@@ -1,0 +1,70 @@
+"""The PyPI client pydobot 1.3.2 drives the Magician emulator as it would the arm.
+
+pydobot sleeps 0.1 s around every command and reads whatever arrived as one
+reply, so the emulator runs on the wall clock here (as under ``armtree
+emulate``) and the client runs on a thread bounded by a timeout.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from armtree.clock import WallClock
+from armtree.plugins.arms.dobot_magician.plugin import magician_factory
+
+pydobot = pytest.importorskip("pydobot", reason="pydobot 1.3.2 is in the test extra")
+
+
+def run_bounded(fn, timeout: float):
+    result: dict = {}
+
+    def target():
+        try:
+            result["value"] = fn()
+        except Exception as exc:  # reported below with the test's own assertion
+            result["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(timeout)
+    assert not thread.is_alive(), f"pydobot did not finish within {timeout} s"
+    if "error" in result:
+        raise result["error"]
+    return result["value"]
+
+
+def test_pydobot_connects_reads_pose_moves_with_wait_and_switches_suction():
+    emulator = magician_factory.emulator({}, WallClock())
+    path = emulator.start()
+    try:
+        device = run_bounded(lambda: pydobot.Dobot(port=path), 10.0)
+        try:
+            pose = run_bounded(device.pose, 5.0)
+            expected = emulator.model.pose_xyzr(emulator.model.home)
+            np.testing.assert_allclose(pose[:4], expected, atol=1e-3)
+            np.testing.assert_allclose(pose[4:], emulator.model.home, atol=1e-3)
+
+            run_bounded(lambda: device.move_to(220.0, 30.0, 20.0, 0.0, wait=True), 20.0)
+            # wait=True returned only once the queue index reached the move: it is there
+            np.testing.assert_allclose(
+                emulator.model.position(emulator.true_joints()), [220.0, 30.0, 20.0], atol=1e-3
+            )
+            pose = run_bounded(device.pose, 5.0)
+            np.testing.assert_allclose(pose[:3], [220.0, 30.0, 20.0], atol=1e-3)
+
+            run_bounded(lambda: device.suck(True), 5.0)
+            run_bounded(lambda: device.wait(200), 5.0)  # queued after the suction command
+            deadline = threading.Event()
+            for _ in range(50):
+                if emulator.tool().suction:
+                    break
+                deadline.wait(0.05)
+            assert emulator.tool().suction
+        finally:
+            run_bounded(device.close, 5.0)
+    finally:
+        emulator.close()
+    assert emulator.parser.bad_checksums == 0
