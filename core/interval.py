@@ -83,6 +83,11 @@ class Interval:
 
     def __mul__(self, other: Any) -> Interval:
         if not isinstance(other, Interval):
+            if isinstance(other, (int, float)):
+                # A plain number keeps or swaps the ends: two products, no min/max.
+                if other >= 0:
+                    return Interval(self.lo * other, self.hi * other)
+                return Interval(self.hi * other, self.lo * other)
             c = np.asarray(other, dtype=float)
             a, b = self.lo * c, self.hi * c
             return Interval(np.minimum(a, b), np.maximum(a, b))

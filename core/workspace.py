@@ -128,11 +128,10 @@ def cover(
         axis = np.argmax(size, axis=1)
         rows = np.arange(len(lo))
         mid = lo[rows, axis] + 0.5 * size[rows, axis]
-        hi_left = hi.copy()
-        hi_left[rows, axis] = mid
-        lo_right = lo.copy()
-        lo_right[rows, axis] = mid
-        lo, hi = np.concatenate([lo, lo_right]), np.concatenate([hi_left, hi])
+        n = len(lo)
+        lo, hi = np.concatenate([lo, lo]), np.concatenate([hi, hi])
+        hi[rows, axis] = mid
+        lo[rows + n, axis] = mid
     dim = len(lower)
 
     def cat(parts: list[np.ndarray]) -> np.ndarray:
@@ -184,6 +183,66 @@ def sector_constraint(lower_deg: float, upper_deg: float) -> Callable[[Any], Any
     return g
 
 
+def _joint_vector(
+    theta: dict[int, Any], lower: Sequence[float], upper: Sequence[float], like: Any
+) -> Any:
+    """All joints as one ``(..., n)`` value: the given ones, the others over their whole range."""
+    n = len(lower)
+    interval = isinstance(like, Interval)
+    shape = np.shape(like.lo) if interval else np.shape(like)
+    lo_cols, hi_cols = [], []
+    for k in range(n):
+        t = theta.get(k)
+        if t is None:
+            lo_cols.append(np.full(shape, float(lower[k])))
+            hi_cols.append(np.full(shape, float(upper[k])))
+        else:
+            t = iv.as_interval(t)
+            lo_cols.append(np.broadcast_to(t.lo, shape))
+            hi_cols.append(np.broadcast_to(t.hi, shape))
+    if interval:
+        return Interval(np.stack(lo_cols, axis=-1), np.stack(hi_cols, axis=-1))
+    # Point evaluation: joints not given are irrelevant to position; use their midpoints.
+    return np.stack([0.5 * (a + b) for a, b in zip(lo_cols, hi_cols, strict=True)], axis=-1)
+
+
+def _limits(
+    theta: dict[int, Any],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    coupled: Sequence[Callable[[Any], Any]],
+    like: Any,
+) -> Any:
+    """``max`` of every limit ``lower - t <= 0``, ``t - upper <= 0`` and coupled constraint."""
+    g = None
+    for k, t in theta.items():
+        for val in (lower[k] - t, t - upper[k]):
+            g = val if g is None else iv.maximum(g, val)
+    if coupled:
+        q = _joint_vector(theta, lower, upper, like)
+        for c in coupled:
+            g = iv.maximum(g, _bound(c, q))
+    return g
+
+
+def _bound(c: Callable[[Any], Any], q: Any) -> Any:
+    """``c(q)`` for points, or its bounds over the joint boxes ``q`` (an Interval).
+
+    A constraint written with plain numpy cannot take an Interval: its bounds are
+    then taken over the corners of each joint box, which is exact for constraints
+    that are monotone in each joint (the coupled limits arms have are linear).
+    """
+    if not isinstance(q, Interval):
+        return np.asarray(c(q), dtype=float)
+    try:
+        return iv.as_interval(c(q))
+    except (TypeError, ValueError):
+        n = q.lo.shape[-1]
+        corners = np.array([[(k >> j) & 1 for j in range(n)] for k in range(2**n)], dtype=bool)
+        vals = np.stack([np.asarray(c(np.where(m, q.hi, q.lo)), dtype=float) for m in corners])
+        return Interval(vals.min(axis=0), vals.max(axis=0))
+
+
 def dobot_constraints(
     l1: float,
     l2: float,
@@ -191,53 +250,23 @@ def dobot_constraints(
     lower: Sequence[float],
     upper: Sequence[float],
     coupled: Sequence[Callable[[Any], Any]] = (),
+    drop: float = 0.0,
 ) -> ConstraintSystem:
     """Reachability of a Dobot-style arm (seed 004 geometry) as ``g_j(x, y, z) <= 0``, mm.
 
     The inverse kinematics of seed 004 (eqs. 8-10) written in interval-friendly
     operations: theta1 = 90 deg - phi - alpha, theta2 = 180 deg - phi - alpha -
     gamma for the elbow-up branch (and the elbow-down branch too, the union of
-    both), each held to the joint limits ``lower``/``upper`` (deg) and to the
-    ``coupled`` constraints ``c(q_deg) <= 0`` (seed 004, eq. 4).
+    both), each held to the joint limits ``lower``/``upper`` (deg; joint 0 is
+    the base, 1 the rear arm, 2 the forearm, any further joints do not move the
+    tool) and to the ``coupled`` constraints ``c(q_deg) <= 0`` (seed 004, eq. 4).
+    ``d`` is the horizontal wrist-to-tool offset, ``drop`` the tool below the wrist.
     """
+    profile = dobot_profile(l1, l2, d, lower, upper, coupled, drop)
     sector = sector_constraint(lower[0], upper[0])
-    deg = 180.0 / np.pi
-
-    def branch(theta: list[Any], q0: Any) -> Any:
-        g = None
-        for k, t in ((1, theta[0]), (2, theta[1])):
-            for val in (lower[k] - t, t - upper[k]):
-                g = val if g is None else iv.maximum(g, val)
-        if coupled:
-            if isinstance(theta[0], Interval):
-                q = Interval(
-                    np.stack([q0.lo, theta[0].lo, theta[1].lo], axis=-1),
-                    np.stack([q0.hi, theta[0].hi, theta[1].hi], axis=-1),
-                )
-            else:
-                q = np.stack([q0, theta[0], theta[1]], axis=-1)
-            for c in coupled:
-                g = iv.maximum(g, c(q))
-        return g
 
     def system(p: Any) -> list[Any]:
-        x, y, z = p[..., 0], p[..., 1], p[..., 2]
-        rw = iv.hypot(x, y) - d  # seed 004, eq. 8
-        rho2 = rw**2 + z**2
-        rho = iv.sqrt(rho2)
-        gs = [rho2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - rho2]
-        alpha = iv.acos((l1**2 - l2**2 + rho2) / (2 * l1 * rho))  # eq. 9
-        gamma = iv.acos((l1**2 + l2**2 - rho2) / (2 * l1 * l2))
-        phi = iv.atan2(z, rw)
-        # theta0 only enters the coupled constraints through q0; its range is the sector test.
-        q0 = (
-            Interval(np.zeros(np.shape(rw.lo)))
-            if isinstance(rw, Interval)
-            else np.zeros(np.shape(rw))
-        )
-        up = [(np.pi / 2 - phi - alpha) * deg, (np.pi - phi - alpha - gamma) * deg]  # eq. 10
-        down = [(np.pi / 2 - phi + alpha) * deg, (gamma - np.pi - phi + alpha) * deg]
-        gs.append(iv.minimum(branch(up, q0), branch(down, q0)))
+        gs = profile(iv.hypot(p[..., 0], p[..., 1]), p[..., 2])
         if sector is not None:
             gs.append(sector(p))
         return gs
@@ -245,9 +274,211 @@ def dobot_constraints(
     return system
 
 
-def _dobot_bounds(l1: float, l2: float, d: float) -> tuple[np.ndarray, np.ndarray]:
-    reach = l1 + l2 + d
-    return np.array([-reach, -reach, -(l1 + l2)]), np.array([reach, reach, l1 + l2])
+def dobot_profile(
+    l1: float,
+    l2: float,
+    d: float,
+    lower: Sequence[float],
+    upper: Sequence[float],
+    coupled: Sequence[Callable[[Any], Any]] = (),
+    drop: float = 0.0,
+) -> Callable[[Any, Any], list[Any]]:
+    """The part of :func:`dobot_constraints` in the arm's plane: ``g_j(r, z)``, mm.
+
+    ``r`` is the tool's distance from the base axis: everything but the base
+    joint's sector depends on (r, z) alone.
+    """
+    deg = 180.0 / np.pi
+
+    def system(r: Any, z: Any) -> list[Any]:
+        z = z + drop
+        rw = r - d  # seed 004, eq. 8
+        rho2 = rw**2 + z**2
+        rho = iv.sqrt(rho2)
+        gs = [rho2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - rho2]
+        alpha = iv.acos((l1**2 - l2**2 + rho2) / (2 * l1 * rho))  # eq. 9
+        gamma = iv.acos((l1**2 + l2**2 - rho2) / (2 * l1 * l2))
+        phi = iv.atan2(z, rw)
+        up = {1: (np.pi / 2 - phi - alpha) * deg, 2: (np.pi - phi - alpha - gamma) * deg}  # eq. 10
+        down = {1: (np.pi / 2 - phi + alpha) * deg, 2: (gamma - np.pi - phi + alpha) * deg}
+        gs.append(
+            iv.minimum(
+                _limits(up, lower, upper, coupled, rw), _limits(down, lower, upper, coupled, rw)
+            )
+        )
+        return gs
+
+    return system
+
+
+class RevolvedInclusion:
+    """Tight interval bounds for a solid of revolution clipped to an azimuth sector.
+
+    When the constraints depend on ``(r, z)`` only (``r`` the distance from the z
+    axis) plus the base joint's sector, the (r, z) section is covered once with
+    :func:`cover` to ``cell`` mm and tabulated (summed-area tables of its inner
+    and undecided cells). A 3-D box is then bounded by the cells its (r, z)
+    footprint touches: inside if they are all inner, outside if none is inner or
+    undecided. This is an inclusion function like any other for :func:`cover`,
+    without the overestimation that chained interval operations suffer from.
+    """
+
+    def __init__(
+        self,
+        profile: Callable[[Any, Any], list[Any]],
+        sector: Callable[[Any], Any] | None,
+        r_max: float,
+        z_range: tuple[float, float],
+        cell: float,
+    ) -> None:
+        self.sector = sector
+        z0, z1 = z_range
+        # Dyadic grid of square cells: the covering's boxes are halvings of the root
+        # box, so with square cells and a root of 2^k cells each box is whole cells
+        # (longest-edge halving never cuts a cell in two).
+        self.kr = max(1, int(np.ceil(np.log2(r_max / cell))))
+        self.kz = max(1, int(np.ceil(np.log2((z1 - z0) / cell))))
+        self.cells = np.array([2**self.kr, 2**self.kz])
+        self.step = np.array([cell, cell], dtype=float)
+        self.origin = np.array([0.0, z0])
+        top = self.origin + self.cells * cell
+        section = cover(
+            lambda q: profile(q[..., 0], q[..., 1]), self.origin, top, cell * np.sqrt(2.0)
+        )
+        self.section = section
+        self._inner = self._table(section.inner_lo, section.inner_hi)
+        self._open = self._table(section.boundary_lo, section.boundary_hi)
+
+    def _table(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Summed-area table ``(Nr + 1, Nz + 1)`` of the cells covered by the boxes."""
+        i0 = np.rint((lo - self.origin) / self.step).astype(np.int64)
+        i1 = np.rint((hi - self.origin) / self.step).astype(np.int64)
+        diff = np.zeros((self.cells[0] + 1, self.cells[1] + 1), dtype=np.int32)
+        for dr, dz, sign in (
+            (i0[:, 0], i0[:, 1], 1),
+            (i1[:, 0], i0[:, 1], -1),
+            (i0[:, 0], i1[:, 1], -1),
+            (i1[:, 0], i1[:, 1], 1),
+        ):
+            np.add.at(diff, (dr, dz), sign)
+        # The boxes are disjoint, so the integrated differences are 0 or 1 per cell.
+        filled = diff.cumsum(axis=1, dtype=np.int32).cumsum(axis=0, dtype=np.int32)[:-1, :-1]
+        table = np.zeros((self.cells[0] + 1, self.cells[1] + 1), dtype=np.int32)
+        table[1:, 1:] = filled.cumsum(axis=1, dtype=np.int32).cumsum(axis=0, dtype=np.int32)
+        return table
+
+    def _count(self, table: np.ndarray, a0, a1, b0, b1) -> np.ndarray:
+        return table[a1, b1] - table[a0, b1] - table[a1, b0] + table[a0, b0]
+
+    def __call__(self, p: Any) -> list[Any]:
+        """Constraint values for :func:`cover`: ``[-1, -1]`` inside, ``[1, 1]`` outside, else ``[-1, 1]``."""
+        x, y, z = p[..., 0], p[..., 1], p[..., 2]
+        cx = np.clip(0.0, x.lo, x.hi)
+        cy = np.clip(0.0, y.lo, y.hi)
+        r_lo = np.hypot(cx, cy)
+        r_hi = np.hypot(
+            np.maximum(np.abs(x.lo), np.abs(x.hi)), np.maximum(np.abs(y.lo), np.abs(y.hi))
+        )
+        a0 = np.floor((r_lo - self.origin[0]) / self.step[0]).astype(np.int64)
+        a1 = np.ceil((r_hi - self.origin[0]) / self.step[0]).astype(np.int64)
+        b0 = np.floor((z.lo - self.origin[1]) / self.step[1]).astype(np.int64)
+        b1 = np.ceil((z.hi - self.origin[1]) / self.step[1]).astype(np.int64)
+        a1 = np.maximum(a1, a0 + 1)
+        b1 = np.maximum(b1, b0 + 1)
+        total = (a1 - a0) * (b1 - b0)
+        a0, a1 = np.clip(a0, 0, self.cells[0]), np.clip(a1, 0, self.cells[0])
+        b0, b1 = np.clip(b0, 0, self.cells[1]), np.clip(b1, 0, self.cells[1])
+        inner = self._count(self._inner, a0, a1, b0, b1)
+        some = inner + self._count(self._open, a0, a1, b0, b1)
+        lo = np.where(some == 0, 1.0, -1.0)
+        hi = np.where(inner == total, -1.0, 1.0)
+        gs: list[Any] = [Interval(lo, hi)]
+        if self.sector is not None:
+            gs.append(self.sector(p))
+        return gs
+
+
+def scara_constraints(
+    l1: float,
+    l2: float,
+    lower: Sequence[float],
+    upper: Sequence[float],
+    z_offset: float = 0.0,
+    coupled: Sequence[Callable[[Any], Any]] = (),
+) -> ConstraintSystem:
+    """Reachability of a SCARA arm as ``g_j(x, y, z) <= 0``, mm.
+
+    Joint 0 is the vertical axis (mm; the tool at ``z = q0 + z_offset``), joints
+    1 and 2 the shoulder and elbow (deg) of a planar two-link arm ``l1``, ``l2``.
+    For each elbow branch the elbow angle is ``+-acos(c2)`` and the shoulder the
+    tool's azimuth less the elbow's deflection: the azimuth test is done in the
+    frame turned by that deflection, with half-planes (no atan2 branch cut).
+    """
+    deg = 180.0 / np.pi
+    a1, b1 = np.radians(lower[1]), np.radians(upper[1])
+    wide = upper[1] - lower[1] > 180.0
+
+    def shoulder_ok(u: Any, v: Any) -> Any:
+        left = np.sin(a1) * u - np.cos(a1) * v
+        right = np.cos(b1) * v - np.sin(b1) * u
+        return iv.minimum(left, right) if wide else iv.maximum(left, right)
+
+    def system(p: Any) -> list[Any]:
+        x, y, z = p[..., 0], p[..., 1], p[..., 2] - z_offset
+        r2 = x**2 + y**2
+        r = iv.sqrt(r2)
+        gs = [lower[0] - z, z - upper[0], r2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - r2]
+        c2 = (r2 - l1**2 - l2**2) / (2 * l1 * l2)
+        t2 = iv.acos(c2)
+        s2 = iv.sqrt(1.0 - iv.minimum(c2**2, 1.0))
+        branches = []
+        for sign in (1.0, -1.0):
+            # The tool's azimuth is theta1 + beta with cos(beta) = (l1 + l2 c2) / r,
+            # sin(beta) = sign l2 s2 / r; turn the point back by beta (times r).
+            cb, sb = l1 + l2 * c2, (l2 * s2) * sign
+            u, v = x * cb + y * sb, y * cb - x * sb
+            elbow = t2 * (sign * deg)
+            g = iv.maximum(shoulder_ok(u, v), _limits({2: elbow}, lower, upper, coupled, r))
+            branches.append(g)
+        gs.append(iv.minimum(branches[0], branches[1]))
+        return gs
+
+    return system
+
+
+def _probe(model: KinematicModel) -> tuple[str, dict[str, float]] | None:
+    """Recognise the Dobot family or a SCARA arm from its forward kinematics, numerically."""
+    l1, l2 = getattr(model, "l1", None), getattr(model, "l2", None)
+    if l1 is None or l2 is None or model.dof < 3:
+        return None
+    l1, l2 = float(l1), float(l2)
+    rng = np.random.default_rng(7)
+    q = model.lower + rng.random((16, model.dof)) * (model.upper - model.lower)
+    p = model.position(q)
+    t = np.radians(q)
+    if model.joints[0].kind == "revolute" and all(j.kind == "revolute" for j in model.joints[:3]):
+        wrist_r = l1 * np.sin(t[:, 1]) + l2 * np.cos(t[:, 2])
+        wrist_z = l1 * np.cos(t[:, 1]) - l2 * np.sin(t[:, 2])
+        r = np.hypot(p[:, 0], p[:, 1])
+        d, drop = r - wrist_r, wrist_z - p[:, 2]
+        az = np.arctan2(p[:, 1], p[:, 0])
+        same_az = np.abs(np.angle(np.exp(1j * (az - t[:, 0])))) < 1e-6
+        if np.ptp(d) < 1e-6 and np.ptp(drop) < 1e-6 and np.all(same_az) and d[0] >= 0:
+            return "dobot", {"d": float(d[0]), "drop": float(drop[0])}
+    if (
+        model.joints[0].kind == "prismatic"
+        and model.joints[1].kind == model.joints[2].kind == "revolute"
+    ):
+        x = l1 * np.cos(t[:, 1]) + l2 * np.cos(t[:, 1] + t[:, 2])
+        y = l1 * np.sin(t[:, 1]) + l2 * np.sin(t[:, 1] + t[:, 2])
+        dz = p[:, 2] - q[:, 0]
+        if (
+            np.allclose(p[:, 0], x, atol=1e-6)
+            and np.allclose(p[:, 1], y, atol=1e-6)
+            and np.ptp(dz) < 1e-6
+        ):
+            return "scara", {"z_offset": float(dz[0])}
+    return None
 
 
 class ArmWorkspace:
@@ -255,26 +486,51 @@ class ArmWorkspace:
 
     The constraint system comes from the model's ``workspace_constraints`` and
     ``workspace_bounds()`` when it has them (``g_j(p) <= 0`` for p ``(..., 3)``,
-    written with :mod:`armtree.interval` functions), or from seed 004's geometry
-    for models with ``l1``, ``l2`` and ``d`` attributes (the Dobot family).
-    Other models get an IK-based :meth:`reachable` and no covering.
+    written with :mod:`armtree.interval` functions). Otherwise models with link
+    lengths ``l1`` and ``l2`` are recognised from their forward kinematics as the
+    Dobot family (seed 004's geometry: base, rear arm, forearm, horizontal tool
+    offset) or as a SCARA arm (vertical axis, two planar links). Other models
+    get an IK-based :meth:`reachable` and no covering.
     """
 
     def __init__(self, model: KinematicModel) -> None:
         self.model = model
         self.system: ConstraintSystem | None = None
         self.bounds: tuple[np.ndarray, np.ndarray] | None = None
+        #: Which description is in use: ``"model"``, ``"dobot"``, ``"scara"`` or ``"ik"``.
+        self.kind = "ik"
+        self._profile: Callable[[Any, Any], list[Any]] | None = None
+        self._sector: Callable[[Any], Any] | None = None
+        coupled = [c.g for c in model.constraints]
+        lo, hi = model.lower, model.upper
         if hasattr(model, "workspace_constraints"):
-            self.system = model.workspace_constraints
-            lo, hi = model.workspace_bounds()
-            self.bounds = (np.asarray(lo, dtype=float), np.asarray(hi, dtype=float))
-        elif all(hasattr(model, a) for a in ("l1", "l2", "d")) and model.dof == 3:
-            l1, l2, d = float(model.l1), float(model.l2), float(model.d)
-            coupled = [c.g for c in model.constraints]
-            self.system = dobot_constraints(l1, l2, d, model.lower, model.upper, coupled)
-            lo, hi = _dobot_bounds(l1, l2, d)
-            tool = np.asarray(getattr(model, "tool_offset", np.zeros(3)), dtype=float)
-            self.bounds = (lo - np.abs(tool), hi + np.abs(tool))
+            self.kind, self.system = "model", model.workspace_constraints
+            b_lo, b_hi = model.workspace_bounds()
+            self.bounds = (np.asarray(b_lo, dtype=float), np.asarray(b_hi, dtype=float))
+            return
+        found = _probe(model)
+        if found is None:
+            return
+        self.kind, extra = found
+        l1, l2 = float(model.l1), float(model.l2)
+        if self.kind == "dobot":
+            d, drop = extra["d"], extra["drop"]
+            self.system = dobot_constraints(l1, l2, d, lo, hi, coupled, drop)
+            self._profile = dobot_profile(l1, l2, d, lo, hi, coupled, drop)
+            self._sector = sector_constraint(lo[0], hi[0])
+            reach = l1 + l2 + d
+            self.bounds = (
+                np.array([-reach, -reach, -(l1 + l2) - drop]),
+                np.array([reach, reach, l1 + l2 - drop]),
+            )
+        else:
+            zo = extra["z_offset"]
+            self.system = scara_constraints(l1, l2, lo, hi, zo, coupled)
+            reach = l1 + l2
+            self.bounds = (
+                np.array([-reach, -reach, lo[0] + zo]),
+                np.array([reach, reach, hi[0] + zo]),
+            )
 
     @property
     def has_covering(self) -> bool:
@@ -288,7 +544,14 @@ class ArmWorkspace:
                 f"arm model {self.model.name!r} does not describe its workspace as constraints "
                 "(workspace_constraints / workspace_bounds), so it cannot be covered"
             )
-        return cover(self.system, self.bounds[0], self.bounds[1], delta, max_boxes)
+        lo, hi = self.bounds
+        system = self.system
+        if self._profile is not None:
+            # A solid of revolution: bound boxes through its tabulated (r, z) section.
+            system = RevolvedInclusion(
+                self._profile, self._sector, hi[0], (lo[2], hi[2]), delta / 4
+            )
+        return cover(system, lo, hi, delta, max_boxes)
 
     def reachable(self, xyz: np.ndarray, tol: float = 1e-6) -> np.ndarray | bool:
         """Exact test: can the tool reach ``xyz`` ``(..., 3)`` mm within the limits?
