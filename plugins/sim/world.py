@@ -380,13 +380,13 @@ class World:
             links += [SolidBox(f"held {held.name}", held.center_pose(), held.size)]
         tip = arm.tool_pose[:3, 3]
         tol = self.physics.pick_tolerance_mm
-        # A tool pressing on a top face from above is touching it, not crashing into it
-        # (the link boxes of the end effector may reach below the tool centre).
+        # The tool centre (suction cup, gripper tips) is the lowest point of an end
+        # effector: a body whose top is below it is touched at most, never hit, even
+        # where a model's link box reaches lower than the tool centre.
         others = [
             solid
             for b in self.bodies.values()
-            if not b.held
-            and not (tip[2] >= b.top - tol and point_in_polygon(tip[:2], b.footprint()))
+            if not b.held and b.top > tip[2] + tol
             for solid in b.solids()
         ]
         below_table = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}

@@ -1,0 +1,109 @@
+"""The sim plugin wires the world into a rig and scores and records runs."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+from sim_fakes import FakeEmulator
+from test_sim_camera import C270, PROFILE
+
+from armtree.clock import VirtualClock
+from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.plugins.sim import plugin
+from armtree.plugins.sim.camera import sim_camera
+from armtree.plugins.sim.world import SHARED_KEY
+from armtree.rig import Rig, RigContext
+
+
+def build(seed=0, record=None):
+    profile = copy.deepcopy(PROFILE)
+    profile["arm"] = {"type": "fake", "port": "sim"}
+    profile["camera"] = dict(C270, type="sim")
+    clock = VirtualClock()
+    context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record)
+    emulator = FakeEmulator()
+    emulator.put([183, -6, 200])
+    context.shared[EMULATOR_KEY] = emulator
+    context.steppers.append(emulator.step)
+    camera = sim_camera(profile["camera"], context)
+    rig = Rig(profile=profile, clock=clock, camera=camera)
+    plugin.armtree_rig_ready(rig=rig, context=context)
+    rig.steppers.extend(context.steppers)
+    return rig, context, emulator
+
+
+def test_rig_ready_puts_the_arm_in_the_world_and_steps_it_after_the_emulator():
+    rig, context, emulator = build()
+    world = context.shared[SHARED_KEY]
+    assert world.emulator is emulator
+    assert rig.steppers[0] == emulator.step and isinstance(rig.steppers[1], plugin.WorldStepper)
+    assert not any(world is v for v in vars(rig).values()), "the rig never holds the world"
+    plugin.armtree_rig_ready(rig=rig, context=context)
+    assert sum(isinstance(s, plugin.WorldStepper) for s in context.steppers) == 1, "idempotent"
+    emulator.target = emulator.model.ik(np.array([150.0, 0.0, 100.0]))
+    rig.step(0.5)
+    assert world.time == 0.5
+    assert np.allclose(world.arm.joints, emulator.q)
+
+
+def test_rig_ready_ignores_profiles_without_sim_parts():
+    context = RigContext(
+        profile={"arm": {"type": "dobot_v1", "port": "/dev/ttyUSB0"}}, clock=VirtualClock()
+    )
+    plugin.armtree_rig_ready(rig=Rig(profile=context.profile, clock=context.clock), context=context)
+    assert context.steppers == [] and SHARED_KEY not in context.shared
+
+
+def fake_run(rig, directory, record):
+    return SimpleNamespace(rig=rig, record_dir=directory, record_requested=record)
+
+
+def test_run_finished_writes_the_score_beside_the_log(tmp_path):
+    rig, context, emulator = build()
+    run = fake_run(rig, tmp_path, False)
+    plugin.armtree_run_started(run=run)
+    rig.step(0.1)
+    result = SimpleNamespace(
+        status="SUCCESS", ticks=2, seconds=0.1, wall_seconds=0.01, log_path=tmp_path / "run.jsonl"
+    )
+    plugin.armtree_run_finished(run=run, result=result)
+    score = json.loads((tmp_path / "score.json").read_text())
+    assert score["run"]["status"] == "SUCCESS"
+    assert score["objects"]["ducky"]["kind"] == "ducky"
+    assert not (tmp_path / "camera.mp4").exists(), "videos only when recording was asked for"
+
+
+def test_recording_writes_videos_png_and_score(tmp_path):
+    rig, context, emulator = build(record=tmp_path)
+    run = fake_run(rig, tmp_path, True)
+    plugin.armtree_run_started(run=run)
+    emulator.target = emulator.model.ik(np.array([150.0, 60.0, 180.0]))
+    for _ in range(30):
+        context.clock.advance(0.05)
+        rig.step(context.clock.now())
+        rig.camera.read()
+    result = SimpleNamespace(
+        status="FAILURE", ticks=30, seconds=1.5, wall_seconds=0.2, log_path=tmp_path / "run.jsonl"
+    )
+    plugin.armtree_run_finished(run=run, result=result)
+    files = {p.name for p in Path(tmp_path).iterdir()}
+    camera_video = next(n for n in files if n.startswith("camera."))
+    overhead_video = next(n for n in files if n.startswith("overhead.") and not n.endswith(".png"))
+    assert {"overhead.png", "score.json"} <= files
+    frames = cv2.VideoCapture(str(tmp_path / camera_video))
+    assert int(frames.get(cv2.CAP_PROP_FRAME_COUNT)) == 30
+    overhead = cv2.VideoCapture(str(tmp_path / overhead_video))
+    assert int(overhead.get(cv2.CAP_PROP_FRAME_COUNT)) == 16  # 1.5 s at 10 frames/s, from t = 0
+    png = cv2.imread(str(tmp_path / "overhead.png"))
+    assert png.shape == (640, 640, 3)
+    # The ducky (yellow) is drawn where the world has it.
+    world = context.shared[SHARED_KEY]
+    from armtree.plugins.sim.recording import Overhead
+
+    u, v = Overhead(world).px(world.bodies["ducky"].pose[:2, 3])[0].astype(int)
+    assert tuple(png[v - 8, u - 8]) == (40, 205, 250)
