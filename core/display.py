@@ -185,5 +185,6 @@ def print_summary(result: RunResult, stream: TextIO | None = None) -> None:
     console = Console(file=stream, highlight=False)
     text = summary(result)
     first, _, rest = text.partition("\n")
-    console.print(Text(first, style=f"bold {style}"))
-    console.print(Text(rest))
+    # soft_wrap: paths and messages stay on one line, so they can be copied and grepped.
+    console.print(Text(first, style=f"bold {style}"), soft_wrap=True)
+    console.print(Text(rest), soft_wrap=True)

@@ -167,6 +167,11 @@ class Run:
         self._hook_errors_reported: set[tuple[str, str]] = set()
         self._executed = False
         self._end_status = ""
+        # Filled in as the run ends: what failed, where, and what was running.
+        self._end_traceback: str | None = None
+        self._failed_node: str | None = None
+        self._raiser: py_trees.behaviour.Behaviour | None = None
+        self._running: list[str] | None = None
 
     # ------------------------------------------------------------------
     # For behaviours and components
@@ -515,7 +520,7 @@ class Run:
         exception, deepest first. Finished nodes keep their SUCCESS or FAILURE.
         """
         errors: list[str] = []
-        raiser = getattr(self, "_raiser", None)
+        raiser = self._raiser
         raiser_running = raiser is not None and raiser.status == Status.RUNNING
         candidates = [self.root, *self.root.iterate()]
         for node in candidates:
@@ -568,7 +573,7 @@ class Run:
     def _finish(self, end: _End, bt: py_trees.trees.BehaviourTree, wall0: float) -> RunResult:
         self.interrupts.stopping = True
         self._end_status = end.status
-        running = getattr(self, "_running", None)
+        running = self._running
         if running is None:
             running = self._running_leaves() if end.status != "SUCCESS" else []
         errors = self.halt_tree()
@@ -595,11 +600,11 @@ class Run:
             overruns=self.overruns,
             log_path=self.log.path,
             message=message,
-            failed_node=getattr(self, "_failed_node", None),
+            failed_node=self._failed_node,
             exit_code=end.exit_code,
             running=running,
             reason=self.interrupts.reason,
-            traceback=getattr(self, "_end_traceback", None),
+            traceback=self._end_traceback,
         )
         self.view.stop(self)
         self._call_hook("armtree_run_finished", run=self, result=result)

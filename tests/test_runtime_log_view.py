@@ -147,3 +147,13 @@ def test_summary_names_result_times_and_why():
     assert "result: FAILURE  (exit 1)" in text
     assert "ticks: 40" in text and "run time: 2.000 s" in text and "overruns: 2" in text
     assert "failed: Root/pick" in text and "why: timeout" in text
+
+
+def test_the_printed_summary_never_wraps_long_paths():
+    out = io.StringIO()
+    long = "/very/long/" + "directory/" * 20 + "tree.yaml:7"
+    result = RunResult(
+        status="FAILURE", ticks=1, seconds=0.0, message=f"ZeroDivisionError at {long}", exit_code=1
+    )
+    display.print_summary(result, out)
+    assert long in out.getvalue()
