@@ -230,3 +230,30 @@ def test_bench_lists_the_builtin_and_script_benchmarks(work, capsys):
     assert armtree(["bench", "demo"]) == 0
     assert "figure: 42" in capsys.readouterr().out
     assert armtree(["bench", "nope"]) == 2
+
+
+def test_a_plugin_command_may_not_take_the_name_run(work, capsys):
+    write(
+        work / "clash.py",
+        """\
+        import armtree
+
+
+        class Run:
+            help = "not the real run"
+
+            def configure(self, parser):
+                pass
+
+            def run(self, args):
+                return 0
+
+
+        @armtree.hookimpl
+        def armtree_commands():
+            return {"run": Run()}
+        """,
+    )
+    assert armtree(["--plugin", "clash.py", "run", "ok.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert "clashes with armtree's own 'run'" in err and "-p no:clash" in err
