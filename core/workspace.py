@@ -298,17 +298,53 @@ def dobot_profile(
         gs = [rho2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - rho2]
         alpha = iv.acos((l1**2 - l2**2 + rho2) / (2 * l1 * rho))  # eq. 9
         gamma = iv.acos((l1**2 + l2**2 - rho2) / (2 * l1 * l2))
-        phi = iv.atan2(z, rw)
-        up = {1: (np.pi / 2 - phi - alpha) * deg, 2: (np.pi - phi - alpha - gamma) * deg}  # eq. 10
-        down = {1: (np.pi / 2 - phi + alpha) * deg, 2: (gamma - np.pi - phi + alpha) * deg}
-        gs.append(
-            iv.minimum(
+
+        def joints(phi: Any) -> Any:
+            up = {
+                1: (np.pi / 2 - phi - alpha) * deg,
+                2: (np.pi - phi - alpha - gamma) * deg,
+            }  # eq. 10
+            down = {1: (np.pi / 2 - phi + alpha) * deg, 2: (gamma - np.pi - phi + alpha) * deg}
+            return iv.minimum(
                 _limits(up, lower, upper, coupled, rw), _limits(down, lower, upper, coupled, rw)
             )
-        )
+
+        g = joints(iv.atan2(z, rw))
+        if isinstance(g, Interval):
+            # Boxes behind the wrist axis (rw < 0) across z = 0 straddle atan2's branch
+            # cut, where one interval is the whole circle. Bound each side of the cut on
+            # its own and take the hull, so those boxes can still be decided.
+            cut = (rw.lo < 0) & (z.lo < 0) & (z.hi >= 0)
+            if cut.any():
+                top = _atan2_corners(Interval(np.maximum(z.lo, 0.0), z.hi), rw, np.pi)
+                bottom = _atan2_corners(Interval(z.lo, np.minimum(z.hi, 0.0)), rw, -np.pi)
+                ga, gb = joints(top), joints(bottom)
+                g = Interval(
+                    np.where(cut, np.minimum(ga.lo, gb.lo), g.lo),
+                    np.where(cut, np.maximum(ga.hi, gb.hi), g.hi),
+                )
+        gs.append(g)
         return gs
 
     return system
+
+
+def _atan2_corners(y: Interval, x: Interval, on_cut: float) -> Interval:
+    """atan2 over boxes on one side of the branch cut, from the corners.
+
+    ``on_cut`` is the value atan2 tends to on the cut from this side (``pi``
+    from above, ``-pi`` from below); corners lying on the cut are given it.
+    Boxes holding the origin get the whole circle.
+    """
+    vals = []
+    for a in (y.lo, y.hi):
+        for b in (x.lo, x.hi):
+            v = np.arctan2(a, b)
+            vals.append(np.where((a == 0) & (b < 0), on_cut, v))
+    lo = np.minimum(np.minimum(vals[0], vals[1]), np.minimum(vals[2], vals[3]))
+    hi = np.maximum(np.maximum(vals[0], vals[1]), np.maximum(vals[2], vals[3]))
+    origin = (x.lo <= 0) & (x.hi >= 0) & (y.lo <= 0) & (y.hi >= 0)
+    return Interval(np.where(origin, -np.pi, lo), np.where(origin, np.pi, hi))
 
 
 class RevolvedInclusion:
