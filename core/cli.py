@@ -165,7 +165,9 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
     print_summary(result)
     if result.status == "INTERRUPTED":
         print(result.message, file=sys.stderr)
-    elif result.status == "FAILURE" and result.traceback and not getattr(args, "debug", False):
+    elif (
+        result.exit_code == EXIT_FAILURE and result.traceback and not getattr(args, "debug", False)
+    ):
         print(f"{result.message} (run again with --debug for the traceback)", file=sys.stderr)
     return result.exit_code
 

@@ -27,9 +27,10 @@ PROFILE = {
 class FakePlugin:
     """Records what the builder does, in order."""
 
-    def __init__(self, fail_camera=False, interrupt_at=None):
+    def __init__(self, fail_camera=False, interrupt_at=None, fail_connect=False):
         self.events = []
         self.fail_camera = fail_camera
+        self.fail_connect = fail_connect
         self.interrupt_at = interrupt_at
         self.args = {}
 
@@ -49,6 +50,8 @@ class FakePlugin:
             model = "the arm model"
 
             def connect(self):
+                if plugin.fail_connect:
+                    raise HardwareFault("no such serial port", "/dev/ttyUSB9")
                 plugin.events.append("arm connected")
 
             def stop(self):
@@ -198,3 +201,14 @@ def test_a_real_hardware_profile_runs_on_the_wall_clock():
     profile = dict(PROFILE, arm={"type": "fake_arm", "port": "/dev/ttyUSB0"})
     tree = Tree(name="t", root=py_trees.behaviours.Success("s"), source=None, profile=profile)
     assert isinstance(Run(tree, record=False).clock, WallClock)
+
+
+def test_a_run_whose_arm_does_not_connect_fails_with_exit_3_before_any_tick():
+    plugin = FakePlugin(fail_connect=True)
+    node = py_trees.behaviours.Running("spin")
+    tree = Tree(name="t", root=node, source=None, profile=PROFILE)
+    result = run(tree, manager=manager_with(plugin), record=False)
+    assert result.status == "FAILURE" and result.exit_code == 3 and result.ticks == 0
+    assert "/dev/ttyUSB9: no such serial port" in result.message
+    assert plugin.events[-3:] == ["arm closed", "camera closed", "emulator closed"]
+    assert node.status == Status.INVALID
