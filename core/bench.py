@@ -235,5 +235,5 @@ def run_bench(args: argparse.Namespace) -> int:
                 reports.append(f"  FAILED with exit code {proc.returncode}")
                 reports.extend("  " + line for line in proc.stderr.splitlines()[-10:])
     for line in reports:
-        console.print(line, highlight=False)
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
     return 1 if failed else 0
