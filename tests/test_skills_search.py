@@ -101,13 +101,38 @@ def test_clean_up_clears_every_trash_marker_in_view():
     assert np.allclose(rig.arm.pose()[:3, 3], [200, 0, 120])  # back where it looked from
 
 
-def test_clean_up_gives_up_on_trash_that_will_not_come_away():
+def test_clean_up_leaves_trash_that_will_not_come_away_after_its_attempts():
     rig = make_rig([Marker(2, np.array([205.0, 10.0, 0.0]))])
     rig.world.grip = lambda tool: None
     rig.arm.q = np.array([0.0, 200.0, 120.0])
+    node = CleanUp("clean", attempts=2, count=Binding("n"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS
+    assert node.bb.get("n") == 0
+    assert "0 trash carried" in node.feedback_message
+    assert "marker 2: still there after 2 tries" in node.feedback_message
+
+
+def test_clean_up_fails_after_max_items_carries():
+    items = [Marker(i, np.array([200.0, -50.0 + 10 * i, 0.0])) for i in (2, 3, 4)]
+    rig = make_rig(items)
+    rig.arm.q = np.array([0.0, 200.0, 120.0])
     node = CleanUp("clean", max_items=2)
     status, _ = run(node, rig)
-    assert status is Status.FAILURE and "trash still in view" in node.feedback_message
+    assert (
+        status is Status.FAILURE
+        and "trash still in view after 2 trash carried" in node.feedback_message
+    )
+
+
+def test_search_leaves_unreachable_trash_and_finds_the_tag():
+    trash = Marker(3, np.append(on_arc(15.0)[:2], -100.0))  # below the arm's reach
+    rig = make_rig([trash, Marker(1, on_arc(70.0))])
+    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True, height_mm=100.0)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert trash.dropped_at is None and not trash.held
+    assert "marker 3: descend to" in node.feedback_message and "refused" in node.feedback_message
 
 
 def test_search_needs_a_camera():
@@ -115,3 +140,21 @@ def test_search_needs_a_camera():
     node = Search("search", tag="duckybot", pose=Binding("p"))
     status, _ = run(node, rig)
     assert status is Status.FAILURE and "no camera" in node.feedback_message
+
+
+def test_clean_up_ignores_trash_already_in_the_bin():
+    in_bin = Marker(2, np.array([70.0, 215.0, 0.0]))
+    rig = make_rig([in_bin])
+    rig.arm.q = np.array([72.0, 225.0, 120.0])  # camera over the bin
+    node = CleanUp("clean", count=Binding("n"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS and node.bb.get("n") == 0
+    assert rig.tracker.calls >= 1 and in_bin.dropped_at is None and not rig.arm.moves
+
+
+def test_clean_up_with_no_bin_radius_takes_the_same_trash():
+    in_bin = Marker(2, np.array([70.0, 215.0, 0.0]))
+    rig = make_rig([in_bin])
+    rig.arm.q = np.array([72.0, 225.0, 120.0])
+    status, _ = run(CleanUp("clean", bin_radius_mm=0.0), rig)
+    assert status is Status.SUCCESS and in_bin.dropped_at is not None

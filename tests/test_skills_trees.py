@@ -92,8 +92,9 @@ class FakeHardware:
         return {"fake_planner": _planner}
 
 
-def arc(deg: float, r: float = 200.0) -> list[float]:
-    return [r * math.cos(math.radians(deg)), r * math.sin(math.radians(deg)), 0.0]
+def arc(deg: float, r: float = 185.0) -> list[float]:
+    """A point of the ring search.yaml scans (r = 185 mm on the table top at z = -40 mm)."""
+    return [r * math.cos(math.radians(deg)), r * math.sin(math.radians(deg)), -40.0]
 
 
 @pytest.fixture
@@ -142,7 +143,7 @@ def test_load_ducky_runs_end_to_end_on_fakes(tmp_path, manager):
     bot_start = arc(55.0)
     markers = [
         [0, *PLACES["ducky_pickup"]],
-        [1, bot_start[0], bot_start[1], 0.0, -10.0, 0.0, 2.0],  # drives 20 mm, then parks
+        [1, bot_start[0], bot_start[1], -40.0, -10.0, 0.0, 2.0],  # drives 20 mm, then parks
         [3, *arc(20.0)],  # trash on the search arc
     ]
     result, rig = run_tree("load_ducky.yaml", write_profile(tmp_path, markers), manager)
@@ -195,7 +196,7 @@ def test_pick_and_place_tree_moves_the_ducky(tmp_path, manager):
 
 def test_track_tree_follows_the_duckybot_until_it_parks(tmp_path, manager):
     start = arc(30.0)
-    markers = [[1, start[0], start[1], 0.0, 0.0, 15.0, 2.0]]
+    markers = [[1, start[0], start[1], -40.0, 0.0, 15.0, 2.0]]
     result, rig = run_tree("track.yaml", write_profile(tmp_path, markers), manager)
     assert result.status == "SUCCESS", result.message
     bot = rig.arm.world.markers[1].position

@@ -14,25 +14,27 @@ from armtree.perception import EYE_IN_HAND, tool_for_camera_over
 
 from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
 from .base import Procedure, Skill, as_list
-from .reach import highest_reachable, nearest_reachable, reachable
+from .reach import highest_reachable, lowest_reachable, nearest_reachable, reachable
 
 UP = np.array([0.0, 0.0, 1.0])
 
 
 def camera_over(
-    skill: Skill, point: np.ndarray, height: float, min_height: float = 40.0
+    skill: ArmSkill, point: np.ndarray, height: float, min_height: float = 40.0
 ) -> np.ndarray:
     """Tool position (mm) putting the camera ``height`` mm over ``point``, or as near as reachable.
 
     Eye-in-hand: lower heights down to ``min_height`` are tried in 5 mm steps,
-    then the reachable tool position nearest the wanted one. Eye-to-hand: the
-    tool simply goes ``height`` above the point (out of the way is the caller's
-    business). Raises :class:`SkillFailure` when nothing near is reachable.
+    then the reachable tool position nearest the wanted one; the tool never
+    goes below the skill's ``clearance_z_mm``. Eye-to-hand: the tool simply goes
+    ``height`` above the point (out of the way is the caller's business).
+    Raises :class:`SkillFailure` when nothing near is reachable.
     """
     rig = skill.rig
     model = rig.arm.model
     if rig.camera.mount != EYE_IN_HAND:
         return point + UP * height
+    min_z = skill.clearance()
     q_near = rig.arm.joints()
 
     def rotation_at(xyz: np.ndarray) -> np.ndarray:
@@ -41,12 +43,21 @@ def camera_over(
             return np.eye(3)
         return model.fk(model.ik(reach, near=q_near))[:3, :3]
 
+    def over(h: float) -> np.ndarray:
+        return tool_for_camera_over(model, point, h, rig.camera.extrinsics, rotation_at=rotation_at)
+
     tool = point + UP * height
     for h in np.arange(height, min(min_height, height) - 1e-9, -5.0):
-        tool = tool_for_camera_over(model, point, h, rig.camera.extrinsics, rotation_at=rotation_at)
+        tool = over(h)
+        if min_z is not None and tool[2] < min_z:
+            # raise the camera until the tool clears, and stop lowering
+            tool = over(h + min_z - tool[2])
+            if reachable(model, tool):
+                return tool
+            break
         if reachable(model, tool):
             return tool
-    near = nearest_reachable(model, tool)
+    near = nearest_reachable(model, tool, min_z=min_z)
     if near is None:
         raise SkillFailure(f"cannot bring the camera over {fmt(point)}: nothing near is reachable")
     return near
@@ -92,14 +103,26 @@ def nearest(
     return cands[best]
 
 
+def grip_point(skill: ArmSkill, target: np.ndarray, grasp_offset: float) -> np.ndarray:
+    """Where the tool touches ``target``: ``grasp_offset`` above it, or up to ``reach_slack_mm``
+    higher when that is out of reach (a suction cup grips within a few millimetres)."""
+    want = target + UP * grasp_offset
+    model = skill.rig.arm.model
+    if reachable(model, want):
+        return want
+    slack = float(skill.param("reach_slack_mm"))
+    best = lowest_reachable(model, want, want[2], want[2] + slack)
+    return want if best is None else best
+
+
 def pick_steps(
-    skill: Skill, target: np.ndarray, approach: float, grasp_offset: float, dwell: float
+    skill: ArmSkill, target: np.ndarray, approach: float, grasp_offset: float, dwell: float
 ) -> Procedure:
     """Approach above ``target``, descend, suction on, let it grip, lift back."""
     rig, speed = skill.rig, skill.speed()
     over = above(skill, target, approach)
     yield Move(rig, over, speed=speed, label="approach")
-    yield Move(rig, target + UP * grasp_offset, speed=speed, label="descend")
+    yield Move(rig, grip_point(skill, target, grasp_offset), speed=speed, label="descend")
     yield Suction(rig, True)
     yield Pause(skill.clock, dwell)
     yield Move(rig, over, speed=speed, label="lift")
@@ -127,6 +150,26 @@ class ArmSkill(Skill):
         Param("speed", "float", 1.0, "", "fraction of the arm's maximum speed, 0 to 1"),
         Param("settle_s", "float", 0.0, "s", "wait after a move before a frame counts"),
     )
+    #: Parameters of skills that move the camera around to look.
+    LOOK = (
+        Param(
+            "clearance_z_mm",
+            "any",
+            None,
+            "mm",
+            "lowest tool height while looking (one that clears every object); null: no limit",
+        ),
+    )
+    #: Parameters of skills that grip with the suction cup.
+    GRIP = (
+        Param(
+            "reach_slack_mm",
+            "float",
+            4.0,
+            "mm",
+            "grip this much higher at most when the touching point is out of reach",
+        ),
+    )
 
     def speed(self) -> float:
         """The ``speed`` parameter, clipped to (0, 1]."""
@@ -135,6 +178,13 @@ class ArmSkill(Skill):
     def settle(self) -> float:
         """The ``settle_s`` parameter."""
         return float(self.param("settle_s"))
+
+    def clearance(self) -> float | None:
+        """The ``clearance_z_mm`` parameter (mm), None when the skill has no such limit."""
+        if not any(p.name == "clearance_z_mm" for p in self.PARAMS):
+            return None
+        value = self.param("clearance_z_mm")
+        return None if value is None else float(value)
 
 
 class Pick(ArmSkill):
@@ -180,6 +230,8 @@ class Pick(ArmSkill):
             "a marker this close to the pick spot was not picked",
         ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
+        *ArmSkill.LOOK,
+        *ArmSkill.GRIP,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")
@@ -252,6 +304,7 @@ class Place(ArmSkill):
         Param("search_radius_mm", "float", 120.0, "mm", "how far from `at` the tag may be"),
         Param("dwell_s", "float", 0.3, "s", "time for the suction to let go"),
         Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
+        *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")

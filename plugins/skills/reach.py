@@ -24,8 +24,20 @@ def highest_reachable(
     model: KinematicModel, point: np.ndarray, low: float, high: float, step: float = 1.0
 ) -> np.ndarray | None:
     """The point at ``point``'s x, y with the highest reachable z in [low, high], or None."""
-    p = np.asarray(point, dtype=float).reshape(3)
     zs = np.arange(high, low - 1e-9, -abs(step)) if high > low else np.array([low])
+    return _first_reachable(model, point, zs)
+
+
+def lowest_reachable(
+    model: KinematicModel, point: np.ndarray, low: float, high: float, step: float = 0.5
+) -> np.ndarray | None:
+    """The point at ``point``'s x, y with the lowest reachable z in [low, high], or None."""
+    zs = np.arange(low, high + 1e-9, abs(step)) if high > low else np.array([low])
+    return _first_reachable(model, point, zs)
+
+
+def _first_reachable(model: KinematicModel, point: np.ndarray, zs: np.ndarray) -> np.ndarray | None:
+    p = np.asarray(point, dtype=float).reshape(3)
     cands = np.repeat(p[None, :], len(zs), axis=0)
     cands[:, 2] = zs
     ok = reachable(model, cands)
@@ -35,15 +47,20 @@ def highest_reachable(
 
 
 def nearest_reachable(
-    model: KinematicModel, target: np.ndarray, span: float = 150.0, step: float = 1.0
+    model: KinematicModel,
+    target: np.ndarray,
+    span: float = 150.0,
+    step: float = 1.0,
+    min_z: float | None = None,
 ) -> np.ndarray | None:
     """The reachable point closest to ``target`` in the vertical plane through it and the base z-axis.
 
     Searches reach and height within ``span`` mm of the target's, coarse to fine
-    down to ``step`` mm; None when nothing there is reachable.
+    down to ``step`` mm, at heights of at least ``min_z`` when given; None when
+    nothing there is reachable.
     """
     t = np.asarray(target, dtype=float).reshape(3)
-    if reachable(model, t):
+    if (min_z is None or t[2] >= min_z) and reachable(model, t):
         return t
     r0 = float(np.hypot(t[0], t[1]))
     angle = np.arctan2(t[1], t[0]) if r0 > 1e-9 else 0.0
@@ -55,7 +72,9 @@ def nearest_reachable(
         rr, zz = np.meshgrid(center[0] + offsets, center[1] + offsets, indexing="ij")
         rr = np.maximum(rr, 0.0)
         cands = np.stack([rr * np.cos(angle), rr * np.sin(angle), zz], axis=-1).reshape(-1, 3)
-        ok = reachable(model, cands)
+        if min_z is not None:
+            cands = cands[cands[:, 2] >= min_z - 1e-9]
+        ok = reachable(model, cands) if len(cands) else np.zeros(0, dtype=bool)
         if not ok.any():
             if best is None:
                 return None

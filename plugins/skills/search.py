@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from armtree import Param
 
-from .actions import Look, Move, Sighting, SkillFailure, fmt
+from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
 from .base import ActionFailed, Procedure, as_list
-from .manipulation import ArmSkill, camera_over, pick_steps, release_steps
+from .manipulation import ArmSkill, above, camera_over, grip_point, release_steps
 
 
 def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
@@ -40,28 +41,61 @@ def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -
     return out
 
 
-def clean_steps(
-    skill: ArmSkill, sightings: list[Sighting], origin: np.ndarray, trash: str, bin_xyz: np.ndarray
+@dataclass
+class TrashLog:
+    """What clean-up did: carries made, attempts per marker id, markers given up and why."""
+
+    carried: int = 0
+    attempts: dict[int, int] = field(default_factory=dict)
+    skipped: dict[int, str] = field(default_factory=dict)
+    #: The marker of the last carry and where it was, to notice a carry that left it behind.
+    last: tuple[int, np.ndarray] | None = None
+
+    def check(self, sightings: list[Sighting], tolerance: float = 15.0) -> None:
+        """Un-count the last carry if its marker is still where it was."""
+        if self.last is None:
+            return
+        mid, where = self.last
+        self.last = None
+        if any(s.id == mid and np.linalg.norm(s.position - where) < tolerance for s in sightings):
+            self.carried -= 1
+
+    def summary(self) -> str:
+        """One line for feedback messages."""
+        text = f"{self.carried} trash carried to the bin"
+        if self.skipped:
+            why = "; ".join(f"marker {k}: {v}" for k, v in self.skipped.items())
+            text += f", {len(self.skipped)} left ({why})"
+        return text
+
+
+def clean_one(
+    skill: ArmSkill, item: Sighting, origin: np.ndarray, bin_xyz: np.ndarray, log: TrashLog
 ) -> Procedure:
-    """Carry every ``trash`` marker in ``sightings`` to the bin, returning to ``origin``; the count."""
-    count = 0
-    rig = skill.rig
-    for s in sightings:
-        if s.role != trash:
-            continue
-        yield from pick_steps(
-            skill, s.position, skill.param("approach_mm"), 0.0, skill.param("dwell_s")
-        )
-        yield from release_steps(
-            skill,
-            bin_xyz,
-            skill.param("approach_mm"),
-            skill.param("approach_mm"),
-            skill.param("dwell_s"),
-        )
-        count += 1
-        yield Move(rig, origin, speed=skill.speed(), label="return")
-    return count
+    """Carry one trash marker to the bin and come back to ``origin``.
+
+    Trash the arm cannot get to (a refused approach or descent) is left where it
+    is and noted in ``log``; seed 004's clean-up is a side task of the search.
+    """
+    rig, speed = skill.rig, skill.speed()
+    log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
+    over = above(skill, item.position, skill.param("approach_mm"))
+    try:
+        yield Move(rig, over, speed=speed, label="approach trash")
+        grip = grip_point(skill, item.position, skill.param("grasp_offset_mm"))
+        yield Move(rig, grip, speed=speed, label="descend")
+    except ActionFailed as exc:
+        log.skipped[item.id] = str(exc)
+        yield Move(rig, origin, speed=speed, label="return")
+        return
+    yield Suction(rig, True)
+    yield Pause(skill.clock, skill.param("dwell_s"))
+    yield Move(rig, over, speed=speed, label="lift")
+    approach = skill.param("approach_mm")
+    yield from release_steps(skill, bin_xyz, approach, 0.0, skill.param("dwell_s"))
+    log.carried += 1
+    log.last = (item.id, item.position)
+    yield Move(rig, origin, speed=speed, label="return")
 
 
 class CleanUpParams:
@@ -70,9 +104,14 @@ class CleanUpParams:
     PARAMS = (
         Param("trash", "str", "trash", "", "tag role of the markers to clear away"),
         Param("bin", "any", "garbage_bin", "mm", "place name or [x, y, z] to drop trash over"),
+        Param("bin_radius_mm", "float", 60.0, "mm", "trash seen this close to the bin is in it"),
         Param("approach_mm", "float", 60.0, "mm", "height above an object to approach from"),
+        Param("grasp_offset_mm", "float", 2.0, "mm", "tool height above a marker when gripping"),
         Param("dwell_s", "float", 0.3, "s", "time for the suction to grip or let go"),
-        Param("max_items", "int", 10, "", "most trash markers to clear before giving up"),
+        Param("max_items", "int", 10, "", "most trash carries before giving up"),
+        Param("attempts", "int", 2, "", "tries per trash marker before leaving it"),
+        *ArmSkill.LOOK,
+        *ArmSkill.GRIP,
     )
 
 
@@ -117,20 +156,37 @@ def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
         yield camera_over(skill, ring, h)
 
 
-def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, cleared: int) -> Procedure:
-    """Look from ``pose`` and clear trash until none is in view; (last sightings, cleared so far)."""
+def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, log: TrashLog) -> Procedure:
+    """Look from ``pose`` and clear trash until none that can be cleared is in view.
+
+    Returns the last sightings. A marker still seen after ``attempts`` tries is
+    left where it is; more than ``max_items`` carries fail the skill.
+    """
     trash = skill.param("trash")
     bin_xyz = skill.point(skill.param("bin"), f"{skill.name}: bin")
     while True:
         sightings = yield Look(
             skill.rig, skill.clock, want=want, frames=skill.param("frames"), settle=skill.settle()
         )
-        items = [s for s in sightings if s.role == trash]
+        log.check(sightings)
+        radius = float(skill.param("bin_radius_mm"))
+        items = [
+            s
+            for s in sightings
+            if s.role == trash
+            and s.id not in log.skipped
+            and np.linalg.norm(s.position[:2] - bin_xyz[:2]) > radius
+        ]
         if not items:
-            return sightings, cleared
-        if cleared >= skill.param("max_items"):
-            raise SkillFailure(f"{skill.name}: trash still in view after clearing {cleared}")
-        cleared += yield from clean_steps(skill, items[:1], pose, trash, bin_xyz)
+            return sightings
+        item = items[0]
+        if log.attempts.get(item.id, 0) >= skill.param("attempts"):
+            log.skipped[item.id] = f"still there after {log.attempts[item.id]} tries"
+            continue
+        if log.carried >= skill.param("max_items"):
+            raise SkillFailure(f"{skill.name}: trash still in view after {log.summary()}")
+        yield from clean_one(skill, item, pose, bin_xyz, log)
+        skill.feedback_message = log.summary()
 
 
 class CleanUp(ArmSkill):
@@ -155,16 +211,17 @@ class CleanUp(ArmSkill):
 
     def procedure(self) -> Procedure:
         poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
-        cleared = 0
+        log = TrashLog()
         for n, pose in enumerate(poses):
             if self.param("sweep") or n > 0:
                 try:
                     yield Move(self.rig, pose, speed=self.speed(), label="scan")
                 except ActionFailed:
                     continue
-            _, cleared = yield from clear_here(self, pose, None, cleared)
-        self.output("count", cleared)
-        return cleared
+            yield from clear_here(self, pose, None, log)
+        self.output("count", log.carried)
+        self.feedback_message = log.summary()
+        return log.carried
 
 
 class Search(ArmSkill):
@@ -192,7 +249,7 @@ class Search(ArmSkill):
     def procedure(self) -> Procedure:
         tag = self.param("tag")
         refused: list[str] = []
-        cleared = 0
+        log = TrashLog()
         count = 0
         for pose in scan_poses(self):
             count += 1
@@ -202,7 +259,7 @@ class Search(ArmSkill):
                 refused.append(str(exc))
                 continue
             if self.param("clean_up"):
-                sightings, cleared = yield from clear_here(self, pose, tag, cleared)
+                sightings = yield from clear_here(self, pose, tag, log)
             else:
                 sightings = yield Look(
                     self.rig,
@@ -215,7 +272,8 @@ class Search(ArmSkill):
             if found:
                 position = found[0].position
                 self.output("pose", as_list(position))
-                self.feedback_message = f"found {tag!r} at {fmt(position)}"
+                cleaned = f"; {log.summary()}" if self.param("clean_up") else ""
+                self.feedback_message = f"found {tag!r} at {fmt(position)}{cleaned}"
                 return position
         detail = f"; {len(refused)} refused, first: {refused[0]}" if refused else ""
         raise SkillFailure(f"{self.name}: no {tag!r} tag seen from {count} scan poses{detail}")

@@ -45,6 +45,7 @@ class Track(ArmSkill):
         Param("until", "bool", False, "", "end with SUCCESS when this (a {key}) becomes true"),
         Param("lost_frames", "int", 30, "", "consecutive frames without the marker before FAILURE"),
         Param("pose", "any", None, "mm", "output: the marker's smoothed base position", io="out"),
+        *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
