@@ -36,6 +36,8 @@ TEXTURE_PPM = 1.0
 CYLINDER_SIDES = 16
 #: Polygons wider than this (pixels) get their edges subdivided before distortion.
 SUBDIVIDE_PX = 40.0
+#: Longest motion-blur streak drawn at full resolution, pixels.
+STREAK_PX = 5.0
 _SHIFT = 4
 _SCALE = 1 << _SHIFT
 
@@ -105,6 +107,19 @@ class CameraModel:
         else:
             und = (corners - self.k[[0, 1], [2, 2]]) / self.k[[0, 1], [0, 1]]
         self.r2_max = 2.0 * float(np.max(np.sum(und.astype(float) ** 2, axis=1)))
+        # Side planes of the view frustum (normals pointing inwards), a little wider than the image.
+        lo = self.coarse.reshape(-1, 2).min(axis=0) - 0.05
+        hi = self.coarse.reshape(-1, 2).max(axis=0) + 0.05
+        planes = np.array(
+            [[1.0, 0.0, -lo[0]], [-1.0, 0.0, hi[0]], [0.0, 1.0, -lo[1]], [0.0, -1.0, hi[1]]]
+        )
+        self.frustum = planes / np.linalg.norm(planes, axis=1, keepdims=True)
+
+    def sees(self, centre: np.ndarray, radius: float) -> bool:
+        """False when a sphere (camera frame, mm) is certainly outside the view."""
+        if centre[2] + radius <= NEAR:
+            return False
+        return bool(np.all(self.frustum @ centre >= -radius))
 
     def pixels(self, pc: np.ndarray) -> np.ndarray:
         """Distorted pixel coordinates (N, 2) of camera-frame points (N, 3) with z > 0."""
@@ -231,7 +246,12 @@ class Renderer:
         cam_pos = cam_pose[:3, 3]
         if self.shadows:
             self._draw_shadows(img, drawables, r_cw, t_cw)
-        for d in self._order(drawables, cam_pos):
+        visible = [
+            d
+            for d in drawables
+            if self.camera.sees(r_cw @ d.pose[:3, 3] + t_cw, 0.5 * float(np.linalg.norm(d.size)))
+        ]
+        for d in self._order(visible, cam_pos):
             self._draw(img, d, r_cw, t_cw, cam_pos)
         if previous_pose is not None:
             img = self._camera_blur(img, cam_pose, previous_pose, frame_dt)
@@ -438,6 +458,10 @@ class Renderer:
                 continue
             t = (h - lamp[2]) / (corners[:, 2] - lamp[2])
             ground = lamp[:2] + (corners[:, :2] - lamp[:2]) * t[:, None]
+            centre = ground.mean(axis=0)
+            radius = float(np.max(np.linalg.norm(ground - centre, axis=1)))
+            if not self.camera.sees(r_cw @ np.array([centre[0], centre[1], h]) + t_cw, radius):
+                continue
             hull = cv2.convexHull(ground.astype(np.float32)).reshape(-1, 2)
             uv = self._pixels(np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw)
             if uv is not None:
@@ -516,19 +540,38 @@ class Renderer:
 
 
 def _streak(img: np.ndarray, streak: np.ndarray) -> np.ndarray:
-    """Average ``img`` along the pixel displacement ``streak`` (motion blur); unchanged below 1 px."""
+    """Average ``img`` along the pixel displacement ``streak`` (motion blur); unchanged below 1 px.
+
+    Long streaks are drawn on a reduced copy (at most ``STREAK_PX`` pixels of
+    streak) and scaled back, so the cost does not grow with the streak.
+    """
     length = float(np.hypot(*streak))
     if length < 1.0:
         return img
+    h, w = img.shape[:2]
+    scale = max(1.0, length / STREAK_PX)
+    small = img
+    if scale > 1.0:
+        size = (max(1, round(w / scale)), max(1, round(h / scale)))
+        small = cv2.resize(img, size, interpolation=cv2.INTER_LINEAR)
+    kernel = _line_kernel(round(streak[0] / scale, 1), round(streak[1] / scale, 1))
+    small = cv2.filter2D(small, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+    if scale > 1.0:
+        return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    return small
+
+
+@functools.lru_cache(maxsize=512)
+def _line_kernel(dx: float, dy: float) -> np.ndarray:
+    """A normalised kernel averaging along the segment (-dx/2, -dy/2)..(dx/2, dy/2), pixels."""
+    length = math.hypot(dx, dy)
     n = int(math.ceil(length)) | 1
     kernel = np.zeros((n, n), np.float32)
     c = n // 2
-    direction = np.asarray(streak) / length
-    for t in np.linspace(-length / 2, length / 2, 2 * n):
-        x, y = int(round(c + t * direction[0])), int(round(c + t * direction[1]))
+    for t in np.linspace(-0.5, 0.5, 2 * n + 1):
+        x, y = int(round(c + t * dx)), int(round(c + t * dy))
         kernel[min(max(y, 0), n - 1), min(max(x, 0), n - 1)] += 1
-    kernel /= kernel.sum()
-    return cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+    return kernel / kernel.sum()
 
 
 def _clip_near(pc: np.ndarray) -> np.ndarray:
