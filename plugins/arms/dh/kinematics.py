@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from armtree.errors import ConfigError, Unreachable
 from armtree.kinematics import Joint, KinematicModel, LinkBox
@@ -131,8 +130,9 @@ class DHModel(KinematicModel):
             for i, (r, (lo, hi)) in enumerate(zip(self.rows, limits, strict=True))
         )
         self._a = np.array([r.a for r in self.rows])
-        self._ca = np.cos(np.radians([r.alpha for r in self.rows]))
-        self._sa = np.sin(np.radians([r.alpha for r in self.rows]))
+        # exact 0 / +-1 for right-angle twists, so the chain can skip those products
+        self._ca = _snap(np.cos(np.radians([r.alpha for r in self.rows])))
+        self._sa = _snap(np.sin(np.radians([r.alpha for r in self.rows])))
         self._d = np.array([r.d for r in self.rows])
         self._theta = np.radians([r.theta for r in self.rows])
         self._revolute = np.array([r.kind == "revolute" for r in self.rows])
@@ -177,18 +177,20 @@ class DHModel(KinematicModel):
                 # seed 001, MaTran: Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)
                 if a:
                     p = p + a * c0
-                b1 = c1 * ca + c2 * sa if sa else c1 * ca
-                b2 = c2 * ca - c1 * sa if sa else c2 * ca
+                b1, b2 = _twist(c1, c2, ca, sa)
                 c0, c1, c2 = c0 * ct + b1 * st, b1 * ct - c0 * st, b2
-                p = p + b2 * d
+                if not self._revolute[i] or self._d[i]:  # d = 0 on a revolute joint: no shift
+                    p = p + b2 * d
             else:
                 # standard DH: Rz(theta_i) Dz(d_i) Dx(a_i) Rx(alpha_i)
-                p = p + c2 * d
+                if not self._revolute[i] or self._d[i]:
+                    p = p + c2 * d
                 n0 = c0 * ct + c1 * st
                 m1 = c1 * ct - c0 * st
                 if a:
                     p = p + n0 * a
-                c0, c1, c2 = n0, m1 * ca + c2 * sa, c2 * ca - m1 * sa
+                c1, c2 = _twist(m1, c2, ca, sa)
+                c0 = n0
             if keep:
                 rots.append(np.stack([c0, c1, c2], axis=1))
                 origins.append(p)
@@ -250,16 +252,33 @@ class DHModel(KinematicModel):
         frames.append(tool)
         return np.stack(frames, axis=1).reshape(*lead, self.dof + 2, 4, 4)
 
+    def _axes(
+        self, rots: list[np.ndarray], origins: list[np.ndarray]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each joint's axis direction and a point on it, ``(3, N)`` each.
+
+        Modified DH puts frame ``i`` on joint ``i``'s axis; standard DH moves
+        joint ``i`` about the z axis of frame ``i - 1`` (the base for the first).
+        """
+        if self.convention == "modified":
+            return [(R[:, 2], p) for R, p in zip(rots, origins, strict=True)]
+        n = rots[0].shape[-1]
+        base_z = np.zeros((3, n))
+        base_z[2] = 1.0
+        base_p = np.zeros((3, n)) + self.base[:, None]
+        zs = [base_z] + [R[:, 2] for R in rots[:-1]]
+        ps = [base_p] + origins[:-1]
+        return list(zip(zs, ps, strict=True))
+
     def jacobian_geometric(self, q: np.ndarray) -> np.ndarray:
         """Geometric Jacobian ``(..., 6, n)``: mm per radian (or per mm) over rad per radian."""
         flat, lead = self._flat(q)
         rots, origins = self._chain(flat, keep=True)
         tip = self._tool(rots[-1], origins[-1])
         J = np.zeros((flat.shape[0], 6, self.dof))
-        for i in range(self.dof):
-            z = rots[i][:, 2]
+        for i, (z, o) in enumerate(self._axes(rots, origins)):
             if self._revolute[i]:
-                J[:, :3, i] = np.cross(z.T, (tip - origins[i]).T)
+                J[:, :3, i] = np.cross(z.T, (tip - o).T)
                 J[:, 3:, i] = z.T
             else:
                 J[:, :3, i] = z.T
@@ -307,32 +326,68 @@ class DHModel(KinematicModel):
         target: np.ndarray,
         near: np.ndarray | None = None,
         tol: float = 1e-3,
-        iterations: int = 100,
+        iterations: int = 25,
         orientation_weight: float = 200.0,
     ) -> np.ndarray:
-        """One solution per target, ``(..., n)``; NaN rows where every seed failed.
+        """One solution per target, ``(..., n)``; NaN rows where every start failed.
 
-        Starts every target from ``near`` (default: home) and restarts only the
-        targets that failed from the next seed, so a batch costs little more
-        than one solve per target. Same tolerances as :meth:`ik_all`.
+        Vectorised passes: every target starts from ``near`` (default: home);
+        the failures are retried from the four starts of a fixed pool (the
+        model's seeds and 64 more from a fixed generator, their poses computed
+        once) whose poses are closest to the target, and what still fails from
+        the rest of the pool, and last from 256 random starts with twice the
+        iterations (rtb's ikine_LM also restarts at random). Same tolerances as
+        :meth:`ik_all`; the first success in that order is kept.
         """
         target = np.asarray(target, dtype=float)
         full = target.shape[-2:] == (4, 4)
         lead = target.shape[:-2] if full else target.shape[:-1]
         flat_t = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
-        first = self.home if near is None else np.asarray(near, dtype=float)
-        seeds = np.vstack([np.broadcast_to(first, (1, self.dof)), self.seeds[1:]])
-        out = np.full((flat_t.shape[0], self.dof), np.nan)
-        todo = np.arange(flat_t.shape[0])
-        for s in seeds:
-            if todo.size == 0:
-                break
-            q = np.repeat(s[None], todo.size, axis=0)
-            q, err = self._dls(q, flat_t[todo], full, tol, iterations, orientation_weight)
-            ok = (err < tol) & self.within_limits(q)
-            out[todo[ok]] = q[ok]
-            todo = todo[~ok]
+        pool, pool_T = self._start_pool()
+        # closeness of every pool start to every target: position, plus orientation (chordal)
+        t_pos = flat_t[:, :3, 3] if full else flat_t
+        dist = np.linalg.norm(t_pos[:, None, :] - pool_T[None, :, :3, 3], axis=-1)
+        if full:
+            chord = np.linalg.norm(flat_t[:, None, :3, :3] - pool_T[None, :, :3, :3], axis=(-2, -1))
+            dist = dist + orientation_weight * chord
+        order = np.argsort(dist, axis=1)
+        n_t = flat_t.shape[0]
+        out = np.full((n_t, self.dof), np.nan)
+        todo = np.arange(n_t)
+        ref = self.home if near is None else np.asarray(near, dtype=float)
+        first = np.broadcast_to(ref, (n_t, 1, self.dof))
+        # last resort, as rtb's random restarts: 256 more starts and twice the iterations
+        rng = np.random.default_rng(54321)
+        extra = np.broadcast_to(
+            rng.uniform(self.lower, self.upper, (256, self.dof)), (n_t, 256, self.dof)
+        )
+        plans = [
+            (first, iterations),
+            (pool[order[:, :4]], iterations),
+            (pool[order[:, 4:]], iterations),
+            (extra, 2 * iterations),
+        ]
+        for starts, its in plans:
+            if todo.size == 0 or starts.shape[1] == 0:
+                continue
+            k = starts.shape[1]
+            q = starts[todo].reshape(-1, self.dof).copy()
+            tgt = np.repeat(flat_t[todo], k, axis=0)
+            q, err = self._dls(q, tgt, full, tol, its, orientation_weight)
+            ok = ((err < tol) & self.within_limits(q)).reshape(todo.size, k)
+            q = q.reshape(todo.size, k, self.dof)
+            found = ok.any(axis=1)
+            out[todo[found]] = q[found, np.argmax(ok[found], axis=1)]
+            todo = todo[~found]
         return out.reshape(*lead, self.dof)
+
+    def _start_pool(self) -> tuple[np.ndarray, np.ndarray]:
+        """IK starts (the seeds and 64 fixed random ones) and their tool poses, cached."""
+        if getattr(self, "_pool", None) is None:
+            rng = np.random.default_rng(12345)
+            pool = np.vstack([self.seeds, rng.uniform(self.lower, self.upper, (64, self.dof))])
+            self._pool = (pool, self.fk(pool))
+        return self._pool
 
     def _errors(
         self, q: np.ndarray, tgt: np.ndarray, full: bool, w: float
@@ -342,11 +397,11 @@ class DHModel(KinematicModel):
         R = rots[-1]
         tip = self._tool(R, origins[-1])
         J = np.zeros((q.shape[0], 6 if full else 3, self.dof))
-        for i in range(self.dof):
-            z = rots[i][:, 2].T
+        for i, (zc, o) in enumerate(self._axes(rots, origins)):
+            z = zc.T
             if self._revolute[i]:
                 # mm per degree: the chain takes degrees
-                J[:, :3, i] = np.cross(z, (tip - origins[i]).T) * (np.pi / 180.0)
+                J[:, :3, i] = np.cross(z, (tip - o).T) * (np.pi / 180.0)
                 if full:
                     J[:, 3:, i] = z * (w * np.pi / 180.0)
             else:
@@ -356,9 +411,9 @@ class DHModel(KinematicModel):
             return e_pos, J
         Rc = np.moveaxis(R, -1, 0)  # (M, 3, 3)
         # orientation error: the rotation vector (axis * angle, radians) taking the current
-        # orientation to the target, in the base frame; scipy's log map stays exact near 180
-        # degrees, where the usual sum of column cross products vanishes and would stall
-        local = Rotation.from_matrix(np.swapaxes(Rc, 1, 2) @ tgt[:, :3, :3]).as_rotvec()
+        # orientation to the target, in the base frame; an exact log map, because near 180
+        # degrees the usual sum of column cross products vanishes and would stall the solver
+        local = _rotvec(np.swapaxes(Rc, 1, 2) @ tgt[:, :3, :3])
         e_rot = np.einsum("mij,mj->mi", Rc, local)
         return np.concatenate([e_pos, w * e_rot], axis=1), J
 
@@ -389,7 +444,7 @@ class DHModel(KinematicModel):
             lam[take] *= 0.5
             lam[idx[~better]] *= 4.0
             lam = np.clip(lam, 1e-4, 1e6)
-            active[idx] = (np.sqrt(cost[idx]) >= tol * 0.1) & (lam[idx] < 1e6)
+            active[idx] = (np.sqrt(cost[idx]) >= tol) & (lam[idx] < 1e6)
         return q, np.sqrt(cost)
 
     def _dedupe(self, q: np.ndarray) -> np.ndarray:
@@ -438,6 +493,50 @@ class DHModel(KinematicModel):
             off[:3, 3] = rel[:3] / 2
             boxes.append(LinkBox(f"link{i}", i, size, off))
         return tuple(boxes)
+
+
+def _rotvec(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors (axis * angle, radians) of rotation matrices ``(M, 3, 3)``.
+
+    Uses the skew part away from 180 degrees and the symmetric part near it,
+    where the skew part vanishes.
+    """
+    cos = np.clip((R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0) * 0.5, -1.0, 1.0)
+    angle = np.arccos(cos)
+    v = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], -1)
+    sin = np.sin(angle)
+    scale = np.where(sin > 1e-9, angle / np.maximum(2.0 * sin, 1e-300), 0.5)
+    out = v * scale[:, None]
+    near_pi = angle > np.pi - 1e-4
+    if np.any(near_pi):
+        B = (R[near_pi] + np.eye(3)) * 0.5  # ~ a a^T for a half turn about a
+        k = np.argmax(np.diagonal(B, axis1=1, axis2=2), axis=1)
+        rows = np.arange(len(k))
+        axis = B[rows, :, k] / np.sqrt(np.maximum(B[rows, k, k], 1e-300))[:, None]
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        sign = np.where(np.einsum("mi,mi->m", axis, v[near_pi]) < 0, -1.0, 1.0)
+        out[near_pi] = axis * (sign * angle[near_pi])[:, None]
+    return out
+
+
+def _snap(values: np.ndarray) -> np.ndarray:
+    """Round cosines and sines within 1e-12 of 0 or +-1 to those exact values."""
+    out = np.asarray(values, dtype=float).copy()
+    for exact in (0.0, 1.0, -1.0):
+        out[np.abs(out - exact) < 1e-12] = exact
+    return out
+
+
+def _twist(c1: np.ndarray, c2: np.ndarray, ca: float, sa: float) -> tuple[np.ndarray, np.ndarray]:
+    """Columns y and z after a rotation about x by alpha (cos ``ca``, sin ``sa``).
+
+    Right-angle twists (the common case in DH tables) are a swap and a sign.
+    """
+    if sa == 0.0:
+        return (c1, c2) if ca == 1.0 else (-c1, -c2)
+    if ca == 0.0:
+        return (c2, -c1) if sa == 1.0 else (-c2, c1)
+    return c1 * ca + c2 * sa, c2 * ca - c1 * sa
 
 
 def model_from_config(config: Mapping[str, Any], source: str = "<profile>") -> DHModel:
