@@ -77,3 +77,89 @@ def test_override_round_trip(parts, value):
     assert override.keys == tuple(parts)
     assert override.value == value
     assert override.text == text
+
+
+leaves = st.sampled_from(
+    [{"success": {}}, {"failure": None}, {"running": {}}, {"tick_counter": {"duration": 2}}]
+)
+
+
+def _composite(children):
+    return st.sampled_from(["sequence", "selector", "parallel"]).map(lambda t: {t: children})
+
+
+def _decorator(child):
+    return st.sampled_from(
+        [
+            lambda c: {"inverter": {"child": c}},
+            lambda c: {"retry": {"num_failures": 2, "child": c}},
+            lambda c: {"timeout": {"duration": 1.5, "child": c}},
+        ]
+    ).map(lambda make: make(child))
+
+
+trees = st.recursive(
+    leaves,
+    lambda inner: (
+        st.lists(inner, min_size=1, max_size=4).flatmap(_composite) | inner.flatmap(_decorator)
+    ),
+    max_leaves=25,
+)
+
+
+def _preorder(node) -> list[str]:
+    ((ntype, spec),) = node.items()
+    if isinstance(spec, list):
+        return [ntype, *(t for child in spec for t in _preorder(child))]
+    if isinstance(spec, dict) and "child" in spec:
+        return [ntype, *_preorder(spec["child"])]
+    return [ntype]
+
+
+def _core_manager():
+    from armtree import builtin_behaviours
+    from armtree.plugin_manager import PluginManager
+
+    manager = PluginManager(autoload=False)
+    manager.register(builtin_behaviours, "core_behaviours")
+    return manager
+
+
+MANAGER = _core_manager()
+
+
+@settings(max_examples=40, deadline=None)
+@given(trees, st.booleans(), st.data())
+def test_random_trees_load_and_one_unknown_type_is_pinpointed(tmp_path_factory, root, flow, data):
+    import armtree
+
+    directory = tmp_path_factory.mktemp("t")
+    path = directory / "t.yaml"
+    path.write_text(yaml.safe_dump({"root": root}, default_flow_style=flow, sort_keys=False))
+    tree = armtree.load_tree(path, manager=MANAGER)
+    expected = _preorder(root)
+    assert len(tree.nodes) == len(expected)
+    assert sorted(i.type for i in tree.nodes.values()) == sorted(expected)
+    victim = data.draw(st.integers(0, len(expected) - 1))
+    counter = iter(range(len(expected)))
+
+    def rename(node):
+        ((ntype, spec),) = node.items()
+        new_type = "zzz_unknown" if next(counter) == victim else ntype
+        if isinstance(spec, list):
+            spec = [rename(child) for child in spec]
+        elif isinstance(spec, dict) and "child" in spec:
+            spec = {**spec, "child": rename(spec["child"])}
+        return {new_type: spec}
+
+    text = yaml.safe_dump({"root": rename(root)}, default_flow_style=flow, sort_keys=False)
+    path.write_text(text)
+    try:
+        armtree.load_tree(path, manager=MANAGER)
+    except armtree.ConfigError as exc:
+        errors = exc.errors
+    else:
+        raise AssertionError("an unknown node type was accepted")
+    assert len(errors) == 1 and "unknown node type 'zzz_unknown'" in errors[0].message
+    line = text.splitlines()[errors[0].line - 1]
+    assert line[errors[0].column - 1 :].startswith("zzz_unknown:")
