@@ -37,7 +37,14 @@ def camera_over(
     min_z = skill.clearance()
     q_near = rig.arm.joints()
 
+    home_z = float(model.position(model.home)[2])
+
     def rotation_at(xyz: np.ndarray) -> np.ndarray:
+        # the orientation, not the point, matters here: for positioning arms it follows
+        # the direction from the base, so a reachable point at home height will do
+        for cand in (xyz, np.array([xyz[0], xyz[1], home_z])):
+            if reachable(model, cand):
+                return model.fk(model.ik(cand, near=q_near))[:3, :3]
         reach = nearest_reachable(model, xyz)
         if reach is None:
             return np.eye(3)
@@ -148,7 +155,7 @@ class ArmSkill(Skill):
 
     COMMON = (
         Param("speed", "float", 1.0, "", "fraction of the arm's maximum speed, 0 to 1"),
-        Param("settle_s", "float", 0.0, "s", "wait after a move before a frame counts"),
+        Param("settle_s", "float", 0.15, "s", "wait after a move before a frame counts"),
     )
     #: Parameters of skills that move the camera around to look.
     LOOK = (
@@ -192,7 +199,8 @@ class Pick(ArmSkill):
 
     With ``tag`` and a camera, the marker nearest to ``from`` (or seen from the
     current pose) gives the position; otherwise ``from`` (a place, a pose or a
-    ``{key}``) does. After the lift, the camera checks the marker left its spot.
+    ``{key}``) does. After the lift, the camera looks back at the spot: a marker
+    still lying there is a failed grip (FAILURE).
     """
 
     PARAMS = (
@@ -267,7 +275,8 @@ class Pick(ArmSkill):
         if not self.rig.arm.tool.suction:
             raise SkillFailure(f"{self.name}: the suction pump is off after gripping")
         if seen is not None and self.param("verify"):
-            after = yield Look(self.rig, self.clock, frames=2, settle=self.settle())
+            # look back at the spot: a marker still lying there was not picked
+            after = yield from look_over(self, target, self.param("look_height_mm"), None, 2)
             left = nearest(after, tag, target, self.param("verify_tolerance_mm"))
             if left is not None and abs(left.position[2] - target[2]) < self.param(
                 "verify_tolerance_mm"

@@ -13,7 +13,7 @@ import numpy as np
 from armtree import Param
 from armtree.filters import PoseFilter
 
-from .actions import Look, Move, SkillFailure, fmt
+from .actions import Look, Move, Pause, SkillFailure, fmt
 from .base import Procedure, as_list
 from .manipulation import ArmSkill, camera_over
 
@@ -44,6 +44,7 @@ class Track(ArmSkill):
         ),
         Param("until", "bool", False, "", "end with SUCCESS when this (a {key}) becomes true"),
         Param("lost_frames", "int", 30, "", "consecutive frames without the marker before FAILURE"),
+        Param("period_s", "float", 0.2, "s", "time between looks while the arm is still"),
         Param("pose", "any", None, "mm", "output: the marker's smoothed base position", io="out"),
         *ArmSkill.LOOK,
         *ArmSkill.COMMON,
@@ -68,6 +69,8 @@ class Track(ArmSkill):
         anchor: np.ndarray | None = None
         anchor_t = 0.0
         while not self.param("until"):
+            if anchor is not None:
+                yield Pause(self.clock, float(self.param("period_s")))
             sightings = yield Look(self.rig, self.clock, want=tag, frames=1, settle=self.settle())
             seen = [s for s in sightings if s.role == tag]
             if not seen:
