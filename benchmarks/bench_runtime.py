@@ -14,8 +14,8 @@ from armtree.bench import runtime_benchmark
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--ticks", type=int, default=500, help="ticks per round")
-    parser.add_argument("--rounds", type=int, default=20, help="alternating rounds")
+    parser.add_argument("--ticks", type=int, default=1000, help="ticks per round")
+    parser.add_argument("--rounds", type=int, default=10, help="alternating rounds")
     args = parser.parse_args()
     for churn in (False, True):
         for line in runtime_benchmark(args.ticks, args.rounds, churn=churn).lines():

@@ -131,8 +131,8 @@ def _armtree(ticks: int, churn: bool, log_dir: Path) -> tuple[float, int]:
 
 
 def runtime_benchmark(
-    ticks: int = 500,
-    rounds: int = 20,
+    ticks: int = 1000,
+    rounds: int = 10,
     churn: bool = False,
     progress: Callable[[], None] | None = None,
 ) -> RuntimeFigures:
@@ -177,8 +177,8 @@ def configure_bench(parser: argparse.ArgumentParser) -> None:
         "--dir", type=Path, default=Path("benchmarks"), help="folder of bench_*.py scripts"
     )
     parser.add_argument("--list", action="store_true", help="list the benchmarks and exit")
-    parser.add_argument("--ticks", type=int, default=500, help="ticks per round (runtime)")
-    parser.add_argument("--rounds", type=int, default=20, help="rounds (runtime)")
+    parser.add_argument("--ticks", type=int, default=1000, help="ticks per round (runtime)")
+    parser.add_argument("--rounds", type=int, default=10, help="rounds (runtime)")
 
 
 def _scripts(folder: Path) -> dict[str, Path]:

@@ -18,7 +18,7 @@ import re
 import time
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, BinaryIO
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
@@ -68,12 +68,13 @@ class RunLog:
 
     def __init__(self, path: Path | None) -> None:
         self.path = path
-        self._file: TextIO | None = None
+        self._file: BinaryIO | None = None
         # Hot path: the end of a status line, per (path, from, to), built once.
-        self._tails: dict[tuple[str, Any, Any], str] = {}
+        # Bytes, so a tick's lines are joined and written without a text-encoding pass.
+        self._tails: dict[tuple[str, Any, Any], bytes] = {}
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = path.open("w", encoding="utf-8", buffering=1 << 16)
+            self._file = path.open("wb", buffering=1 << 16)
 
     @property
     def enabled(self) -> bool:
@@ -83,25 +84,23 @@ class RunLog:
     def write(self, record: dict[str, Any]) -> None:
         """Append one record (made JSON-safe)."""
         if self._file is not None:
-            self._file.write(json.dumps(jsonable(record)) + "\n")
+            self._file.write((json.dumps(jsonable(record)) + "\n").encode())
 
     def status_changes(self, tick: int, t: float, changes: Iterable[tuple[str, Any, Any]]) -> None:
         """Append one ``status`` record per ``(node_path, from, to)`` (py_trees Status or name)."""
         if self._file is None:
             return
-        tails = self._tails
-        parts = []
-        for change in changes:
-            tail = tails.get(change)
-            if tail is None:
-                path, old, new = change
-                tail = tails[change] = (
-                    f'{json.dumps(path)}, "from": "{_name(old)}", "to": "{_name(new)}"}}\n'
-                )
-            parts.append(tail)
+        get, make = self._tails.get, self._tail
+        parts = [get(change) or make(change) for change in changes]
         if parts:
-            head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '
+            head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '.encode()
             self._file.write(head + head.join(parts))
+
+    def _tail(self, change: tuple[str, Any, Any]) -> bytes:
+        path, old, new = change
+        tail = f'{json.dumps(path)}, "from": "{_name(old)}", "to": "{_name(new)}"}}\n'.encode()
+        self._tails[change] = tail
+        return tail
 
     def event(self, tick: int, t: float, event: str, **data: Any) -> None:
         """Append an ``event`` record."""
