@@ -93,6 +93,10 @@ def tree_definitions(registry: Registry) -> dict[str, Any]:
                     "file": {"type": "string", "description": "tree file, relative to this one"},
                     "with": {"type": "object", "description": "parameter values"},
                     "name": NAME,
+                    "namespace": {
+                        "type": "string",
+                        "description": "prefix for the blackboard keys this instance keeps to itself",
+                    },
                 },
                 "required": ["file"],
                 "additionalProperties": False,

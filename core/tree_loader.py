@@ -21,8 +21,8 @@ A NODE is a mapping with exactly one key, its type:
 * decorator (``inverter``, ``retry``, ``timeout``, ...): a mapping with ``child``
   and its options;
 * leaf: a mapping of its declared parameters (or nothing);
-* ``subtree: {file: search.yaml, with: {tag: duckybot}, name: ...}``: include
-  another tree file's ``root``.
+* ``subtree: {file: search.yaml, with: {tag: duckybot}, name: ..., namespace: ...}``:
+  include another tree file's ``root``.
 
 Every node takes an optional ``name`` (default: its type).
 
@@ -45,6 +45,13 @@ parameters it takes (``default`` makes one optional); ``with`` keys must then be
 declared, and required ones given. For the top-level tree, ``--set NAME=VALUE``
 gives a declared parameter. Include paths are relative to the including file,
 then the working directory, then the shipped trees; cycles are errors.
+
+**Namespaces.** By default the blackboard is shared. ``namespace: scan_a`` on a
+subtree gives that instance its own keys, as py_trees' XML parser does for each
+subtree: its bindings ``{key}`` (and its file's ``blackboard:`` keys) become
+``scan_a/key``, while values given through ``with`` (``out: "{result}"``) and
+absolute keys (``{/key}``) stay as they are. Namespaces nest. py_trees'
+blackboard behaviours name their keys literally and are not namespaced.
 
 **Errors.** Everything is checked before anything is built: unknown node types
 and parameters (with did-you-mean), wrong types, missing required parameters,
@@ -78,7 +85,7 @@ from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 #: Every top-level key a tree file may have.
 TREE_KEYS = ("tree", "description", "rig", "tick_hz", "plugins", "params", "blackboard", "root")
 #: Keys of a ``subtree`` node.
-SUBTREE_KEYS = ("file", "with", "name")
+SUBTREE_KEYS = ("file", "with", "name", "namespace")
 DEFAULT_TICK_HZ = 20.0
 
 #: Stands for a required file parameter that was not given, so that what depends on it
@@ -128,6 +135,8 @@ class _Context:
     params: dict[str, Any] = field(default_factory=dict)
     stack: tuple[Path, ...] = ()
     included_from: Mark | None = None
+    #: Blackboard namespace of this subtree instance ("" for the shared one).
+    namespace: str = ""
 
 
 @dataclass
@@ -343,6 +352,8 @@ class _Loader:
                     ctx,
                 )
                 continue
+            if ctx.namespace and not key.startswith("/"):
+                key = f"{ctx.namespace}/{key}"
             self.blackboard.setdefault(key, _plain(_substitute(value, ctx.params)))
             self.writes.add(_root_key(key))
 
@@ -580,7 +591,7 @@ class _Loader:
                     f"{node.type} has no parameter {key!r}{hint}", options.key_mark(key), ctx
                 )
                 continue
-            value = _substitute(raw, ctx.params)
+            value = _substitute(raw, ctx.params, ctx.namespace)
             if _has_missing(value):
                 incomplete = True
                 continue
@@ -680,7 +691,21 @@ class _Loader:
         data = self.parse(path)
         if data is None:
             return None
-        inner = _Context(file=path, stack=(*ctx.stack, path), included_from=type_mark)
+        namespace = ctx.namespace
+        if "namespace" in spec:
+            own = spec["namespace"]
+            if not isinstance(own, str) or not re.fullmatch(r"[A-Za-z_]\w*", own):
+                self.error(
+                    f"subtree namespace: expected a name (letters, digits, _), got {own!r}",
+                    spec.value_mark("namespace"),
+                    ctx,
+                )
+                ok = False
+            else:
+                namespace = f"{namespace}/{own}" if namespace else own
+        inner = _Context(
+            file=path, stack=(*ctx.stack, path), included_from=type_mark, namespace=namespace
+        )
         if not isinstance(data, MarkedDict):
             self.error(
                 "an included tree file must be a mapping with a root node",
@@ -695,7 +720,7 @@ class _Loader:
         except ConfigError as exc:
             self.errors.extend(exc.errors)
             return None
-        values = {k: _substitute(v, ctx.params) for k, v in given.items()}
+        values = {k: _substitute(v, ctx.params, ctx.namespace) for k, v in given.items()}
         declared = self.declared_params(data, inner)
         if declared is None:
             used = _placeholders(data.get("root"))
@@ -762,9 +787,13 @@ def _file_mark(ctx: _Context) -> Mark:
     return Mark(str(ctx.file), 1, 1)
 
 
-def _substitute(value: Any, params: dict[str, Any]) -> Any:
-    """Replace ``{param}`` references by parameter values (see the module docstring)."""
-    if not params:
+def _substitute(value: Any, params: dict[str, Any], namespace: str = "") -> Any:
+    """Replace ``{param}`` references by parameter values (see the module docstring).
+
+    With a ``namespace``, a resulting ``"{key}"`` binding that is not a parameter's
+    value and not absolute (``"{/key}"``) becomes ``"{namespace/key}"``.
+    """
+    if not params and not namespace:
         return value
     if isinstance(value, str):
         if "{" not in value:
@@ -781,15 +810,19 @@ def _substitute(value: Any, params: dict[str, Any]) -> Any:
                 return m.group(0)
             return str(v).lower() if isinstance(v, bool) else str(v)
 
-        return PLACEHOLDER.sub(text, value)
-    if isinstance(value, MarkedDict):
-        out = MarkedDict(mark=value.mark)
-        for k, v in value.items():
-            out[k] = _substitute(v, params)
-        out.key_marks, out.value_marks = value.key_marks, value.value_marks
+        out = PLACEHOLDER.sub(text, value) if params else value
+        binding = BINDING.match(out) if namespace else None
+        if binding and not binding.group(1).startswith("/"):
+            return f"{{{namespace}/{binding.group(1)}}}"
         return out
+    if isinstance(value, MarkedDict):
+        out_map = MarkedDict(mark=value.mark)
+        for k, v in value.items():
+            out_map[k] = _substitute(v, params, namespace)
+        out_map.key_marks, out_map.value_marks = value.key_marks, value.value_marks
+        return out_map
     if isinstance(value, MarkedList):
-        items = MarkedList([_substitute(v, params) for v in value], mark=value.mark)
+        items = MarkedList([_substitute(v, params, namespace) for v in value], mark=value.mark)
         items.item_marks = value.item_marks
         return items
     return value

@@ -431,3 +431,48 @@ def test_tick_rate_override(tmp_path):
         info.value.file == "--set tick_hz=-5"
         and "tick_hz: expected a rate > 0 Hz" in info.value.message
     )
+
+
+def test_subtree_namespace_keeps_its_own_keys_apart(tmp_path):
+    write(
+        tmp_path,
+        "scan.yaml",
+        """
+        params: [out]
+        blackboard: {step: 5}
+        root:
+          sequence:
+            - reader: {target: "{step}", result: "{scratch}"}
+            - reader: {target: "{scratch}", result: "{out}"}
+            - reader: {target: "{/shared}"}
+        """,
+    )
+    path = write(
+        tmp_path,
+        "main.yaml",
+        """
+        blackboard: {shared: 1}
+        root:
+          sequence:
+            - subtree: {file: scan.yaml, namespace: left, with: {out: "{left_result}"}}
+            - subtree: {file: scan.yaml, namespace: right, with: {out: "{right_result}"}}
+            - reader: {target: "{left_result}"}
+            - reader: {target: "{right/scratch}"}
+        """,
+    )
+    tree = load(path, ReaderPlugin())
+    left, right, _, _ = tree.root.children
+    assert [c.params["target"] for c in left.children] == [
+        Binding("left/step"),
+        Binding("left/scratch"),
+        Binding("/shared"),
+    ]
+    assert [c.params["result"] for c in right.children[:2]] == [
+        Binding("right/scratch"),
+        Binding("right_result"),
+    ]
+    assert tree.blackboard == {"shared": 1, "left/step": 5, "right/step": 5}
+    bad = write(tmp_path, "bad.yaml", "root: {subtree: {file: scan.yaml, namespace: 'a b'}}\n")
+    with pytest.raises(armtree.ConfigError) as info:
+        load(bad, ReaderPlugin())
+    assert any("subtree namespace: expected a name" in e.message for e in info.value.errors)
