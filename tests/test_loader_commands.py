@@ -185,3 +185,24 @@ def test_armtree_check_in_a_subprocess_exits_0_or_2_with_positions(tmp_path):
     assert f"{bad}:3:7: unknown node type 'sucess'; did you mean 'success'?" in output
     assert f"{bad}:4:7: retry needs parameter 'num_failures'" in output
     assert "Traceback" not in output
+
+
+def test_show_png_uses_graphviz_when_its_dot_program_is_installed(tmp_path, monkeypatch):
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    fake_dot = bin_dir / "dot"
+    # A stand-in for Graphviz: records its arguments and the dot source it was given.
+    fake_dot.write_text(
+        "#!/bin/sh\n"
+        'echo "$@" > "$(dirname "$0")/args"\n'
+        'for last; do :; done; cp "$last" "$(dirname "$0")/source.dot"\n'
+        'printf "PNG from dot" > "$3"\n'
+    )
+    fake_dot.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_dir}:/usr/bin:/bin")
+    path = write(tmp_path, "t.yaml", TREE)
+    out = tmp_path / "tree.png"
+    assert COMMANDS["show"].run(parse("show", [str(path), "--format", "png", "-o", str(out)])) == 0
+    assert out.read_text() == "PNG from dot"
+    assert (bin_dir / "args").read_text().startswith(f"-Tpng -o {out} ")
+    assert "Never" in (bin_dir / "source.dot").read_text()
