@@ -40,6 +40,12 @@ def armtree_behaviours() -> dict[str, Any]:
         Its ``PARAMS`` (a tuple of :class:`armtree.Param`) declares every
         parameter, so the loader validates trees before anything runs; its
         docstring's first line is the description ``armtree plugins`` shows.
+        The loader builds a node as ``factory(name, **params)`` with every
+        declared parameter (defaults filled in, ``"{key}"`` as a
+        :class:`armtree.Binding`). A py_trees ``Decorator`` or ``Composite``
+        subclass (or any callable whose ``KIND`` is ``"decorator"`` or
+        ``"composite"``) also receives ``child=`` or ``children=``; only
+        :class:`armtree.Behaviour` subclasses accept bindings.
 
     Called once per plugin-manager, when the registry is first needed.
     """
