@@ -51,6 +51,9 @@ class NullView:
     def stop(self, run: Run) -> None:
         """Called once after the tree has been halted."""
 
+    def abort(self) -> None:
+        """The process is being forced out: release the terminal at once."""
+
 
 class PlainView(NullView):
     """One line per status change, for a stdout that is not a terminal."""
@@ -112,6 +115,12 @@ class LiveView(NullView):
         """Draw the final state and stop the live display."""
         if self._live is not None:
             self._live.update(self._render(run), refresh=True)
+            self._live.stop()
+            self._live = None
+
+    def abort(self) -> None:
+        """Stop the live display without a final redraw (forced exit)."""
+        if self._live is not None:
             self._live.stop()
             self._live = None
 

@@ -172,6 +172,7 @@ class Run:
         self._failed_node: str | None = None
         self._raiser: py_trees.behaviour.Behaviour | None = None
         self._running: list[str] | None = None
+        self._key: StopKey | None = None
 
     # ------------------------------------------------------------------
     # For behaviours and components
@@ -228,7 +229,7 @@ class Run:
         wall0 = time.monotonic()
         bt = py_trees.trees.BehaviourTree(self.root)
         result: RunResult | None = None
-        stop_key = StopKey() if self._stop_key else None
+        stop_key = self._key = StopKey() if self._stop_key else None
         try:
             with (
                 self.interrupts.signals(self._handle_signals),
@@ -644,6 +645,11 @@ class Run:
         self.log.close()
 
     def _force_exit(self) -> None:
+        # Leave the terminal usable: echo back on, cursor shown.
+        if self._key is not None:
+            self._key.restore()
+        with contextlib.suppress(Exception):
+            self.view.abort()
         with contextlib.suppress(Exception):
             self.log.event(self.tick_count, self.clock.now(), "forced_exit")
             self.log.close()

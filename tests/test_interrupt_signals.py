@@ -7,6 +7,7 @@ import queue
 import signal
 import subprocess
 import sys
+import termios
 import textwrap
 import threading
 import time
@@ -157,3 +158,24 @@ def test_the_stop_key_in_a_terminal_halts_the_run(spin):
         os.close(master)
     assert code == 130 and "interrupted by stop key" in err
     assert read_log(spin / "rec" / "run.jsonl")[-1]["status"] == "INTERRUPTED"
+
+
+def test_a_forced_exit_gives_the_terminal_back(spin):
+    (spin / "hang.py").write_text(textwrap.dedent(HANG_PLUGIN))
+    (spin / "hang.yaml").write_text("tree: hang\nroot:\n  hang: {name: Stuck}\n")
+    master, slave = pty.openpty()
+    try:
+        before = termios.tcgetattr(slave)
+        args = ["hang.yaml", "--plugin", "hang.py", "--record", "rec", "--realtime"]
+        proc = Proc(args, spin, stdin=slave)
+        proc.wait_for("Stuck: INVALID -> RUNNING")
+        assert termios.tcgetattr(slave) != before  # cbreak mode for the stop key
+        proc.p.send_signal(signal.SIGINT)
+        proc.wait_for("interrupted: SIGINT")
+        proc.p.send_signal(signal.SIGINT)
+        code, _ = proc.finish(timeout=2.0)
+        assert code == 130
+        assert termios.tcgetattr(slave) == before
+    finally:
+        os.close(slave)
+        os.close(master)
