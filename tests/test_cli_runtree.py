@@ -257,3 +257,11 @@ def test_a_plugin_command_may_not_take_the_name_run(work, capsys):
     assert armtree(["--plugin", "clash.py", "run", "ok.yaml"]) == 2
     err = capsys.readouterr().err
     assert "clashes with armtree's own 'run'" in err and "-p no:clash" in err
+
+
+def test_set_overrides_reach_the_run_and_its_log(work):
+    args = ["ok.yaml", "--quiet", "--record", "r", "--set", "speed=3", "--set", "home=[1, 2]"]
+    assert run_tree(args) == 0
+    start = read_log(work / "r" / "run.jsonl")[0]
+    assert start["blackboard"] == {"speed": 3, "home": [1, 2]}
+    assert start["clock"] == "virtual" and start["seed"] == 0
