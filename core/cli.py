@@ -11,7 +11,6 @@ traceback reaches the user unless ``--debug`` is given.
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 import traceback
 from collections.abc import Callable, Sequence
@@ -140,6 +139,7 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
     """Load, validate and run the tree the options name; return the exit code."""
     from .display import print_summary
     from .runtime import run
+    from .tree_loader import load_tree
 
     if args.timeout is not None and args.timeout <= 0:
         raise ConfigError(f"--timeout {args.timeout:g}: give a positive number of seconds")
@@ -147,8 +147,7 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
         raise ConfigError(f"--max-ticks {args.max_ticks}: give a positive number of ticks")
     if manager is None:
         manager = plugin_manager_for(getattr(args, "plugin", None), getattr(args, "block", None))
-    loader = importlib.import_module("armtree.tree_loader")
-    tree = loader.load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
+    tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
     result = run(
         tree,
         seed=args.seed,
