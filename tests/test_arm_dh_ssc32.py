@@ -64,3 +64,23 @@ def test_servo_config():
     ]:
         with pytest.raises(ConfigError, match=match):
             S.servo_maps_from_config(bad, 1)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.binary(max_size=120), max_size=8))
+def test_board_emulator_and_driver_take_any_bytes(chunks):
+    from armtree.clock import VirtualClock
+    from armtree.plugins.arms.dh.driver import SSC32Driver
+    from armtree.plugins.arms.dh.emulator import SSC32Emulator
+    from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
+
+    model = DHModel([DHRow(0, 0, 0), DHRow(100, 0, 0)], [(-90, 90)] * 2, "modified")
+    maps = S.servo_maps_from_config(None, 2)
+    emulator = SSC32Emulator(model, VirtualClock(), maps)  # not started: replies go nowhere
+    driver = SSC32Driver(model, "/dev/null", maps, clock=VirtualClock())
+    for i, chunk in enumerate(chunks):
+        emulator.on_bytes(chunk, 0.1 * i)
+        driver.on_data(chunk)
+        assert len(emulator._buf) <= 256 and len(driver._buf) <= 256
+    pulses = emulator.pulses(10.0)
+    assert np.all((pulses >= S.PULSE_MIN) & (pulses <= S.PULSE_MAX))

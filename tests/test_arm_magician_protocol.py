@@ -114,3 +114,32 @@ def test_valid_frame_is_found_after_any_noise(noise, cid, ctrl, params, tail):
     # sync pair; a clean separator (two non-0xAA bytes after a complete garbage run) cannot
     got = parser.feed(noise + b"\x00" * 200 + frame + tail)
     assert any(f.id == cid and f.ctrl == ctrl and f.params == params for f in got)
+
+
+FRAMES = st.builds(
+    P.encode,
+    st.sampled_from([int(c) for c in P.Cmd]),
+    st.integers(0, 3),
+    st.binary(max_size=40),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.binary(max_size=200), FRAMES), max_size=10))
+def test_emulator_and_driver_take_any_bytes(chunks):
+    import numpy as np
+
+    from armtree.clock import VirtualClock
+    from armtree.plugins.arms.dobot_magician.driver import MagicianDriver
+    from armtree.plugins.arms.dobot_magician.emulator import QUEUE_SIZE, MagicianEmulator
+    from armtree.plugins.arms.dobot_magician.kinematics import MagicianModel
+
+    model = MagicianModel()
+    emulator = MagicianEmulator(model, VirtualClock())  # not started: replies go nowhere
+    driver = MagicianDriver(model, "/dev/null", clock=VirtualClock())
+    for i, chunk in enumerate(chunks):
+        emulator.on_bytes(chunk, 0.1 * i)
+        emulator.on_timer(0.1 * i + 0.05)
+        driver.on_data(chunk)
+        assert emulator.parser.pending <= P.MAX_BUFFER and len(emulator.queue) <= QUEUE_SIZE
+    assert np.all(np.isfinite(emulator.true_joints()))

@@ -64,3 +64,57 @@ def test_reply_stream_never_grows_unbounded(chunks):
             G.parse_m114(line)
             G.parse_resend(line)
         assert parser.buffered < 256
+
+
+NUMBER = st.floats(-1000, 1000, allow_nan=False).map(lambda v: f"{v:.2f}")
+GCODE = st.builds(
+    lambda code, args, n: (
+        (G.numbered(n, f"{code} {' '.join(args)}") if n >= 0 else f"{code} {' '.join(args)}") + "\n"
+    ),
+    st.sampled_from(
+        [
+            "G0",
+            "G1",
+            "G4",
+            "G28",
+            "G90",
+            "G91",
+            "G92",
+            "M114",
+            "M119",
+            "M280",
+            "M400",
+            "M410",
+            "M106",
+            "M107",
+            "M110",
+            "M115",
+            "M18",
+            "X5",
+        ]
+    ),
+    st.lists(st.builds(lambda a, v: a + v, st.sampled_from("XYZFPSNR"), NUMBER), max_size=4),
+    st.integers(-1, 6),
+).map(str.encode)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.binary(max_size=200), GCODE), max_size=10))
+def test_marlin_emulator_and_driver_take_any_bytes(chunks):
+    import numpy as np
+
+    from armtree.clock import VirtualClock
+    from armtree.plugins.arms.vicra.driver import VicraDriver
+    from armtree.plugins.arms.vicra.emulator import MarlinEmulator
+    from armtree.plugins.arms.vicra.kinematics import VicraModel
+
+    model = VicraModel()
+    emulator = MarlinEmulator(model, VirtualClock())  # not started: replies go nowhere
+    driver = VicraDriver(model, "/dev/null", clock=VirtualClock())
+    for i, chunk in enumerate(chunks):
+        emulator.on_bytes(chunk, 0.1 * i)
+        emulator.on_timer(0.1 * i + 0.05)
+        driver.on_data(chunk)
+        assert sum(len(x) for x in emulator._rx) <= 128
+        assert len(emulator._ring) <= 4
+    assert np.all(np.isfinite(emulator.true_joints()))

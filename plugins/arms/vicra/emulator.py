@@ -50,6 +50,8 @@ M115_REPORT = (
 )
 #: Marlin's command ring (BUFSIZE), planner depth (BLOCK_BUFFER_SIZE), line length (MAX_CMD_SIZE).
 BUFSIZE, BLOCK_BUFFER_SIZE, MAX_CMD_SIZE = 4, 16, 96
+#: The Mega's serial receive buffer (bytes) while the command ring is full.
+RX_BUFFER_SIZE = 128
 #: Steps per degree (X, Y: 3200 steps/rev through 4.5:1 belts) and per mm (Z: 8 mm lead screw).
 STEPS_PER_UNIT = np.array([40.0, 40.0, 400.0])
 KEEPALIVE = 2.0
@@ -76,6 +78,7 @@ class MarlinEmulator(RequestReplyEmulator):
         self.killed = False
         self.relative = False
         self.last_n = 0
+        self.overflows = 0
         self.endstops = {
             "x_min": (1, model.joints[1].lower),
             "y_min": (2, model.joints[2].lower),
@@ -111,6 +114,9 @@ class MarlinEmulator(RequestReplyEmulator):
                 return
             if code == "M410":
                 self._quickstop(t)
+            if sum(len(x) + 1 for x in self._rx) + len(raw) + 1 > RX_BUFFER_SIZE:
+                self.overflows += 1  # a full receive buffer loses what arrives
+                continue
             self._rx.append(raw)
         self._run(t)
 
