@@ -153,7 +153,10 @@ def test_shipped_trees_reference_the_shipped_schema():
     jsonschema.Draft7Validator.check_schema(schema)
     for path in trees.glob("*.yaml"):
         first = path.read_text().splitlines()[0]
-        assert first == "# yaml-language-server: $schema=armtree.schema.json", path.name
+        assert first == "# yaml-language-server: $schema=armtree.schema.json", (
+            f"{path.name}: make its first line '# yaml-language-server: $schema=armtree.schema.json'"
+            " so editors check it (regenerate with: armtree schema -o trees/armtree.schema.json)"
+        )
 
 
 def test_armtree_check_in_a_subprocess_exits_0_or_2_with_positions(tmp_path):
