@@ -68,3 +68,31 @@ def test_pydobot_connects_reads_pose_moves_with_wait_and_switches_suction():
     finally:
         emulator.close()
     assert emulator.parser.bad_checksums == 0
+
+
+def test_pydobot_through_armtree_emulate():
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = shutil.which("armtree") or str(Path(sys.executable).with_name("armtree"))
+    proc = subprocess.Popen(
+        [exe, "emulate", "dobot_magician"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        path = run_bounded(proc.stdout.readline, 20.0).strip()
+        assert path.startswith("/dev/")
+        device = run_bounded(lambda: pydobot.Dobot(port=path), 10.0)
+        try:
+            pose = run_bounded(device.pose, 5.0)
+            model = magician_factory.model({})
+            np.testing.assert_allclose(pose[4:], model.home, atol=1e-3)
+        finally:
+            run_bounded(device.close, 5.0)
+    finally:
+        proc.terminate()
+        assert proc.wait(timeout=10) == 0
