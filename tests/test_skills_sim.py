@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+import armtree
+from armtree.plugin_manager import PluginManager
 from armtree.runtime import Run
 from armtree.tree_loader import load_tree
 
@@ -45,3 +47,33 @@ def test_load_ducky_without_clean_up_leaves_the_trash():
     result, score, _ = run_sim("load_ducky.yaml", "clean_up=false")
     assert result.status == "SUCCESS", result.message
     assert score["ducky_on_duckybot"] and score["trash_in_bin"] == 0
+
+
+class StopWhileCarrying:
+    """Test plugin: interrupts the run once the world says the suction cup holds trash."""
+
+    def __init__(self) -> None:
+        self.tick = None
+
+    @armtree.hookimpl
+    def armtree_tick(self, run) -> None:
+        world = run.rig.camera.world
+        if self.tick is None and world.held and world.bodies[world.held].kind == "trash":
+            self.tick = run.tick_count
+            run.interrupt("test: stop while carrying")
+
+
+@pytest.mark.slow
+def test_an_interrupt_while_carrying_trash_keeps_holding_it():
+    manager = PluginManager()
+    manager.load_entry_points()
+    stopper = StopWhileCarrying()
+    manager.register(stopper, "stop_while_carrying")
+    tree = load_tree("load_ducky.yaml", overrides=[CAMERA], manager=manager)
+    run = Run(tree, None, seed=0, record=False, max_ticks=6000, quiet=True, manager=manager)
+    result = run.execute()
+    score = run.rig.camera.world.score()
+    assert stopper.tick is not None and result.status == "INTERRUPTED"
+    assert result.ticks <= stopper.tick + 1  # halted within one tick
+    assert score["held"] is not None and score["objects"][score["held"]]["kind"] == "trash"
+    assert not score["fell_off_table"] and score["trash_in_bin"] == 0
