@@ -227,9 +227,19 @@ class PtyEmulator(FirmwareEmulator):
         except (BlockingIOError, OSError):
             return
         self.barrier.sent(n)
-        self.transcript.append((self._time, "tx", bytes(data[:n])))
+        self._record("tx", bytes(data[:n]))
 
     # ------------------------------------------------------------------ internals
+
+    def _record(self, direction: str, data: bytes) -> None:
+        # The pty may split one write into several reads; bytes of one direction at
+        # one instant are merged so the transcript does not depend on that.
+        if self.transcript:
+            t, last_dir, last = self.transcript[-1]
+            if t == self._time and last_dir == direction:
+                self.transcript[-1] = (t, direction, last + data)
+                return
+        self.transcript.append((self._time, direction, data))
 
     def _apply_faults(self, data: bytes) -> bytes:
         if not (self._corrupt_rate or self._corrupt_count or self._drop_rate or self._drop_count):
@@ -265,7 +275,7 @@ class PtyEmulator(FirmwareEmulator):
             if data:
                 self.barrier.received(len(data))
                 if not self._silent:
-                    self.transcript.append((self._time, "rx", data))
+                    self._record("rx", data)
                     self.on_bytes(data, self._time)
                 continue
             if not complete or self.barrier.missing() == 0 or time.monotonic() > deadline:
