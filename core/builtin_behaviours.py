@@ -181,21 +181,11 @@ def _check_values(
 ) -> py_trees.behaviour.Behaviour:
     if len(checks) < 2:
         raise ValueError(f"checks: give at least two, got {len(checks)}")
-    expressions = []
-    for i, check in enumerate(checks):
-        if not isinstance(check, dict) or "variable_name" not in check or "value" not in check:
-            raise ValueError(
-                f"checks[{i}]: expected {{variable_name: KEY, value: V, operator: eq}}, got {check!r}"
-            )
-        unknown = set(check) - {"variable_name", "value", "operator"}
-        if unknown:
-            raise ValueError(f"checks[{i}]: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-        op = check.get("operator", "eq")
-        if op not in OPERATORS:
-            raise ValueError(f"checks[{i}]: operator must be one of {', '.join(OPERATORS)}")
-        expressions.append(_comparison(check["variable_name"], check["value"], op))
     return pb.CheckBlackboardVariableValues(
-        name=name, checks=expressions, operator=LOGICAL[logical_operator], namespace=namespace
+        name=name,
+        checks=_checks(checks, "checks"),
+        operator=LOGICAL[logical_operator],
+        namespace=namespace,
     )
 
 
@@ -260,6 +250,39 @@ def _parallel(
     return py_trees.composites.Parallel(name=name, policy=pol, children=children)
 
 
+def _checks(checks: list, what: str) -> list[common.ComparisonExpression]:
+    """``[{variable_name, value, operator}, ...]`` as py_trees comparison expressions."""
+    expressions = []
+    for i, check in enumerate(checks):
+        if not isinstance(check, dict) or "variable_name" not in check or "value" not in check:
+            raise ValueError(
+                f"{what}[{i}]: expected {{variable_name: KEY, value: V, operator: eq}}, got {check!r}"
+            )
+        unknown = set(check) - {"variable_name", "value", "operator"}
+        if unknown:
+            raise ValueError(f"{what}[{i}]: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
+        op = check.get("operator", "eq")
+        if op not in OPERATORS:
+            raise ValueError(f"{what}[{i}]: operator must be one of {', '.join(OPERATORS)}")
+        expressions.append(_comparison(check["variable_name"], check["value"], op))
+    return expressions
+
+
+def _either_or(
+    name: str, children: list, conditions: list, namespace: str | None
+) -> py_trees.behaviour.Behaviour:
+    if len(conditions) != len(children):
+        raise ValueError(
+            f"conditions: give one per child ({len(children)} children, {len(conditions)} conditions)"
+        )
+    return py_trees.idioms.either_or(
+        conditions=_checks(conditions, "conditions"),
+        subtrees=children,
+        name=name,
+        namespace=namespace,
+    )
+
+
 def _simple(cls: type, doc: str) -> NodeType:
     return NodeType(LEAF, lambda name: cls(name=name), (), doc)
 
@@ -313,6 +336,26 @@ def node_types() -> dict[str, NodeType | type]:
                 Param("selected", "str_list", None, doc="child names for success_on_selected"),
             ),
             "Tick every child every tick; FAILURE as soon as one fails.",
+        ),
+        # py_trees' idioms that take children
+        "pick_up_where_you_left_off": NodeType(
+            COMPOSITE,
+            lambda name, children: py_trees.idioms.pick_up_where_you_left_off(
+                name=name, tasks=children
+            ),
+            (),
+            "Run tasks in order; after a higher-priority interruption, resume at the one not done.",
+        ),
+        "either_or": NodeType(
+            COMPOSITE,
+            _either_or,
+            (
+                Param(
+                    "conditions", "list", doc="[{variable_name, value, operator}], one per child"
+                ),
+                Param("namespace", "str", None, doc="blackboard namespace for the choice"),
+            ),
+            "Run the child of the first condition that holds, first come first served.",
         ),
         # Leaves
         "success": _simple(pb.Success, "Always SUCCESS."),

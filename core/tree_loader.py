@@ -534,7 +534,16 @@ class _Loader:
             self.error(f"{ntype} {node_name!r}: {exc}", type_mark, ctx)
             return None
         self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark)
+        self.adopt(behaviour, path, ntype, type_mark)
         return behaviour
+
+    def adopt(self, behaviour: Any, path: str, ntype: str, mark: Mark | None) -> None:
+        """Give node info to behaviours a factory made inside itself (idioms, skill subtrees)."""
+        for child in behaviour.children:
+            if child.id not in self.nodes:
+                child_path = f"{path}/{child.name}"
+                self.nodes[child.id] = NodeInfo(child_path, ntype, mark)
+                self.adopt(child, child_path, ntype, mark)
 
     def node_name(self, options: MarkedDict, ntype: str, ctx: _Context) -> str:
         if "name" not in options:

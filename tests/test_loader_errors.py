@@ -170,6 +170,17 @@ CASES = [
         "selected: no child named 'c'",
     ),
     (
+        "either_or with too few conditions",
+        """
+        root:
+          either_or:
+            conditions: [{variable_name: x, value: 1}]
+            children: [{success: {}}, {failure: {}}]
+        """,
+        (2, 3),
+        "conditions: give one per child (2 children, 1 conditions)",
+    ),
+    (
         "unknown top-level key",
         """
         tick_hz: 10

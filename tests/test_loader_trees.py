@@ -166,6 +166,11 @@ EXAMPLES = {
     "one_shot": "{policy: on_successful_completion, child: {success: {}}}",
     "condition": "{status: SUCCESS, child: {success: {}}}",
     "for_each": "{source_key: items, target_key: item, child: {success: {}}}",
+    "pick_up_where_you_left_off": "[{success: {}}, {running: {}}]",
+    "either_or": (
+        "{conditions: [{variable_name: x, value: 1}, {variable_name: x, value: 2}],"
+        " children: [{success: {}}, {failure: {}}]}"
+    ),
 }
 
 
@@ -178,9 +183,11 @@ def test_every_builtin_type_builds_and_ticks(tmp_path, ntype):
     path = write(tmp_path, "t.yaml", f"root:\n  {ntype}: {EXAMPLES[ntype]}\n")
     tree = load(path)
     assert tree.info(tree.root).type == ntype
+    assert all(tree.info(node) is not None for node in tree.root.iterate())
     blackboard = py_trees.blackboard.Blackboard
     blackboard.set("/st", Status.SUCCESS)
     blackboard.set("/items", [1, 2])
+    blackboard.set("/x", 1)
     py_trees.trees.setup(tree.root, clock=VirtualClock())
     for _ in range(3):
         tree.root.tick_once()
