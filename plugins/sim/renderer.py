@@ -35,9 +35,9 @@ FLOOR = (45, 45, 50)
 TEXTURE_PPM = 1.0
 CYLINDER_SIDES = 16
 #: Polygons wider than this (pixels) get their edges subdivided before distortion.
-SUBDIVIDE_PX = 40.0
+SUBDIVIDE_PX = 100.0
 #: Longest motion-blur streak drawn at full resolution, pixels.
-STREAK_PX = 5.0
+STREAK_PX = 6.0
 _SHIFT = 4
 _SCALE = 1 << _SHIFT
 
@@ -206,11 +206,14 @@ class Renderer:
         self.seed = int(seed)
         rng = np.random.default_rng([self.seed, 7])
         self.texture = table_texture(table, light, rng)
-        self.texture_half = cv2.resize(
+        self.texture_small = cv2.resize(
             self.texture, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA
         )
         self.atlas = MarkerAtlas()
         self._bg_key: bytes | None = None
+        self._clean_key: bytes | None = None
+        self._clean: np.ndarray | None = None
+        self._lens_blurred: np.ndarray | None = None
         self._bg: np.ndarray | None = None
         self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
         if self.noise > 0:
@@ -240,6 +243,28 @@ class Renderer:
         ``previous_pose`` is where the camera was one frame (``frame_dt`` s)
         earlier, for motion blur.
         """
+        key = _scene_key(cam_pose, drawables)
+        if key != self._clean_key or self._clean is None:
+            self._clean_key, self._clean = key, self._draw_scene(cam_pose, drawables)
+            self._lens_blurred = None
+        img = self._clean  # nothing moved: only the blur of a moving camera and noise change
+        streak = None
+        if previous_pose is not None:
+            streak = self._camera_streak(cam_pose, previous_pose, frame_dt)
+        if streak is not None:
+            # A streak of a pixel or more hides the lens's own sub-pixel blur.
+            img = _streak(img, streak)
+        elif self.blur > 0:
+            if self._lens_blurred is None:
+                ksize = (3, 3) if self.blur <= 0.8 else (0, 0)
+                self._lens_blurred = cv2.GaussianBlur(img, ksize, self.blur)
+            img = self._lens_blurred
+        if self._noise_bank:
+            return self._add_noise(img, frame_index)
+        return img.copy() if img is self._clean or img is self._lens_blurred else img
+
+    def _draw_scene(self, cam_pose: np.ndarray, drawables: list[Drawable]) -> np.ndarray:
+        """Table, shadows and solids: everything but blur and noise."""
         r_cw = cam_pose[:3, :3].T
         t_cw = -r_cw @ cam_pose[:3, 3]
         img = self._background(r_cw, t_cw).copy()
@@ -253,12 +278,6 @@ class Renderer:
         ]
         for d in self._order(visible, cam_pos):
             self._draw(img, d, r_cw, t_cw, cam_pos)
-        if previous_pose is not None:
-            img = self._camera_blur(img, cam_pose, previous_pose, frame_dt)
-        if self.blur > 0:
-            img = cv2.GaussianBlur(img, (3, 3) if self.blur <= 0.8 else (0, 0), self.blur)
-        if self._noise_bank:
-            img = self._add_noise(img, frame_index)
         return img
 
     def project(self, cam_pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -296,12 +315,13 @@ class Renderer:
         safe = np.where(valid, w, 1.0)
         mx = np.where(valid, hom[..., 0] / safe, -10.0).astype(np.float32)
         my = np.where(valid, hom[..., 1] / safe, -10.0).astype(np.float32)
-        # The table is smooth: remapping it at half resolution and scaling up costs a quarter.
-        half = ((cam.width + 1) // 2, (cam.height + 1) // 2)
-        mx = cv2.resize(mx, half, interpolation=cv2.INTER_LINEAR)
-        my = cv2.resize(my, half, interpolation=cv2.INTER_LINEAR)
+        # The table is smooth: remapping it at a quarter of the resolution and scaling
+        # up costs a sixteenth.
+        quarter = ((cam.width + 3) // 4, (cam.height + 3) // 4)
+        mx = cv2.resize(mx, quarter, interpolation=cv2.INTER_LINEAR)
+        my = cv2.resize(my, quarter, interpolation=cv2.INTER_LINEAR)
         small = cv2.remap(
-            self.texture_half,
+            self.texture_small,
             mx * 0.5 - 0.25,
             my * 0.5 - 0.25,
             cv2.INTER_LINEAR,
@@ -374,14 +394,24 @@ class Renderer:
         lam = np.maximum(0.0, np.einsum("ij,ij->i", normals, to_light))
         shade = self.light.ambient + (1 - self.light.ambient) * lam
         base = np.asarray(d.color, dtype=float)
+        pc = world @ r_cw.T + t_cw
+        # All vertices in front: project them once; faces index into them.
+        uv_all = self.camera.pixels(pc) if np.all(pc[:, 2] > NEAR) else None
         bbox = []
         for i in np.flatnonzero(facing):
             color = tuple(np.minimum(255.0, base * shade[i]).tolist())
-            pts = world[list(mesh.faces[i])]
+            face = list(mesh.faces[i])
+            pts = world[face]
             if d.shape == "bin" and normals[i, 2] > 0.9:
                 self._draw_bin_top(img, d, pts, r_cw, t_cw, color)
                 continue
-            uv = self._fill(img, pts, r_cw, t_cw, color)
+            uv = None if uv_all is None else uv_all[face]
+            if uv is None or (self.camera.distorted and np.ptp(uv, axis=0).max() > SUBDIVIDE_PX):
+                uv = self._fill(img, pts, r_cw, t_cw, color)
+            else:
+                cv2.fillPoly(
+                    img, [np.round(uv * _SCALE).astype(np.int32)], color, cv2.LINE_AA, _SHIFT
+                )
             if uv is not None:
                 bbox.append(uv)
         if d.marker is not None and d.marker_pose is not None:
@@ -411,14 +441,17 @@ class Renderer:
         rot, centre = d.marker_pose[:3, :3], d.marker_pose[:3, 3] + d.marker_pose[:3, 2] * 0.01
         light = float(light_level(self.light, centre[0], centre[1], centre[2]))
         white = (min(255.0, 235 * light),) * 3
-        label = np.array([[-q, q, 0], [q, q, 0], [q, -q, 0], [-q, -q, 0]]) @ rot.T + centre
-        if self._fill(img, label, r_cw, t_cw, white) is None:
-            return
-        corners = np.array([[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]]) @ rot.T + centre
-        pc = corners @ r_cw.T + t_cw
+        square = np.array([[-1, 1, 0], [1, 1, 0], [1, -1, 0], [-1, -1, 0]], dtype=float)
+        both = np.vstack([square * q, square * s]) @ rot.T + centre
+        pc = both @ r_cw.T + t_cw
         if np.any(pc[:, 2] <= NEAR):
+            self._fill(img, both[:4], r_cw, t_cw, white)
             return
-        uv = self.camera.pixels(pc)
+        uv_both = self.camera.pixels(pc)
+        cv2.fillPoly(
+            img, [np.round(uv_both[:4] * _SCALE).astype(np.int32)], white, cv2.LINE_AA, _SHIFT
+        )
+        uv = uv_both[4:]
         ih, iw = img.shape[:2]
         x0, y0 = np.floor(uv.min(axis=0)).astype(int) - 1
         x1, y1 = np.ceil(uv.max(axis=0)).astype(int) + 2
@@ -449,20 +482,28 @@ class Renderer:
         """Shadows cast on the table by the point lamp (seed 004 notes moving shadows)."""
         lamp = np.asarray(self.light.position, dtype=float)
         h = self.table.height
+        casters = [d for d in drawables if d.shadow and d.shape != "spot"]
+        if not casters:
+            return
+        sizes = np.array([d.size for d in casters], dtype=float)
+        poses = np.array([d.pose for d in casters])
+        corners = np.einsum("kj,bij->bki", UNIT_BOX, poses[:, :3, :3] * sizes[:, None, :])
+        corners += poses[:, None, :3, 3]
+        z = corners[..., 2]
+        keep = ~np.all(z <= h + 0.5, axis=1) & np.all(z < lamp[2] - 1.0, axis=1)
+        if not np.any(keep):
+            return
+        corners, z = corners[keep], z[keep]
+        t = (h - lamp[2]) / (z - lamp[2])
+        ground = lamp[:2] + (corners[..., :2] - lamp[:2]) * t[..., None]
+        centres = ground.mean(axis=1)
+        radii = np.max(np.linalg.norm(ground - centres[:, None], axis=2), axis=1)
+        cc = np.column_stack([centres, np.full(len(centres), h)]) @ r_cw.T + t_cw
         polys = []
-        for d in drawables:
-            if not d.shadow or d.shape == "spot":
+        for g, c, r in zip(ground, cc, radii, strict=True):
+            if not self.camera.sees(c, float(r)):
                 continue
-            corners = UNIT_BOX * np.asarray(d.size) @ d.pose[:3, :3].T + d.pose[:3, 3]
-            if np.all(corners[:, 2] <= h + 0.5) or np.any(corners[:, 2] >= lamp[2] - 1.0):
-                continue
-            t = (h - lamp[2]) / (corners[:, 2] - lamp[2])
-            ground = lamp[:2] + (corners[:, :2] - lamp[:2]) * t[:, None]
-            centre = ground.mean(axis=0)
-            radius = float(np.max(np.linalg.norm(ground - centre, axis=1)))
-            if not self.camera.sees(r_cw @ np.array([centre[0], centre[1], h]) + t_cw, radius):
-                continue
-            hull = cv2.convexHull(ground.astype(np.float32)).reshape(-1, 2)
+            hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
             uv = self._pixels(np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw)
             if uv is not None:
                 polys.append(uv)
@@ -489,7 +530,8 @@ class Renderer:
 
     # -- blur and noise -------------------------------------------------------------
 
-    def _camera_blur(self, img, pose_now, pose_before, frame_dt) -> np.ndarray:
+    def _camera_streak(self, pose_now, pose_before, frame_dt) -> np.ndarray | None:
+        """Image motion (pixels) of the view's centre during the exposure, or None below 1 px."""
         ahead = pose_now[:3, :3] @ np.array([0, 0, 1.0])
         depth = (
             (pose_now[2, 3] - self.table.height) / max(1e-6, -ahead[2])
@@ -500,7 +542,7 @@ class Renderer:
         r_b = pose_before[:3, :3].T
         pc = r_b @ (point - pose_before[:3, 3])
         if pc[2] <= NEAR:
-            return img
+            return None
         k = self.camera.k
         moved = np.array(
             [
@@ -509,7 +551,7 @@ class Renderer:
             ]
         )
         streak = -moved * min(1.0, self.exposure / max(frame_dt, 1e-6))
-        return _streak(img, streak)
+        return streak if float(np.hypot(*streak)) >= 1.0 else None
 
     def _object_blur(self, canvas, d: Drawable, bbox, r_cw, t_cw) -> None:
         assert d.velocity is not None
@@ -539,6 +581,18 @@ class Renderer:
         return cv2.subtract(img, neg[dy : dy + h, dx : dx + w])
 
 
+def _scene_key(cam_pose: np.ndarray, drawables: list[Drawable]) -> bytes:
+    """Bytes that change whenever the camera or anything it could draw moves."""
+    parts = [cam_pose.round(4).tobytes()]
+    for d in drawables:
+        parts.append(d.name.encode())
+        parts.append(d.pose.round(4).tobytes())
+        parts.append(np.asarray(d.size).round(4).tobytes())
+        if d.velocity is not None:
+            parts.append(np.asarray(d.velocity).round(3).tobytes())
+    return b"".join(parts)
+
+
 def _streak(img: np.ndarray, streak: np.ndarray) -> np.ndarray:
     """Average ``img`` along the pixel displacement ``streak`` (motion blur); unchanged below 1 px.
 
@@ -563,14 +617,19 @@ def _streak(img: np.ndarray, streak: np.ndarray) -> np.ndarray:
 
 @functools.lru_cache(maxsize=512)
 def _line_kernel(dx: float, dy: float) -> np.ndarray:
-    """A normalised kernel averaging along the segment (-dx/2, -dy/2)..(dx/2, dy/2), pixels."""
-    length = math.hypot(dx, dy)
-    n = int(math.ceil(length)) | 1
-    kernel = np.zeros((n, n), np.float32)
-    c = n // 2
-    for t in np.linspace(-0.5, 0.5, 2 * n + 1):
-        x, y = int(round(c + t * dx)), int(round(c + t * dy))
-        kernel[min(max(y, 0), n - 1), min(max(x, 0), n - 1)] += 1
+    """A normalised kernel averaging along the segment (-dx/2, -dy/2)..(dx/2, dy/2), pixels.
+
+    Its shape is the segment's bounding box (odd sides), so a mostly horizontal
+    or vertical streak costs little more than a one-dimensional filter.
+    """
+    nx = int(math.ceil(abs(dx))) | 1
+    ny = int(math.ceil(abs(dy))) | 1
+    kernel = np.zeros((ny, nx), np.float32)
+    cx, cy = nx // 2, ny // 2
+    steps = 2 * max(nx, ny) + 1
+    for t in np.linspace(-0.5, 0.5, steps):
+        x, y = int(round(cx + t * dx)), int(round(cy + t * dy))
+        kernel[min(max(y, 0), ny - 1), min(max(x, 0), nx - 1)] += 1
     return kernel / kernel.sum()
 
 
