@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -49,7 +50,7 @@ class SSC32Driver(SerialArmDriver):
         *,
         gripper: S.ServoMap | None = None,
         suction_channel: int | None = None,
-        poll_period: float = 0.05,
+        poll_period: float = 0.02,
         reply_timeout: float = 0.3,
         retries: int = 3,
         **options,
@@ -77,6 +78,8 @@ class SSC32Driver(SerialArmDriver):
         self._commanded: np.ndarray | None = None
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
+        #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
+        self.status_wall = 0.0
 
     # ------------------------------------------------------------------ serial hooks
 
@@ -122,6 +125,7 @@ class SSC32Driver(SerialArmDriver):
         self._silent_polls = 0
         pulses = np.array([10.0 * b for b in reply[:-1]])
         self._pulses = pulses
+        self.status_wall = time.perf_counter()
         finished = status == b"."
         moves = list(self._moves)
         done = []

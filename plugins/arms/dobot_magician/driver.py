@@ -16,6 +16,7 @@ import collections
 import math
 import struct
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -64,7 +65,7 @@ class MagicianDriver(SerialArmDriver):
         model: MagicianModel,
         port: str,
         *,
-        poll_period: float = 0.05,
+        poll_period: float = 0.02,
         reply_timeout: float = 0.3,
         retries: int = 3,
         **options,
@@ -85,6 +86,8 @@ class MagicianDriver(SerialArmDriver):
         self._next_poll = -math.inf
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
+        #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
+        self.status_wall = 0.0
 
     # ------------------------------------------------------------------ serial hooks
 
@@ -165,6 +168,7 @@ class MagicianDriver(SerialArmDriver):
         if len(frame.params) >= 32:
             vals = P.unpack_pose(frame.params)
             self._joints = np.array(vals[4:8], dtype=float)
+            self.status_wall = time.perf_counter()
             self._update_progress()
 
     def _on_index(self, frame: P.Frame) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import collections
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -72,7 +73,7 @@ class VicraDriver(SerialArmDriver):
         home_on_connect: bool = True,
         tool: str = "gripper",
         feed: float = 6000.0,
-        poll_period: float = 0.05,
+        poll_period: float = 0.02,
         resend_ok: bool = True,
         **options,
     ) -> None:
@@ -106,6 +107,8 @@ class VicraDriver(SerialArmDriver):
         self._motions: list[_Motion] = []
         self._next_poll = -math.inf
         self._last_handle: MotionHandle | None = None
+        #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
+        self.status_wall = 0.0
 
     # ------------------------------------------------------------------ public state
 
@@ -272,6 +275,7 @@ class VicraDriver(SerialArmDriver):
             pos = G.parse_m114(text)
             if pos is not None:
                 self._joints = np.array([pos.axes["Z"], pos.axes["X"], pos.axes["Y"], self._wrist])
+                self.status_wall = time.perf_counter()
         self._update_motions()
 
     def _on_servo_report(self, replies: list[str]) -> None:
