@@ -96,42 +96,41 @@ def cover(
     """
     system = _as_system(constraints)
     lo = np.asarray(lower, dtype=float)[None].copy()
-    hi = np.asarray(upper, dtype=float)[None].copy()
-    if lo.shape != hi.shape or np.any(~(hi > lo)) or not delta > 0:
+    size = np.asarray(upper, dtype=float) - lo[0]
+    if size.shape != lo[0].shape or np.any(~(size > 0)) or not delta > 0:
         raise ValueError(f"need lower < upper and delta > 0, got {lower}, {upper}, {delta}")
     d2 = float(delta) ** 2
+    # Longest-edge halving from one root box keeps every box of a level the same
+    # size, so a level is its lower corners plus one shared size vector.
     inner_lo, inner_hi, bnd_lo, bnd_hi = [], [], [], []
     outer, levels = 0, 0
     while len(lo):
         levels += 1
-        box = Interval(lo, hi)
         out = np.zeros(len(lo), dtype=bool)
         ins = np.ones(len(lo), dtype=bool)
-        for g in system(box):
+        for g in system(Interval(lo, lo + size)):
             g = iv.as_interval(g)
             out |= g.lo > 0  # eq. 7
             ins &= g.hi <= 0  # eq. 8
         ins &= ~out
-        size = hi - lo
-        small = np.einsum("ij,ij->i", size, size) <= d2  # eq. 9, diameter of the box
-        und = ~ins & ~out
-        bnd = und & small
-        inner_lo.append(lo[ins])
-        inner_hi.append(hi[ins])
-        bnd_lo.append(lo[bnd])
-        bnd_hi.append(hi[bnd])
-        outer += int(out.sum())
-        split = und & ~small
-        lo, hi, size = lo[split], hi[split], size[split]
+        und = ~(ins | out)
+        outer += int(np.count_nonzero(out))
+        keep = lo[ins]
+        inner_lo.append(keep)
+        inner_hi.append(keep + size)
+        lo = lo[und]
+        if float(size @ size) <= d2:  # eq. 9: the diameter of this level's boxes
+            bnd_lo.append(lo)
+            bnd_hi.append(lo + size)
+            break
         if 2 * len(lo) > max_boxes:
             raise ValueError(f"covering needs more than {max_boxes} live boxes; raise delta")
-        axis = np.argmax(size, axis=1)
-        rows = np.arange(len(lo))
-        mid = lo[rows, axis] + 0.5 * size[rows, axis]
+        axis = int(np.argmax(size))
+        size = size.copy()
+        size[axis] *= 0.5
         n = len(lo)
-        lo, hi = np.concatenate([lo, lo]), np.concatenate([hi, hi])
-        hi[rows, axis] = mid
-        lo[rows + n, axis] = mid
+        lo = np.concatenate([lo, lo])
+        lo[n:, axis] += size[axis]
     dim = len(lower)
 
     def cat(parts: list[np.ndarray]) -> np.ndarray:
@@ -158,6 +157,16 @@ def satisfied(
 # ---------------------------------------------------------------------------
 
 
+def _linear(p: Any, a: float, b: float) -> Any:
+    """``a x + b y`` for points, or its exact bounds over boxes (an Interval)."""
+    if not isinstance(p, Interval):
+        return a * p[..., 0] + b * p[..., 1]
+    xl, xh, yl, yh = p.lo[..., 0], p.hi[..., 0], p.lo[..., 1], p.hi[..., 1]
+    lo = a * (xl if a >= 0 else xh) + b * (yl if b >= 0 else yh)
+    hi = a * (xh if a >= 0 else xl) + b * (yh if b >= 0 else yl)
+    return Interval(lo, hi)
+
+
 def sector_constraint(lower_deg: float, upper_deg: float) -> Callable[[Any], Any] | None:
     """``g(x) <= 0`` for points whose azimuth atan2(y, x) lies in ``[lower, upper]`` degrees.
 
@@ -171,9 +180,8 @@ def sector_constraint(lower_deg: float, upper_deg: float) -> Callable[[Any], Any
     ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
 
     def g(p: Any) -> Any:
-        x, y = p[..., 0], p[..., 1]
-        left_of_a = sa * x - ca * y  # <= 0 when p is counter-clockwise of the lower ray
-        right_of_b = cb * y - sb * x  # <= 0 when p is clockwise of the upper ray
+        left_of_a = _linear(p, sa, -ca)  # <= 0 when p is counter-clockwise of the lower ray
+        right_of_b = _linear(p, -sb, cb)  # <= 0 when p is clockwise of the upper ray
         return (
             iv.maximum(left_of_a, right_of_b)
             if width <= 180.0
@@ -368,22 +376,33 @@ class RevolvedInclusion:
         cell: float,
     ) -> None:
         self.sector = sector
-        z0, z1 = z_range
+        section_fn = lambda q: profile(q[..., 0], q[..., 1])  # noqa: E731
+        # A coarse pass finds where the section is, so the fine grid spans only that.
+        rough = cover(section_fn, [0.0, z_range[0]], [r_max, z_range[1]], 16 * cell)
+        found_lo = np.concatenate([rough.inner_lo, rough.boundary_lo])
+        found_hi = np.concatenate([rough.inner_hi, rough.boundary_hi])
+        if len(found_lo) == 0:
+            found_lo, found_hi = (
+                np.array([[0.0, z_range[0]]]),
+                np.array([[cell, z_range[0] + cell]]),
+            )
         # Dyadic grid of square cells: the covering's boxes are halvings of the root
         # box, so with square cells and a root of 2^k cells each box is whole cells
         # (longest-edge halving never cuts a cell in two).
-        self.kr = max(1, int(np.ceil(np.log2(r_max / cell))))
-        self.kz = max(1, int(np.ceil(np.log2((z1 - z0) / cell))))
+        self.origin = found_lo.min(axis=0)
+        extent = found_hi.max(axis=0) - self.origin
+        self.kr = max(1, int(np.ceil(np.log2(extent[0] / cell))))
+        self.kz = max(1, int(np.ceil(np.log2(extent[1] / cell))))
         self.cells = np.array([2**self.kr, 2**self.kz])
         self.step = np.array([cell, cell], dtype=float)
-        self.origin = np.array([0.0, z0])
         top = self.origin + self.cells * cell
-        section = cover(
-            lambda q: profile(q[..., 0], q[..., 1]), self.origin, top, cell * np.sqrt(2.0)
-        )
+        section = cover(section_fn, self.origin, top, cell * np.sqrt(2.0))
         self.section = section
-        self._inner = self._table(section.inner_lo, section.inner_hi)
-        self._open = self._table(section.boundary_lo, section.boundary_hi)
+        # One table holds both counts (inner in the low 32 bits, undecided above them)
+        # so a query reads four entries, not eight.
+        self._packed = self._table(section.inner_lo, section.inner_hi).astype(np.int64) + (
+            self._table(section.boundary_lo, section.boundary_hi).astype(np.int64) << 32
+        )
 
     def _table(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Summed-area table ``(Nr + 1, Nz + 1)`` of the cells covered by the boxes."""
@@ -424,8 +443,9 @@ class RevolvedInclusion:
         total = (a1 - a0) * (b1 - b0)
         a0, a1 = np.clip(a0, 0, self.cells[0]), np.clip(a1, 0, self.cells[0])
         b0, b1 = np.clip(b0, 0, self.cells[1]), np.clip(b1, 0, self.cells[1])
-        inner = self._count(self._inner, a0, a1, b0, b1)
-        some = inner + self._count(self._open, a0, a1, b0, b1)
+        packed = self._count(self._packed, a0, a1, b0, b1)
+        inner = packed & 0xFFFFFFFF
+        some = inner + (packed >> 32)
         lo = np.where(some == 0, 1.0, -1.0)
         hi = np.where(inner == total, -1.0, 1.0)
         gs: list[Any] = [Interval(lo, hi)]

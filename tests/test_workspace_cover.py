@@ -13,7 +13,7 @@ from armtree.errors import ConfigError
 from armtree.interval import Interval
 from armtree.workspace import ArmWorkspace, cover, satisfied, sector_constraint
 
-finite = st.floats(-20, 20, allow_nan=False)
+finite = st.floats(-20, 20, allow_nan=False, allow_subnormal=False)
 
 
 def _interval_and_points(a, b, fracs):
