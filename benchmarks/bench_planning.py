@@ -370,18 +370,22 @@ class NaiveInterval:
         return NaiveInterval(min(a, b), max(a, b))
 
 
+class _NaiveBox:
+    """Coordinates as ``box[..., k]`` for the shared constraint function."""
+
+    def __init__(self, items):
+        self.items = items
+
+    def __getitem__(self, key):
+        return self.items[key[-1]]
+
+
 def naive_cover(delta: float) -> tuple[float, float]:
     stack = [(-L_MAX, 0.0, L_MAX + L0, L_MAX)]
     inner = bnd = 0.0
     while stack:
         x0, y0, x1, y1 = stack.pop()
-        box = [NaiveInterval(x0, x1), NaiveInterval(y0, y1)]
-
-        class V:
-            def __getitem__(self, k):
-                return box[k[-1]]
-
-        gs = _robot(V())
+        gs = _robot(_NaiveBox([NaiveInterval(x0, x1), NaiveInterval(y0, y1)]))
         if any(g.lo > 0 for g in gs):
             continue
         if all(g.hi <= 0 for g in gs):
