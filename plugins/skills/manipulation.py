@@ -128,6 +128,8 @@ def pick_steps(
     """Approach above ``target``, descend, suction on, let it grip, lift back."""
     rig, speed = skill.rig, skill.speed()
     over = above(skill, target, approach)
+    if rig.arm.tool.gripper is not None:
+        yield Suction(rig, False)  # a gripper opens before it goes down
     yield Move(rig, over, speed=speed, label="approach")
     yield Move(rig, grip_point(skill, target, grasp_offset), speed=speed, label="descend")
     yield Suction(rig, True)
@@ -272,7 +274,8 @@ class Pick(ArmSkill):
             self.param("grasp_offset_mm"),
             self.param("dwell_s"),
         )
-        if not self.rig.arm.tool.suction:
+        tool = self.rig.arm.tool
+        if tool.gripper is None and not tool.suction:
             raise SkillFailure(f"{self.name}: the suction pump is off after gripping")
         if seen is not None and self.param("verify"):
             # look back at the spot: a marker still lying there was not picked

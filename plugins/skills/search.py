@@ -80,6 +80,8 @@ def clean_one(
     rig, speed = skill.rig, skill.speed()
     log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
     over = above(skill, item.position, skill.param("approach_mm"))
+    if rig.arm.tool.gripper is not None:
+        yield Suction(rig, False)  # a gripper opens before it goes down
     try:
         yield Move(rig, over, speed=speed, label="approach trash")
         grip = grip_point(skill, item.position, skill.param("grasp_offset_mm"))
