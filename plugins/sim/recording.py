@@ -74,8 +74,17 @@ class Overhead:
         else:
             cv2.polylines(img, [p], True, color, thickness, cv2.LINE_AA, 4)
 
-    def draw(self, camera: Any = None, path_xyz: np.ndarray | None = None) -> np.ndarray:
-        """The overhead image (BGR uint8) of the world's current state."""
+    def draw(
+        self,
+        camera: Any = None,
+        path_xyz: np.ndarray | None = None,
+        trail_xy: list[tuple[float, float]] | None = None,
+    ) -> np.ndarray:
+        """The overhead image (BGR uint8) of the world's current state.
+
+        ``path_xyz`` is the planned tool path (magenta), ``trail_xy`` where the
+        tool has been (cyan).
+        """
         w = self.world
         img = np.full((self.size, self.size, 3), 40, np.uint8)
         with w.lock:
@@ -129,6 +138,9 @@ class Overhead:
                 fov = self._field_of_view(camera)
                 if fov is not None:
                     self._poly(img, fov, (0, 220, 255), filled=False, thickness=2)
+            if trail_xy is not None and len(trail_xy) > 1:
+                pts = np.round(self.px(np.array(trail_xy))).astype(np.int32)
+                cv2.polylines(img, [pts], False, (255, 255, 0), 1, cv2.LINE_AA)
             if path_xyz is not None and len(path_xyz) > 1:
                 pts = np.round(self.px(path_xyz)).astype(np.int32)
                 cv2.polylines(img, [pts], False, (255, 0, 255), 2, cv2.LINE_AA)
@@ -185,6 +197,8 @@ class Recorder:
         self.paths: dict[str, Path] = {}
         self._next_overhead = 0.0
         self.frames = 0
+        #: Tool positions (x, y mm) seen so far, for the overhead view.
+        self.trail: list[tuple[float, float]] = []
         if camera is not None:
             camera.listeners.append(self._on_frame)
 
@@ -202,10 +216,18 @@ class Recorder:
 
     def _draw(self) -> np.ndarray:
         model = getattr(self.world, "model", None)
-        return self.overhead.draw(self.camera, planned_path_xyz(self.planner, model))
+        return self.overhead.draw(self.camera, planned_path_xyz(self.planner, model), self.trail)
 
     def step(self, now: float) -> None:
         """Add overhead frames up to ``now`` (seconds on the run's clock)."""
+        arm = self.world.arm
+        if arm is not None:
+            tip = (float(arm.tool_pose[0, 3]), float(arm.tool_pose[1, 3]))
+            if (
+                not self.trail
+                or np.hypot(tip[0] - self.trail[-1][0], tip[1] - self.trail[-1][1]) > 1
+            ):
+                self.trail.append(tip)
         if now + 1e-9 < self._next_overhead:
             return
         image = self._draw()

@@ -180,7 +180,6 @@ class World:
         self._grip_mode = "suction"
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
         self.events: list[WorldEvent] = []
-        self.planned_path: np.ndarray | None = None
 
     # -- wiring -------------------------------------------------------------------
 
