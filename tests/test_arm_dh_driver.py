@@ -94,10 +94,14 @@ def test_move_to_sends_one_timed_group_move_and_completes_on_q(sim):
     assert len(moves) == 1 and b"T" in moves[0]
     req = S.parse_request(moves[0].decode())
     assert sorted(req.moves) == [0, 1, 2, 3, 4, 5]
+    # pulses are whole microseconds: the tool lands within a millimetre of the target
     np.testing.assert_allclose(sim.arm.model.position(sim.emu.true_joints()), target, atol=1.0)
-    # read-back has 10 us resolution: within one pulse step of the truth
+    # the read-back (10 us steps) confirms the commanded pulses, which the driver then reports
+    np.testing.assert_allclose(sim.arm.joints(), sim.emu.true_joints(), atol=1e-9)
+    sim.arm.stop()
+    sim.tick(2)
     step = max(abs(m.slope) for m in sim.arm.servos) * 10
-    assert np.abs(sim.arm.joints() - sim.emu.true_joints()).max() <= step
+    assert np.abs(sim.arm.joints() - sim.emu.true_joints()).max() <= step / 2 + 1e-9
 
 
 def test_group_move_takes_the_time_the_slowest_joint_needs(sim):

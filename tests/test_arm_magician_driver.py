@@ -271,3 +271,21 @@ def test_two_runs_exchange_identical_bytes():
             s.close()
 
     assert run() == run()
+
+
+def test_ptp_parameters_are_queued_and_applied(sim):
+    handle = sim.until(
+        sim.arm.set_ptp_params(
+            joint_velocity=50.0, joint_accel=100.0, xyz_velocity=80.0, jump_height=35.0
+        )
+    )
+    assert handle.status is MotionStatus.DONE
+    assert sim.emu.planner.joint_speed.tolist() == [50.0] * 4
+    assert sim.emu.planner.xyz_speed == 80.0 and sim.emu.planner.jump_height == 35.0
+    # slower joints: a 40 degree base turn now takes at least 40 / 50 s
+    t0 = sim.clock.now()
+    sim.until(sim.arm.move_joints([40.0, 45.0, 45.0, 0.0]))
+    assert sim.clock.now() - t0 >= 0.8
+    assert sim.arm.left_space is not None and 0 <= sim.arm.left_space <= 32
+    with pytest.raises(ValueError):
+        sim.arm.set_ptp_params(joint_velocity=-1.0)

@@ -76,6 +76,7 @@ class SSC32Driver(SerialArmDriver):
         self._moves: list[_Move] = []
         self._pulses: np.ndarray | None = None
         self._commanded: np.ndarray | None = None
+        self._commanded_pulses: np.ndarray | None = None
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
         #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
@@ -169,10 +170,19 @@ class SSC32Driver(SerialArmDriver):
     # ------------------------------------------------------------------ ArmDriver
 
     def joints(self) -> np.ndarray:
-        """Joint values from the read-back pulses (10 us steps), degrees / mm."""
+        """Joint values from the read-back pulses, degrees / mm.
+
+        ``QP`` reads pulses in 10 us steps (about 1 degree on a standard
+        servo); where the read-back agrees with the commanded pulse to within
+        that step, the commanded pulse is the better figure and is used.
+        """
         if self._pulses is None:
             return self.model.home.copy() if self._commanded is None else self._commanded.copy()
-        return np.array([float(m.angle(p)) for m, p in zip(self.servos, self._pulses, strict=True)])
+        pulses = self._pulses
+        if self._commanded_pulses is not None:
+            close = np.abs(pulses - self._commanded_pulses) <= 5.0
+            pulses = np.where(close, self._commanded_pulses, pulses)
+        return np.array([float(m.angle(p)) for m, p in zip(self.servos, pulses, strict=True)])
 
     @property
     def tool(self) -> ToolState:
@@ -212,6 +222,7 @@ class SSC32Driver(SerialArmDriver):
             self._move_seq += 1
             self._moves.append(_Move(handle, self._move_seq, goal, start))
             self._commanded = goal
+            self._commanded_pulses = np.array([float(pulses[m.channel]) for m in self.servos])
         if not self.write(S.move_command(pulses, max(time_ms, 1))):
             handle.update(
                 MotionStatus.FAILED, error=self.fault or HardwareFault("not sent", self.device)
@@ -271,6 +282,7 @@ class SSC32Driver(SerialArmDriver):
         """``STOP`` every joint channel at once: the servos hold where they are."""
         with self._lock:
             self._moves.clear()
+            self._commanded_pulses = None  # stopped mid-ramp: only the read-back is known
         self.stop_all()
         self.remember_sent(None)
         self._last_handle = None

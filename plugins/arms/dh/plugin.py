@@ -98,6 +98,7 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
         baud=int(config.get("baud", 115200)),
         clock=context.clock,
         interrupt=context.interrupt,
+        link_timeout=float(config.get("link_timeout", 1.0)),
         **options,
     )
 
@@ -120,6 +121,7 @@ dh_factory.PARAMS = (
     ),
     Param("gripper", "dict", None, doc="gripper servo {channel, table}"),
     Param("suction_channel", "int", None, doc="SSC-32 output driving a pump (#<ch>H / #<ch>L)"),
+    Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
 )
 dh_factory.model = _model
 dh_factory.emulator = _emulator

@@ -86,6 +86,8 @@ class MagicianDriver(SerialArmDriver):
         self._next_poll = -math.inf
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
+        #: Free slots in the arm's command queue, as last read (GetQueuedCmdLeftSpace).
+        self.left_space: int | None = None
         #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
         self.status_wall = 0.0
 
@@ -131,6 +133,7 @@ class MagicianDriver(SerialArmDriver):
                 self._next_poll = now + self.poll_period
                 if self._pending:
                     self._request(P.Cmd.QUEUE_CURRENT_INDEX, 0x00, on_reply=self._on_index)
+                    self._request(P.Cmd.QUEUE_LEFT_SPACE, 0x00, on_reply=self._on_left_space)
                 self._request(P.Cmd.GET_POSE, 0x00, on_reply=self._on_pose)
         if fail:
             self.lose_link(f"link lost: no reply to command {req.id} after {req.tries} tries")
@@ -175,6 +178,10 @@ class MagicianDriver(SerialArmDriver):
         if len(frame.params) >= 8:
             self._current_index = P.unpack_index(frame.params)
             self._update_progress()
+
+    def _on_left_space(self, frame: P.Frame) -> None:
+        if len(frame.params) >= 4:
+            self.left_space = struct.unpack_from("<I", frame.params)[0]
 
     def _update_progress(self) -> None:
         with self._lock:
@@ -336,6 +343,35 @@ class MagicianDriver(SerialArmDriver):
             P.Cmd.GRIPPER,
             bytes([1, int(grip)]),
             extra=[applied],
+        )
+
+    def set_ptp_params(
+        self,
+        joint_velocity: float = 200.0,
+        joint_accel: float = 200.0,
+        xyz_velocity: float = 200.0,
+        xyz_accel: float = 200.0,
+        jump_height: float = 20.0,
+        z_limit: float = 200.0,
+    ) -> MotionHandle:
+        """Queue the PTP joint (deg/s, deg/s^2, all four joints), coordinate (mm/s, mm/s^2;
+        r uses the same figures in deg/s) and jump (mm) parameters; DONE once executed."""
+        values = (joint_velocity, joint_accel, xyz_velocity, xyz_accel, jump_height, z_limit)
+        if not all(np.isfinite(v) and v > 0 for v in values):
+            raise ValueError(f"PTP parameters must be positive finite numbers, got {values}")
+        self.remember_sent(None)
+        self._request(
+            P.Cmd.PTP_JOINT_PARAMS,
+            P.CTRL_WRITE | P.CTRL_QUEUED,
+            struct.pack("<8f", *([joint_velocity] * 4 + [joint_accel] * 4)),
+        )
+        self._request(
+            P.Cmd.PTP_COORDINATE_PARAMS,
+            P.CTRL_WRITE | P.CTRL_QUEUED,
+            struct.pack("<4f", xyz_velocity, xyz_velocity, xyz_accel, xyz_accel),
+        )
+        return self._queued(
+            "PTP parameters", P.Cmd.PTP_JUMP_PARAMS, struct.pack("<2f", jump_height, z_limit)
         )
 
     def wait(self, ms: int) -> MotionHandle:

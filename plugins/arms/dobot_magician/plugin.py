@@ -47,6 +47,7 @@ def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDri
         baud=int(config.get("baud", 115200)),
         clock=context.clock,
         interrupt=context.interrupt,
+        link_timeout=float(config.get("link_timeout", 1.0)),
         **options,
     )
 
@@ -62,6 +63,7 @@ magician_factory.PARAMS = (
         unit="mm",
         doc="end-effector offset from the wrist: forward, sideways, down",
     ),
+    Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
 )
 magician_factory.model = _model
 magician_factory.emulator = _emulator

@@ -48,6 +48,7 @@ def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
         baud=int(config.get("baud", 115200)),
         clock=context.clock,
         interrupt=context.interrupt,
+        link_timeout=float(config.get("link_timeout", 5.0)),
         home_on_connect=bool(config.get("home_on_connect", True)),
         tool=tool,
         feed=float(config.get("feed", 6000.0)),
@@ -69,6 +70,7 @@ vicra_factory.PARAMS = (
     ),
     Param("home_on_connect", "bool", True, doc="run G28 as soon as the link is up"),
     Param("feed", "float", 6000.0, unit="units/min", doc="G1 feed rate at full speed"),
+    Param("link_timeout", "float", 5.0, unit="s", doc="silence after which the link is lost"),
 )
 vicra_factory.model = _model
 vicra_factory.emulator = _emulator
