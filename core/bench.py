@@ -81,6 +81,7 @@ class RuntimeFigures:
     armtree_tps: float
     behaviour_tree_tps: float
     changes_per_tick: float
+    snapshot_tps: float
 
     @property
     def overhead_percent(self) -> float:
@@ -96,6 +97,8 @@ class RuntimeFigures:
             f"  bare py_trees : {self.bare_tps:9.1f} ticks/s  ({per_node:.2f} us per node tick;"
             " root.tick_once())",
             f"  BehaviourTree : {self.behaviour_tree_tps:9.1f} ticks/s  (py_trees' BehaviourTree.tick())",
+            f"  + Snapshot    : {self.snapshot_tps:9.1f} ticks/s  (the same with py_trees'"
+            " SnapshotVisitor, its own status tracking)",
             f"  armtree.run   : {self.armtree_tps:9.1f} ticks/s  (run log + status tracking on;"
             f" {self.changes_per_tick:.1f} status changes logged per tick)",
             f"  overhead      : {self.overhead_percent:+.1f} %  (goal <= "
@@ -103,11 +106,13 @@ class RuntimeFigures:
         ]
 
 
-def _bare(ticks: int, churn: bool, whole_tree: bool = False) -> float:
+def _bare(ticks: int, churn: bool, whole_tree: bool = False, snapshot: bool = False) -> float:
     root = bench_tree(churn)
     tree = py_trees.trees.BehaviourTree(root)
+    if snapshot:
+        tree.add_visitor(py_trees.visitors.SnapshotVisitor())
     tree.setup()
-    tick = tree.tick if whole_tree else root.tick_once
+    tick = tree.tick if whole_tree or snapshot else root.tick_once
     start = time.process_time()
     for _ in range(ticks):
         tick()
@@ -138,11 +143,12 @@ def runtime_benchmark(
 ) -> RuntimeFigures:
     """Measure bare py_trees against armtree's runtime on :func:`bench_tree` (see module doc)."""
     nodes = sum(1 for _ in bench_tree(churn).iterate())
-    best_bare = best_armtree = best_bt = float("inf")
+    best_bare = best_armtree = best_bt = best_snap = float("inf")
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(rounds):
             best_bare = min(best_bare, _bare(ticks, churn))
             best_bt = min(best_bt, _bare(ticks, churn, whole_tree=True))
+            best_snap = min(best_snap, _bare(ticks, churn, snapshot=True))
             elapsed, changes = _armtree(ticks, churn, Path(tmp) / str(r))
             best_armtree = min(best_armtree, elapsed)
             if progress is not None:
@@ -156,6 +162,7 @@ def runtime_benchmark(
         ticks / best_armtree,
         ticks / best_bt,
         changes / ticks,
+        ticks / best_snap,
     )
 
 
