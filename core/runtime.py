@@ -375,7 +375,7 @@ class Run:
                     # The tick took longer than its period: count it and start the next
                     # one now rather than bunching ticks to catch up.
                     self.overruns += 1
-                    t0 = next_t = clock.now()
+                    next_t = clock.now()
                 else:
                     interrupts.wake.wait(-late)
 
