@@ -62,10 +62,14 @@ def test_connect_reads_the_power_up_status(sim):
 
 def test_move_completes_from_the_arms_reports(sim):
     target = np.array([30.0, 5.0, 45.0])
+    written = sim.arm.commands_written
     handle = sim.arm.move_joints(target)
-    assert handle.status is MotionStatus.PENDING
-    sim.tick()
+    # the status interval is free: the command goes out at once
+    assert sim.arm.commands_written == written + 1
     assert handle.status is MotionStatus.RUNNING
+    second = sim.arm.move_joints([0.0, 5.0, 45.0])
+    assert second.status is MotionStatus.PENDING and sim.arm.commands_written == written + 1
+    sim.tick()
     progress = []
     while not handle.done:
         sim.tick()
@@ -74,6 +78,7 @@ def test_move_completes_from_the_arms_reports(sim):
     assert np.all(np.diff(progress) >= -1e-9)
     assert np.allclose(sim.arm.joints(), target, atol=1e-4)
     assert np.allclose(sim.emu.true_joints(), target, atol=1e-4)
+    sim.until(second)
     assert sim.emu.dropped == 0
 
 

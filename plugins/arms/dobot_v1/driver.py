@@ -1,8 +1,10 @@
 """The Dobot V1.0 driver for the original firmware (42-byte frames over pyserial).
 
-It behaves as the official client does: the arm streams status frames, and
-the driver writes at most one queued command each time a complete status
-frame arrives (reference §1.4), so the firmware never drops one (§1.6). The
+It keeps the official client's rule (reference §1.4): the arm streams status
+frames and at most one command is written per status frame received, so the
+firmware never drops one (§1.6). A command goes out when its status frame
+arrives, or at once when asked for if no command has been written since the
+last frame. The
 RPI report's safeguards (seed 004, "Serial Interface") hold: targets are
 checked before a byte is sent; a command is sent only once the move before
 it is complete, judged from the arm's reported angles; and a duplicate of the
@@ -96,6 +98,22 @@ class DobotV1Driver(SerialArmDriver):
                 if self._queue and (not self._inflight or self._queue[0].key == ("stop",)):
                     self._send(self._queue.popleft())
 
+    def _send_if_free(self) -> None:
+        """Write the head of the queue now if this status interval has no command yet.
+
+        At most one command goes out per status frame received, whether it is
+        written when the frame arrives or, as here, when a behaviour asks and
+        the interval is still free, so the firmware never drops one.
+        """
+        if (
+            self._queue
+            and self._status is not None
+            and not self._wrote_since_status
+            and not self._inflight
+            and self._fault is None
+        ):
+            self._send(self._queue.popleft())
+
     def _send(self, item: _Pending) -> None:
         if not self.write(item.command.encode()):
             return
@@ -184,6 +202,7 @@ class DobotV1Driver(SerialArmDriver):
                 self._queue.append(_Pending(config, None, ("speed", speed), "config"))
             command = codec.move_joints(target, suction=suction, mode=codec.MODE_MOVJ)
             self._queue.append(_Pending(command, handle, key, "move", target=target))
+            self._send_if_free()
         return handle
 
     def set_suction(self, on: bool) -> MotionHandle:
@@ -202,6 +221,7 @@ class DobotV1Driver(SerialArmDriver):
             self._suction = on
             command = codec.jog(codec.AXIS_GRAB if on else codec.AXIS_RELEASE)
             self._queue.append(_Pending(command, handle, ("suction", on), "suction", suction=on))
+            self._send_if_free()
         return handle
 
     def stop(self) -> None:

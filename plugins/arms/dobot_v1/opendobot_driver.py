@@ -320,6 +320,7 @@ class OpenDobotDriver(SerialArmDriver):
             self._plans.append(plan)
             self.remember_sent(("move", tuple(target)))
             handle.update(MotionStatus.RUNNING, 0.0)
+            self._feed_stream()
         return handle
 
     def _settled(self, counters: np.ndarray) -> bool:
@@ -402,6 +403,7 @@ class OpenDobotDriver(SerialArmDriver):
             handle.update(MotionStatus.RUNNING)
             self._stream.append(("action", od.PUMP_ON, int(on), None))
             self._stream.append(("action", od.VALVE_ON, int(not on), handle))
+            self._feed_stream()
         return handle
 
     def stop(self) -> None:
