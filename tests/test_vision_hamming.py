@@ -216,3 +216,24 @@ def test_wrong_image_type_is_a_value_error():
     frame = Frame(np.zeros((48, 64), np.float32), 0.0, K, np.zeros(5))
     with pytest.raises(ValueError, match="8-bit"):
         HammingTracker().detect(frame)
+
+
+def test_registered_id_wins_over_an_upside_down_reading():
+    # id 1 turned 180 degrees is one bit away from 3 << 24; with this cell flipped the
+    # upside-down reading is exact while the right one needs a correction.
+    marker_id, alias = 1, 3 << 24
+    for r in range(7):
+        for c in range(7):
+            grid = flip_cells(marker_id, [(r, c)])
+            inner = grid[1:-1, 1:-1]
+            ids, corr = hc.decode_bits(np.stack([inner, np.rot90(inner, 2)]))
+            if ids.tolist() == [marker_id, alias] and corr.tolist() == [1, 0]:
+                break
+        else:
+            continue
+        break
+    frame = render_grid(grid)
+    assert [d.id for d in HammingTracker().detect(frame)] == [alias], "as hampy would read it"
+    roles = TagRoles({marker_id: TagSpec("ducky", (marker_id,), 25.0)})
+    dets = HammingTracker(roles=roles).detect(frame)
+    assert [(d.id, d.quality, d.ambiguous) for d in dets] == [(marker_id, 1.0, False)]

@@ -3,14 +3,19 @@
 Pipeline per frame: grey, the profile's preprocessing (seed 004: threshold at
 40 % of full scale, slight blur), outer contours of dark regions that are
 convex quadrilaterals, the 9x9 cells read through each quad's homography (all
-candidates in one ``cv2.remap``), a black/white split per marker (Otsu on the
-cell means, so a marker in shade reads like one in light), then Hamming(7,4)
-decoding of the four rotations at once.
+candidates in one ``cv2.remap``), each cell compared with the midpoint of
+the black border and the white quiet zone around it (planes fitted over the
+marker, so a marker half in shadow reads like one in full light), then
+Hamming(7,4) decoding of the four rotations at once. Corners are refined to sub-pixel
+accuracy from the square's edges (:mod:`.refine`) before the cells are read.
 
 Unlike Hampy, which reports every rotation that decodes, a marker here gets
-exactly one id and one orientation: the rotation needing the fewest bit
-corrections wins, ties go to an id registered in the profile, and a tie
-that remains is reported once with ``ambiguous=True`` (smallest id first).
+exactly one id and one orientation: a rotation that reads as an id registered
+in the profile wins, then the rotation needing the fewest bit corrections,
+and a tie that remains is reported once with ``ambiguous=True`` (smallest id
+first). The format needs this: small ids read upside down are other valid
+ids (id 2 turned 180 degrees is exactly id 2 << 24, id 1 is one bit from
+3 << 24), so profiles should register the ids they use.
 """
 
 from __future__ import annotations
@@ -27,19 +32,47 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 from .common import TagRoles, check_config, finish_detection, positive_size, profile_file, tag_table
 from .hamming_code import BITS, GRID, decode_bits
 from .preprocess import Preprocessing, to_gray
+from .refine import refine_corners
 
 FAMILY = "hamming"
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
 # Sample offsets inside a cell (in cells): the centre and four points around it.
-_OFFSETS = np.array([[0.5, 0.5], [0.3, 0.3], [0.7, 0.3], [0.7, 0.7], [0.3, 0.7]])
-_CELL_UV = (
-    np.stack(np.meshgrid(np.arange(GRID), np.arange(GRID)), axis=-1).reshape(-1, 1, 2) + _OFFSETS
-).reshape(-1, 2)
+_OFFSETS = np.array([[0.5, 0.5], [0.35, 0.35], [0.65, 0.35], [0.65, 0.65], [0.35, 0.65]])
+_CELL_CENTRES = (
+    np.stack(np.meshgrid(np.arange(GRID), np.arange(GRID)), axis=-1).reshape(-1, 2) + 0.5
+)
+_CELL_UV = (_CELL_CENTRES[:, None, :] - 0.5 + _OFFSETS).reshape(-1, 2)
+# The quiet zone just outside the border, 0.6 of a cell out, along all four sides.
+_ALONG = np.arange(GRID) + 0.5
+_QUIET_UV = np.concatenate(
+    [
+        np.column_stack([_ALONG, np.full(GRID, -0.6)]),
+        np.column_stack([np.full(GRID, GRID + 0.6), _ALONG]),
+        np.column_stack([_ALONG, np.full(GRID, GRID + 0.6)]),
+        np.column_stack([np.full(GRID, -0.6), _ALONG]),
+    ]
+)
 _BORDER = np.ones((GRID, GRID), dtype=bool)
 _BORDER[1:-1, 1:-1] = False
 _BORDER_FLAT = _BORDER.ravel()
+
+
+def _plane_fit(uv: np.ndarray) -> np.ndarray:
+    """Least-squares operator: samples at ``uv`` -> coefficients of a + b u + c v."""
+    design = np.column_stack([np.ones(len(uv)), uv])
+    return np.linalg.pinv(design)
+
+
+# Light falls unevenly across a marker (a shadow edge, a lamp to one side), so the
+# black and white references are planes over the marker, fitted to the border
+# cells (black by the format) and to the quiet zone around it (white).
+_BLACK_FIT = _plane_fit(_CELL_CENTRES[_BORDER_FLAT])
+_WHITE_FIT = _plane_fit(_QUIET_UV)
+_CELL_DESIGN = np.column_stack([np.ones(GRID * GRID), _CELL_CENTRES])
+#: How far a cell is pushed away from its neighbours' mean before thresholding.
+_SHARPEN = 1.0
 _UNIT_SQUARE = np.array([[0, 0], [GRID, 0], [GRID, GRID], [0, GRID]], dtype=np.float32)
 
 
@@ -91,9 +124,10 @@ class HammingTracker(Tracker):
         """Every Hamming marker in ``frame``; poses when its size and intrinsics are known."""
         gray = to_gray(frame.image)
         quads = self.candidates(gray)
+        if self.refine and len(quads):
+            # refined corners put the cell samples on the cells, which matters at 2-3 px per cell
+            quads = refine_corners(gray, quads, GRID)
         readings = self.decode(gray, quads)
-        if self.refine and readings:
-            self._refine(gray, readings)
         detections = []
         for r in readings:
             det = Detection(
@@ -142,30 +176,57 @@ class HammingTracker(Tracker):
             return np.zeros((0, 4, 2), np.float32)
         return np.stack(quads)
 
-    def sample_cells(self, gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
-        """Mean grey level of each of the 81 cells of every quad, ``(N, 81)``.
+    def sample_cells(self, gray: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Grey levels of every quad's 81 cells ``(N, 81)`` and of its quiet zone ``(N, 36)``.
 
         The cells are read in the quad's corner order: row 0 runs from
         ``quad[0]`` to ``quad[1]``, column 0 from ``quad[0]`` to ``quad[3]``.
         """
         n = len(quads)
         homographies = np.stack([cv2.getPerspectiveTransform(_UNIT_SQUARE, q) for q in quads])
-        uv1 = np.concatenate([_CELL_UV, np.ones((len(_CELL_UV), 1))], axis=1)
+        uv = np.concatenate([_CELL_UV, _QUIET_UV])
+        uv1 = np.concatenate([uv, np.ones((len(uv), 1))], axis=1)
         xyw = homographies @ uv1.T  # (N, 3, P)
         xy = (xyw[:, :2] / xyw[:, 2:3]).transpose(0, 2, 1).astype(np.float32)  # (N, P, 2)
         flat = xy.reshape(-1, 1, 2)
         values = cv2.remap(
             gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        ).reshape(n, -1)
+        n_cells = len(_CELL_UV)
+        cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
+        return cells, values[:, n_cells:]
+
+    def classify(self, cells: np.ndarray, quiet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """White cells ``(N, 81)`` and the black-white contrast ``(N,)`` of every quad.
+
+        Blur bleeds neighbouring cells into each other (a lone white cell of 2 px
+        under 1 px of blur keeps about half its contrast), so each cell is first
+        pushed away from the mean of its four neighbours (the quiet zone beyond
+        the border), then compared with the midpoint of the black plane (fitted
+        to the border cells) and the white plane (fitted to the quiet zone).
+        """
+        n = len(cells)
+        padded = np.empty((n, GRID + 2, GRID + 2))
+        padded[:, 1:-1, 1:-1] = cells.reshape(n, GRID, GRID)
+        padded[:, 0, 1:-1] = quiet[:, 0:GRID]
+        padded[:, 1:-1, -1] = quiet[:, GRID : 2 * GRID]
+        padded[:, -1, 1:-1] = quiet[:, 2 * GRID : 3 * GRID]
+        padded[:, 1:-1, 0] = quiet[:, 3 * GRID :]
+        neighbours = 0.25 * (
+            padded[:, :-2, 1:-1] + padded[:, 2:, 1:-1] + padded[:, 1:-1, :-2] + padded[:, 1:-1, 2:]
         )
-        return values.reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
+        sharp = cells + _SHARPEN * (cells - neighbours.reshape(n, -1))
+        black = cells[:, _BORDER_FLAT] @ _BLACK_FIT.T  # (N, 3)
+        white = quiet @ _WHITE_FIT.T
+        threshold = 0.5 * (black + white) @ _CELL_DESIGN.T  # (N, 81)
+        contrast = (white - black) @ np.array([1.0, GRID / 2, GRID / 2])
+        return sharp > threshold, contrast
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
         if len(quads) == 0:
             return []
-        cells = self.sample_cells(gray, quads)
-        threshold, contrast = _otsu(cells)
-        white = cells > threshold[:, None]
+        white, contrast = self.classify(*self.sample_cells(gray, quads))
         border_white = white[:, _BORDER_FLAT].sum(axis=1)
         keep = (contrast >= self.min_contrast) & (border_white <= self.max_border_errors)
         grids = white.reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
@@ -194,46 +255,20 @@ class HammingTracker(Tracker):
                 continue
             if self.only_registered and marker_id not in registered:
                 continue
-            options.append(((corr, marker_id not in registered), marker_id, k))
+            options.append(((marker_id not in registered, corr), marker_id, k))
         if not options:
             return None
         options.sort()
         best_key, best_id, best_k = options[0]
         ties = [o for o in options if o[0] == best_key]
         corners = np.roll(quad, -best_k, axis=0).astype(np.float32)
-        return _Reading(corners, best_id, best_key[0], ambiguous=len(ties) > 1)
-
-    def _refine(self, gray: np.ndarray, readings: list[_Reading]) -> None:
-        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01)
-        for r in readings:
-            side = float(np.linalg.norm(r.corners - np.roll(r.corners, -1, axis=0), axis=1).min())
-            # Half a window must stay inside the border cell next to the corner.
-            half = int(np.clip(round(0.6 * side / GRID), 1, 5))
-            refined = cv2.cornerSubPix(
-                gray, r.corners.reshape(-1, 1, 2).copy(), (half, half), (-1, -1), criteria
-            )
-            r.corners = refined.reshape(4, 2)
+        return _Reading(corners, best_id, best_key[1], ambiguous=len(ties) > 1)
 
 
 def _shoelace(quad: np.ndarray) -> float:
     """Twice the signed area; positive when the corners run clockwise on screen (y down)."""
     x, y = quad[:, 0], quad[:, 1]
     return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-def _otsu(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row Otsu split of ``(N, K)`` values: thresholds ``(N,)`` and class-mean gaps ``(N,)``."""
-    v = np.sort(values, axis=1)
-    n, k = v.shape
-    csum = np.cumsum(v, axis=1)[:, :-1]
-    counts = np.arange(1, k)
-    mean_low = csum / counts
-    mean_high = (v.sum(axis=1, keepdims=True) - csum) / (k - counts)
-    between = counts * (k - counts) * (mean_high - mean_low) ** 2
-    split = between.argmax(axis=1)
-    rows = np.arange(n)
-    threshold = (v[rows, split] + v[rows, split + 1]) / 2.0
-    return threshold, mean_high[rows, split] - mean_low[rows, split]
 
 
 def _dedupe(readings: list[_Reading]) -> list[_Reading]:
@@ -279,5 +314,5 @@ hamming_factory.PARAMS = (
     Param("max_border_errors", "int", 1, doc="border cells allowed to read white"),
     Param("min_contrast", "float", 20.0, doc="grey levels between a marker's black and white"),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
-    Param("refine", "bool", True, doc="sub-pixel corner refinement"),
+    Param("refine", "bool", True, doc="sub-pixel corners from the square's edges"),
 )

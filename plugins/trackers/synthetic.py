@@ -13,6 +13,7 @@ noise, defocus blur, uneven light and a moving shadow.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import cv2
@@ -173,11 +174,14 @@ def render_markers(
     black: float = 30.0,
     white: float = 220.0,
     texture_px: int = 180,
+    square: Callable[[int, int], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
     """A grey uint8 frame of printed markers, and their true corners ``{id: (4, 2)}``.
 
     Each marker is drawn with a quiet zone of 1.5 cells on ``background``;
     ``black`` and ``white`` are the grey levels of the print in full light.
+    ``square(marker_id, side_px)`` replaces the built-in generator (grey
+    uint8 black square, no quiet zone), e.g. to draw another library's code words.
     """
     from .markers import cells_per_side, marker_image
 
@@ -186,7 +190,19 @@ def render_markers(
     cells = cells_per_side(family, dictionary)
     for p in placements:
         side_px = texture_px - texture_px % cells
-        tex = marker_image(family, p.marker_id, side_px, dictionary, quiet_cells=1.5)
+        if square is None:
+            tex = marker_image(family, p.marker_id, side_px, dictionary, quiet_cells=1.5)
+        else:
+            quiet = int(round(1.5 * side_px / cells))
+            tex = cv2.copyMakeBorder(
+                square(p.marker_id, side_px),
+                quiet,
+                quiet,
+                quiet,
+                quiet,
+                cv2.BORDER_CONSTANT,
+                value=255,
+            )
         tex = tex.astype(np.float32) * ((white - black) / 255.0) + black
         full_mm = p.size_mm * tex.shape[0] / side_px
         draw_plane(image, tex, full_mm, full_mm, camera_matrix, p.rvec, p.tvec)
