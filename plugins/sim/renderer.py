@@ -37,7 +37,7 @@ CYLINDER_SIDES = 16
 #: Polygons wider than this (pixels) get their edges subdivided before distortion.
 SUBDIVIDE_PX = 100.0
 #: Longest motion-blur streak drawn at full resolution, pixels.
-STREAK_PX = 6.0
+STREAK_PX = 2.0
 _SHIFT = 4
 _SCALE = 1 << _SHIFT
 
@@ -80,6 +80,11 @@ class CameraModel:
         self.k = np.asarray(k, dtype=float).reshape(3, 3)
         self.dist = np.zeros(5) if dist is None else np.asarray(dist, dtype=float).ravel()[:5]
         self.distorted = bool(np.any(np.abs(self.dist) > 0))
+        # Plain floats: numpy scalars would make the per-polygon arithmetic slow.
+        self._coeffs = tuple(float(v) for v in self.dist)
+        self._pinhole = tuple(
+            float(v) for v in (self.k[0, 0], self.k[1, 1], self.k[0, 2], self.k[1, 2])
+        )
         step = self.COARSE
         # Sample where cv2.resize's pixel-area alignment puts coarse pixel centres.
         xs = np.arange(-(-self.width // step), dtype=np.float32) * step + (step - 1) / 2
@@ -123,18 +128,24 @@ class CameraModel:
 
     def pixels(self, pc: np.ndarray) -> np.ndarray:
         """Distorted pixel coordinates (N, 2) of camera-frame points (N, 3) with z > 0."""
-        x = pc[:, 0] / pc[:, 2]
-        y = pc[:, 1] / pc[:, 2]
+        inv_z = 1.0 / pc[:, 2]
+        x = pc[:, 0] * inv_z
+        y = pc[:, 1] * inv_z
         if self.distorted:
-            k1, k2, p1, p2, k3 = self.dist
+            k1, k2, p1, p2, k3 = self._coeffs
             r2 = x * x + y * y
             rc = np.minimum(r2, self.r2_max)
             radial = 1 + rc * (k1 + rc * (k2 + rc * k3))
+            xy = x * y
             x, y = (
-                x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
-                y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y,
+                x * radial + 2 * p1 * xy + p2 * (r2 + 2 * x * x),
+                y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * xy,
             )
-        return np.column_stack([self.k[0, 0] * x + self.k[0, 2], self.k[1, 1] * y + self.k[1, 2]])
+        out = np.empty((len(pc), 2))
+        fx, fy, cx, cy = self._pinhole
+        out[:, 0] = fx * x + cx
+        out[:, 1] = fy * y + cy
+        return out
 
     def field_of_view_rays(self) -> np.ndarray:
         """Unit rays (4, 3) through the image corners in the camera frame (distortion ignored)."""
@@ -345,22 +356,25 @@ class Renderer:
             key[d.name] = k
         return sorted(drawables, key=lambda d: -key[d.name])
 
-    def _pixels(self, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray) -> np.ndarray | None:
+    def _pixels(
+        self, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray, subdivide: bool = True
+    ) -> np.ndarray | None:
         """Distorted pixels of a convex world polygon (clipped to the near plane), or None."""
         pc = pts @ r_cw.T + t_cw
-        if np.any(pc[:, 2] <= NEAR):
+        if (pc[:, 2] <= NEAR).any():
             pc = _clip_near(pc)
             if len(pc) < 3:
                 return None
         uv = self.camera.pixels(pc)
-        span = np.ptp(uv, axis=0).max()
+        span = float((uv.max(axis=0) - uv.min(axis=0)).max())
         if span > 1e5:
             return None
-        if self.camera.distorted and span > SUBDIVIDE_PX:
+        if subdivide and self.camera.distorted and span > SUBDIVIDE_PX:
             # Long edges bend through the lens: subdivide them before distorting.
             n = min(16, int(span // SUBDIVIDE_PX) + 1)
-            t = np.linspace(0, 1, n, endpoint=False)[:, None, None]
-            edges = pc[None, :, :] + t * (np.roll(pc, -1, axis=0) - pc)[None, :, :]
+            t = _fractions(n)
+            nxt = pc[np.r_[1 : len(pc), 0]]
+            edges = pc[None, :, :] + t * (nxt - pc)[None, :, :]
             uv = self.camera.pixels(edges.transpose(1, 0, 2).reshape(-1, 3))
         return uv
 
@@ -406,7 +420,9 @@ class Renderer:
                 self._draw_bin_top(img, d, pts, r_cw, t_cw, color)
                 continue
             uv = None if uv_all is None else uv_all[face]
-            if uv is None or (self.camera.distorted and np.ptp(uv, axis=0).max() > SUBDIVIDE_PX):
+            if uv is None or (
+                self.camera.distorted and (uv.max(axis=0) - uv.min(axis=0)).max() > SUBDIVIDE_PX
+            ):
                 uv = self._fill(img, pts, r_cw, t_cw, color)
             else:
                 cv2.fillPoly(
@@ -458,7 +474,7 @@ class Renderer:
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, iw), min(y1, ih)
         if x1 <= x0 or y1 <= y0:
             return
-        side = float(np.max(np.linalg.norm(np.roll(uv, -1, axis=0) - uv, axis=1)))
+        side = float(np.max(np.linalg.norm(uv[[1, 2, 3, 0]] - uv, axis=1)))
         src_img = self.atlas.image(marker, side)
         n = src_img.shape[0]
         src = np.array(
@@ -504,7 +520,10 @@ class Renderer:
             if not self.camera.sees(c, float(r)):
                 continue
             hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
-            uv = self._pixels(np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw)
+            # Shadow edges are soft: no need to bend them through the lens.
+            uv = self._pixels(
+                np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw, subdivide=False
+            )
             if uv is not None:
                 polys.append(uv)
         if not polys:
@@ -581,6 +600,12 @@ class Renderer:
         return cv2.subtract(img, neg[dy : dy + h, dx : dx + w])
 
 
+@functools.lru_cache(maxsize=32)
+def _fractions(n: int) -> np.ndarray:
+    """``(n, 1, 1)`` steps 0, 1/n, ... along an edge."""
+    return np.linspace(0, 1, n, endpoint=False)[:, None, None]
+
+
 def _scene_key(cam_pose: np.ndarray, drawables: list[Drawable]) -> bytes:
     """Bytes that change whenever the camera or anything it could draw moves."""
     parts = [cam_pose.round(4).tobytes()]
@@ -603,11 +628,12 @@ def _streak(img: np.ndarray, streak: np.ndarray) -> np.ndarray:
     if length < 1.0:
         return img
     h, w = img.shape[:2]
-    scale = max(1.0, length / STREAK_PX)
+    # Power-of-two reductions keep the resizing cheap.
+    scale = float(2 ** max(0, math.ceil(math.log2(length / STREAK_PX))))
     small = img
     if scale > 1.0:
         size = (max(1, round(w / scale)), max(1, round(h / scale)))
-        small = cv2.resize(img, size, interpolation=cv2.INTER_LINEAR)
+        small = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
     kernel = _line_kernel(round(streak[0] / scale, 1), round(streak[1] / scale, 1))
     small = cv2.filter2D(small, -1, kernel, borderType=cv2.BORDER_REPLICATE)
     if scale > 1.0:
