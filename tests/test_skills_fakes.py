@@ -286,6 +286,8 @@ class FakeTracker(Tracker):
         self.noise = noise_mm
         self.rng = np.random.default_rng(seed)
         self.blind_frames = 0
+        #: No marker is seen from a camera lower than this (mm): the tool hides them there.
+        self.blind_below_z = -np.inf
         self.calls = 0
 
     def detect(self, frame: Frame) -> list[Detection]:
@@ -294,6 +296,8 @@ class FakeTracker(Tracker):
             self.blind_frames -= 1
             return []
         cam = self.camera.poses[frame.index]
+        if cam[2, 3] < self.blind_below_z:
+            return []
         inv = np.linalg.inv(cam)
         out = []
         for m in self.world.markers.values():

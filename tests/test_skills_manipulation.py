@@ -61,10 +61,20 @@ def test_place_on_a_tag_uses_its_fresh_position_and_releases():
 def test_place_fails_when_the_tag_is_not_near_the_target():
     rig = make_rig([Marker(1, np.array([100.0, 200.0, 0.0]))])
     rig.arm.suction = True
-    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot")
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", require_tag=True)
     status, _ = run(node, rig)
     assert status is Status.FAILURE and "no 'duckybot' tag within" in node.feedback_message
     assert rig.arm.suction  # nothing released
+
+
+def test_place_without_its_tag_in_view_uses_the_given_pose():
+    held = Marker(0, np.zeros(3), held=True)
+    rig = make_rig([held, Marker(1, np.array([100.0, 200.0, 0.0]))])
+    rig.world.held = held
+    rig.arm.suction = True
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", release_mm=30.0)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS and np.allclose(held.dropped_at, [210, 50, 40])
 
 
 def test_place_at_a_named_place_without_a_tag():

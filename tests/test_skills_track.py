@@ -66,3 +66,13 @@ def test_track_ends_when_its_until_key_becomes_true():
     node.bb.set("done", True)
     status, _ = run(node, rig, max_ticks=10)
     assert status is Status.SUCCESS
+
+
+def test_track_goes_back_when_following_hides_the_marker():
+    rig = make_rig([Marker(1, np.array([200.0, 0.0, 0.0]))])
+    rig.arm.q = np.array([-6.0, 200.0, 120.0])  # camera 150 mm up: the marker is in view
+    rig.tracker.blind_below_z = 140.0  # following to 5 tag sizes (125 mm) hides it
+    node = Track("track", tag="duckybot", still_s=2.0, lost_frames=10)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert (rig.arm.actual_pose() @ TOOL_T_CAMERA)[2, 3] >= 140.0

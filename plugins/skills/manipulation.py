@@ -296,7 +296,8 @@ class Place(ArmSkill):
 
     ``at`` is a place, a pose or a ``{key}``; with ``tag`` and a camera the
     marker of that role nearest to ``at`` is looked up again first, so a target
-    that moved a little (a parked Duckybot) is still hit.
+    that moved a little is still hit; when it is not in view, ``at`` stands
+    (or, with ``require_tag``, the skill fails and nothing is released).
     """
 
     PARAMS = (
@@ -314,6 +315,7 @@ class Place(ArmSkill):
             "camera height above `at` when looking for `tag`",
         ),
         Param("search_radius_mm", "float", 120.0, "mm", "how far from `at` the tag may be"),
+        Param("require_tag", "bool", False, "", "fail when `tag` is not seen (else place at `at`)"),
         Param("dwell_s", "float", 0.3, "s", "time for the suction to let go"),
         Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
         *ArmSkill.LOOK,
@@ -329,11 +331,12 @@ class Place(ArmSkill):
         if tag and self.rig.camera is not None and self.rig.tracker is not None:
             sightings = yield from look_over(self, target, self.param("look_height_mm"), tag)
             seen = nearest(sightings, tag, target, self.param("search_radius_mm"))
-            if seen is None:
+            if seen is not None:
+                target = seen.position
+            elif self.param("require_tag"):
                 raise SkillFailure(
                     f"{self.name}: no {tag!r} tag within {self.param('search_radius_mm'):g} mm of {fmt(target)}"
                 )
-            target = seen.position
         yield from release_steps(
             self, target, self.param("approach_mm"), self.param("release_mm"), self.param("dwell_s")
         )

@@ -19,6 +19,10 @@ from .manipulation import ArmSkill, camera_over
 
 #: The smoothed marker's key in the pose filter (one marker is followed).
 _TRACKED = 0
+#: Misses in a row after which the camera goes back to where it last saw the marker.
+BLIND_AFTER = 3
+#: A wanted position this close (mm) to one the marker was lost from is not tried again.
+BLIND_RADIUS_MM = 10.0
 
 
 class Track(ArmSkill):
@@ -29,6 +33,8 @@ class Track(ArmSkill):
     position moved more than ``deadband_mm``. SUCCESS when the marker moved less
     than ``still_mm`` for ``still_s`` seconds, or when ``until`` (usually a
     ``{key}``) is true; FAILURE when it was missed in ``lost_frames`` frames in a row.
+    If following hid the marker (the tool in the view, the edge of the image), the
+    camera goes back to where it last saw it and does not try that position again.
     """
 
     PARAMS = (
@@ -68,17 +74,29 @@ class Track(ArmSkill):
         missed = 0
         anchor: np.ndarray | None = None
         anchor_t = 0.0
+        # the tool position the marker was last seen from, and a wanted position from
+        # which it was not (the tool or the view's edge hid it): go back, don't retry
+        seen_from: np.ndarray | None = None
+        blind: np.ndarray | None = None
         while not self.param("until"):
             if anchor is not None:
                 yield Pause(self.clock, float(self.param("period_s")))
             sightings = yield Look(self.rig, self.clock, want=tag, frames=1, settle=self.settle())
             seen = [s for s in sightings if s.role == tag]
+            here = self.rig.arm.pose()[:3, 3]
             if not seen:
                 missed += 1
                 if missed >= self.param("lost_frames"):
                     raise SkillFailure(f"{self.name}: lost the {tag!r} tag for {missed} frames")
+                away = seen_from is not None and np.linalg.norm(here - seen_from) > float(
+                    self.param("deadband_mm")
+                )
+                if missed >= BLIND_AFTER and away:
+                    blind = here
+                    yield Move(self.rig, seen_from, speed=self.speed(), label="back")
                 continue
             missed = 0
+            seen_from = here
             measured = seen[0].position
             now = self.clock.now()
             if anchor is None or np.linalg.norm(measured - anchor) > self.param("still_mm"):
@@ -90,6 +108,8 @@ class Track(ArmSkill):
                 self.feedback_message = f"{tag!r} still at {fmt(estimate)}"
                 return estimate
             wanted = camera_over(self, estimate, height)
-            if np.linalg.norm(wanted - self.rig.arm.pose()[:3, 3]) > self.param("deadband_mm"):
+            if blind is not None and np.linalg.norm(wanted - blind) < BLIND_RADIUS_MM:
+                continue
+            if np.linalg.norm(wanted - here) > self.param("deadband_mm"):
                 yield Move(self.rig, wanted, speed=self.speed(), label="follow")
         return None
