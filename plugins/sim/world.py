@@ -298,7 +298,8 @@ class World:
                 continue
             width = float(min(body.size[:2]))
             closing_on_it = opening <= width + 1.0 and (was is None or was > width + 1.0)
-            inside = body.bottom - 1.0 <= tip[2] <= body.top + 1.0
+            # The jaws reach a little below the tool centre: a grip from just above the top holds.
+            inside = body.bottom - 1.0 <= tip[2] <= body.top + self.physics.pick_tolerance_mm
             centred = np.linalg.norm(tip[:2] - body.pose[:2, 3]) <= 0.25 * width
             if closing_on_it and inside and centred:
                 return body
