@@ -73,13 +73,12 @@ def test_connect_reads_the_banner_and_homes_on_the_end_stops():
     try:
         s.arm.connect()
         assert s.arm.banner[0] == "start" and any("Marlin" in x for x in s.arm.banner)
-        assert not s.arm.homed and not s.emu.homed
         # until the start-up homing ends, the driver reports where it will end
-        np.testing.assert_allclose(s.arm.joints(), s.arm.model.home)
+        np.testing.assert_allclose(s.arm.joints(), s.arm.model.park)
         s.until_homed()
-        assert s.arm.endstops == {"x_min": True, "y_min": True, "z_max": True}
+        assert s.arm.endstops == {"x_min": True, "y_max": True, "z_max": True}
         np.testing.assert_allclose(s.emu.true_joints()[:3], s.emu.reported_joints()[:3])
-        np.testing.assert_allclose(s.emu.true_joints()[:3], s.arm.model.home[:3], atol=0.02)
+        np.testing.assert_allclose(s.emu.true_joints(), s.arm.model.park, atol=0.02)
         assert s.lines_received()[:2] == ["M110 N0", "G90"]
         assert "G28" in s.lines_received()
     finally:
@@ -132,7 +131,7 @@ def test_move_to_takes_the_nearer_elbow_and_completes_from_m114(sim):
     assert np.all(np.diff(progress) >= -1e-9)
     q = sim.emu.true_joints()
     assert np.allclose(q, right, atol=0.02) or np.allclose(q, left, atol=0.02)
-    start = sim.arm.model.home  # the start-up homing ends there
+    start = sim.arm.model.park  # the start-up homing ends there
     nearer = min((right, left), key=lambda s: np.linalg.norm(s - start))
     np.testing.assert_allclose(q, nearer, atol=0.02)
     np.testing.assert_allclose(sim.arm.pose()[:3, 3], target, atol=0.1)
@@ -224,11 +223,11 @@ def test_line_number_errors_from_the_firmware(sim):
         sim.tick()
         report = port.read(512).decode().splitlines()
         assert report[0] == "Reporting endstop status" and report[-1] == "ok"
-        # homed, then moved to the home pose: every switch released
+        # homed: the arm rests on every switch
         assert {G.parse_endstop(x) for x in report[1:-1]} == {
-            ("x_min", False),
-            ("y_min", False),
-            ("z_max", False),
+            ("x_min", True),
+            ("y_max", True),
+            ("z_max", True),
         }
 
 

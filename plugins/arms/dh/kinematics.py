@@ -144,9 +144,7 @@ class DHModel(KinematicModel):
         rng = np.random.default_rng(seed)
         self.seeds = np.vstack([self.home, rng.uniform(lo, hi, size=(max(seeds, 1) - 1, self.dof))])
         self.boxes = self._make_boxes(link_width)
-        self.self_collision_pairs = tuple(
-            (i, j) for i in range(len(self.boxes)) for j in range(i + 2, len(self.boxes))
-        )
+        self.self_collision_pairs = self._collision_pairs()
 
     # ------------------------------------------------------------------ FK
 
@@ -477,6 +475,22 @@ class DHModel(KinematicModel):
         return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
 
     # ------------------------------------------------------------------ boxes
+
+    def _collision_pairs(self) -> tuple[tuple[int, int], ...]:
+        """Box pairs that can collide: not neighbours, and apart at the home pose.
+
+        Boxes that already overlap at home (short wrist links sharing one
+        point, a shoulder inside its own housing) are built that way, as an
+        SRDF disables them; their bounding spheres are the conservative test.
+        """
+        centres = self.box_poses(self.home)[:, :3, 3]
+        radii = 0.5 * np.linalg.norm(self.box_sizes(), axis=1)
+        pairs = []
+        for i in range(len(self.boxes)):
+            for j in range(i + 2, len(self.boxes)):
+                if np.linalg.norm(centres[i] - centres[j]) > radii[i] + radii[j]:
+                    pairs.append((i, j))
+        return tuple(pairs)
 
     def _make_boxes(self, width: float) -> tuple[LinkBox, ...]:
         """One box per link, spanning frame ``i``'s origin to frame ``i + 1``'s at home.

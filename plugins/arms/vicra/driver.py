@@ -57,8 +57,8 @@ class _Motion:
 class VicraDriver(SerialArmDriver):
     """The VICRA SCARA on a Marlin Mega + RAMPS (115200 8N1 by default), real or emulated.
 
-    ``home_on_connect`` queues G28 and a move to the model's home pose as soon
-    as the link is up (moves sent meanwhile wait behind them). ``tool`` is ``"gripper"`` (servo 1; suction on
+    ``home_on_connect`` queues G28 as soon as the link is up (moves sent
+    meanwhile wait behind it). ``tool`` is ``"gripper"`` (servo 1; suction on
     closes it, off opens it) or ``"suction"`` (a pump on the fan output,
     M106 / M107). ``feed`` is the G1 feed rate at full speed, units per minute.
     """
@@ -119,18 +119,23 @@ class VicraDriver(SerialArmDriver):
 
     @property
     def settled(self) -> bool:
-        """True once the start-up homing and the move to the home pose have finished."""
+        """True once the start-up homing has finished on the end stops."""
         return self._homed and not self._settling
 
     def joints(self) -> np.ndarray:
         """Joints (z mm, theta1, theta2, wrist degrees) as last reported by M114 R.
 
-        Until the start-up homing (``home_on_connect``) has ended at the model's
-        home pose, the counts mean nothing (the firmware counts from where it
-        was powered up) and this returns that home pose: the place every move
-        sent meanwhile will start from, since it waits behind the homing.
+        Until the start-up homing (``home_on_connect``) has ended, the counts
+        mean nothing (the firmware counts from where it was powered up) and
+        this returns the pose homing ends in (``model.park``, on the end
+        stops): the place every move sent meanwhile starts from, since it
+        waits behind the homing.
         """
-        if self._joints is None or self._settling:
+        if self._settling:
+            q = self.model.park.copy()
+            q[3] = self._wrist
+            return q
+        if self._joints is None:
             return self.model.home.copy()
         q = self._joints.copy()
         q[3] = self._wrist
@@ -166,14 +171,6 @@ class VicraDriver(SerialArmDriver):
         if self.home_on_connect:
             self._settling = True
             self._queue_homing()
-            h = self.model.home
-            self._enqueue(f"G1 X{h[1]:.3f} Y{h[2]:.3f} Z{h[0]:.3f} F{self.feed:.0f}")
-            self._enqueue("M400")
-            self._enqueue("M114 R", self._on_settled)
-
-    def _on_settled(self, replies: list[str]) -> None:
-        self._on_position(replies)
-        self._settling = False
 
     def on_data(self, data: bytes) -> None:
         """Sort reply lines: ok, Resend, errors, keep-alives, reports (I/O thread)."""
@@ -323,7 +320,8 @@ class VicraDriver(SerialArmDriver):
         def homed(replies: list[str]) -> None:
             self._on_endstops(replies)
             self._homing = False
-            self._homed = all(self.endstops.get(k) for k in ("x_min", "y_min", "z_max"))
+            self._settling = False
+            self._homed = all(self.endstops.get(k) for k in ("x_min", "y_max", "z_max"))
 
         self._enqueue("G28")
         self._enqueue("M114 R", self._on_position)

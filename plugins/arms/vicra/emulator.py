@@ -4,7 +4,8 @@ Marlin drives the arm as a plain joint controller (hardware_protocols.md §5.6,
 last point): X is the shoulder theta1 and Y the elbow theta2 (degrees), Z the
 column (mm); servo 0 is the wrist (M280 S = wrist + 90), servo 1 the gripper
 (S = opening in degrees); a vacuum pump, when fitted, is on the fan output
-(M106 / M107). End stops: x_min at theta1's lower limit, y_min at theta2's,
+(M106 / M107). End stops: x_min at theta1's lower limit, y_max at theta2's upper
+one (so homing leaves the elbow on the same side as the home pose),
 z_max at the top of the column (seed 000: micro-switches on all three axes).
 
 What it reproduces (§5.2-5.5): the start-up banner (printed when the host
@@ -16,7 +17,8 @@ planned into the 16-block planner, G28 / G4 / M400 when finished) with
 arrive (EMERGENCY_PARSER), moves refused before homing (``echo:Home XYZ First``,
 NO_MOTION_BEFORE_HOMING), M114 (``M114 R``: real-time position), M119, M280,
 M115, M110, G90/G91/G92, M17/M18/M84. At power-up the firmware believes it is at
-zero while the arm is wherever it was left: only G28 makes the two agree.
+zero while the arm is wherever it was left (by default parked on its end stops):
+only G28 makes the two agree.
 Units: mm, degrees, seconds on the run's clock.
 """
 
@@ -65,7 +67,8 @@ class MarlinEmulator(RequestReplyEmulator):
     def __init__(
         self, model: VicraModel, clock: Clock, *, seed: int = 0, q0: np.ndarray | None = None
     ) -> None:
-        q_true = np.asarray(model.home if q0 is None else q0, dtype=float)
+        # by default the arm was switched off parked on its end stops, as after a homing
+        q_true = np.asarray(model.park if q0 is None else q0, dtype=float)
         super().__init__(model, clock, seed=seed, q0=np.array([0.0, 0.0, 0.0, 0.0]))
         self.model: VicraModel = model
         # the firmware believes every axis is at 0; the arm is really at q_true
@@ -81,7 +84,7 @@ class MarlinEmulator(RequestReplyEmulator):
         self.overflows = 0
         self.endstops = {
             "x_min": (1, model.joints[1].lower),
-            "y_min": (2, model.joints[2].lower),
+            "y_max": (2, model.joints[2].upper),
             "z_max": (0, model.joints[0].upper),
         }
         self._lines = LineParser(max_line=256)
@@ -341,13 +344,10 @@ class MarlinEmulator(RequestReplyEmulator):
         true = self.joints.true(t)
         goal = true.copy()
         self._homing_axes = axes
+        switch = {"X": "x_min", "Y": "y_max", "Z": "z_max"}
         for axis in axes:
-            idx = {"X": 1, "Y": 2, "Z": 0}[axis]
-            goal[idx] = {
-                1: self.endstops["x_min"][1],
-                2: self.endstops["y_min"][1],
-                0: self.endstops["z_max"][1],
-            }[idx]
+            idx, position = self.endstops[switch[axis]]
+            goal[idx] = position
         goal[3] = 0.0
         # the steppers drive physically toward the switches: count from where the arm really is
         self.joints.missed[:] = 0.0

@@ -54,6 +54,10 @@ class VicraModel(KinematicModel):
         )
         self.tool_offset = np.array([0.0, 0.0, -TOOL_DROP])
         self.home = np.array([200.0, -45.0, 90.0, 0.0])
+        #: Where G28 leaves the arm: column at the top (z_max), shoulder on its x_min and
+        #: elbow on its y_max switch (the elbow side of the home pose), wrist centred.
+        #: Also where it is parked when switched off.
+        self.park = np.array([float(z_travel), float(t1lo), float(t2hi), 0.0])
         self.boxes = (
             LinkBox(
                 "column",
