@@ -93,7 +93,7 @@ class FakeHardware:
 
 
 def arc(deg: float, r: float = 185.0) -> list[float]:
-    """A point of the ring search.yaml scans (r = 185 mm on the table top at z = -40 mm)."""
+    """A point of the ring search.yaml scans (r = 185 mm, on a table a little below its z = -35 mm)."""
     return [r * math.cos(math.radians(deg)), r * math.sin(math.radians(deg)), -40.0]
 
 
