@@ -134,6 +134,17 @@ def bench_tritri(quick: bool) -> None:
         f"x{pairs_rate / ref_rate:.0f} vs reference",
     )
     row("  agreement with the reference", f"{agree}/{n_ref}", "bit-for-bit decisions")
+    # The same random triangles, every pair of two sets: plane tests as matrix products.
+    na = 1000 if quick else 2000
+    secs = cpu(lambda: intersect_matrix(a[:na], b[:na]), 2)
+    row(
+        "batched all-pairs (matrix), random",
+        f"{na * na / secs:,.0f} /s",
+        f"x{na * na / secs / ref_rate:.0f} vs reference; {na * na:,} tests",
+    )
+    m = intersect_matrix(a[:150], b[:150])
+    chk = np.array([[triangles_intersect(x, y) for y in b[:150]] for x in a[:150]])
+    row("  all-pairs vs reference (150 x 150)", f"{int(np.sum(m == chk))}/{chk.size}")
     # The planner's layout: every link-box triangle of 1,000 configurations against the scene.
     model = DobotV1Model()
     q = model.lower + rng.random((1000, 3)) * (model.upper - model.lower)

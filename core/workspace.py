@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import interval as iv
-from .errors import ConfigError
+from .errors import ConfigError, Unreachable
 from .interval import Interval
 from .kinematics import KinematicModel
 
@@ -608,6 +608,18 @@ class ArmWorkspace:
                 self._profile, self._sector, hi[0], (lo[2], hi[2]), delta / 4
             )
         return cover(system, lo, hi, delta, max_boxes)
+
+    def require(self, xyz: np.ndarray) -> np.ndarray:
+        """``xyz`` (mm) as a float array, or :class:`~armtree.errors.Unreachable` saying why not."""
+        p = np.asarray(xyz, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise Unreachable(f"target {p.tolist()} is not a finite (x, y, z) in mm")
+        if not self.reachable(p):
+            raise Unreachable(
+                f"{self.model.name}: {np.round(p, 2).tolist()} mm is outside the reachable "
+                "workspace (joint limits and coupled constraints)"
+            )
+        return p
 
     def reachable(self, xyz: np.ndarray, tol: float = 1e-6) -> np.ndarray | bool:
         """Exact test: can the tool reach ``xyz`` ``(..., 3)`` mm within the limits?

@@ -83,7 +83,7 @@ def test_direct_plan_to_tries_ik_solutions_nearest_first_and_refuses_nan():
     path = planner.plan_to(np.array([90.0, -50.0]), target)
     np.testing.assert_allclose(model.position(path[-1]), target, atol=1e-6)
     assert path[-1][1] < 0
-    with pytest.raises(Unreachable, match="not finite"):
+    with pytest.raises(Unreachable, match="not a finite"):
         planner.plan_to(np.array([0.0, 90.0]), np.array([np.nan, 0.0, 50.0]))
     with pytest.raises(Unreachable):
         planner.plan_to(np.array([0.0, 90.0]), np.array([900.0, 0.0, 50.0]))
@@ -220,3 +220,43 @@ def test_factory_refuses_a_home_inside_an_obstacle():
     )
     with pytest.raises(ConfigError, match="crate"):
         direct_factory({}, RigContext(profile=None, clock=None), wide_dobot(), scene)
+
+
+# -- the real Dobot V1.0 model and a profile ------------------------------------------------
+
+
+def test_prm_on_the_dobot_v1_model_from_a_profile(tmp_path):
+    from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
+    from armtree.profile import load_profile
+    from armtree.rig_builder import make_scene
+
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        "planner: {type: prm, milestones: 400, neighbours: 5, seed: 2}\n"
+        "places: {home: [185, 0, 30]}\n"
+        "obstacles:\n"
+        "  - box: {center: [0, 0, -105], size: [800, 800, 10], name: table}\n"
+        "  - box: {center: [0, 170, 0], size: [400, 20, 200], name: wall}\n"
+    )
+    profile = load_profile(rig)
+    scene = make_scene(profile)
+    assert isinstance(scene, Scene) and {b.name for b in scene.boxes} == {"table", "wall"}
+    config = dict(profile.component("planner"), cache_dir=str(tmp_path / "cache"))
+    planner = prm_factory(config, RigContext(profile=profile, clock=None), DobotV1Model(), scene)
+    model = planner.model
+    start = np.array([-60.0, 20.0, 58.0])
+    goal_xyz = model.position(np.array([40.0, 20.0, 58.0]))
+    path = planner.plan_to(start, goal_xyz)
+    np.testing.assert_allclose(model.position(path[-1]), goal_xyz, atol=1e-6)
+    _path_is_valid(planner.checker, path)
+    with pytest.raises(Unreachable, match="outside the reachable workspace"):
+        planner.plan_to(start, np.array([0.0, 0.0, 500.0]))
+    # Past the wall the straight move hits it; the roadmap retracts the arm to slip by.
+    beyond = np.array([130.0, 20.0, 58.0])
+    assert not planner.checker.segment_free(start, beyond)
+    path = planner.plan(start, beyond)
+    _path_is_valid(planner.checker, path)
+    radius = np.hypot(*model.position(path)[:, :2].T)
+    assert radius.min() < 150.0

@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 
 from armtree.collision import CollisionChecker
-from armtree.errors import Unreachable
 from armtree.kinematics import KinematicModel
 from armtree.params import Param
 from armtree.rig import Planner
 from armtree.validation import check_config, validate_samples
+from armtree.workspace import ArmWorkspace
 
 
 class DirectPlanner(Planner):
@@ -35,6 +35,7 @@ class DirectPlanner(Planner):
         self.model = checker.model
         self.resolution = float(resolution)
         self.min_singular = min_singular
+        self.workspace = ArmWorkspace(self.model)
 
     def plan(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
         """``[start, goal]`` ``(2, n)`` deg / mm, or PlanningError naming why not."""
@@ -46,11 +47,12 @@ class DirectPlanner(Planner):
         return np.stack([start, goal])
 
     def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-        """Waypoints to a tool position (mm); a non-finite target is refused before any IK."""
-        xyz = np.asarray(xyz, dtype=float)
-        if not np.all(np.isfinite(xyz)):
-            raise Unreachable(f"target {xyz.tolist()} is not finite")
-        return super().plan_to(start, xyz)
+        """Waypoints to a tool position (mm), IK solutions nearest-first (seed 002).
+
+        A non-finite or unreachable target is refused (:class:`Unreachable`)
+        before any inverse kinematics runs.
+        """
+        return super().plan_to(start, self.workspace.require(xyz))
 
 
 def sample_segment(q0: np.ndarray, q1: np.ndarray, step: float) -> np.ndarray:

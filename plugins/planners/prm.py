@@ -33,6 +33,7 @@ from armtree.kinematics import KinematicModel
 from armtree.params import Param
 from armtree.rig import Planner
 from armtree.validation import check_config
+from armtree.workspace import ArmWorkspace
 
 #: Bump when the cache file layout or the construction changes meaning.
 CACHE_VERSION = 1
@@ -182,6 +183,7 @@ class PRMPlanner(Planner):
         self._tree: cKDTree | None = None
         #: True when the roadmap in use came from the disk cache.
         self.loaded_from_cache = False
+        self.workspace = ArmWorkspace(self.model)
 
     # -- the roadmap -----------------------------------------------------------
 
@@ -297,6 +299,14 @@ class PRMPlanner(Planner):
             graph.remove_nodes_from([s_id, g_id])
         path = np.stack([config(n) for n in ids])
         return self.shortcut(path) if self.smooth else path
+
+    def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+        """Waypoints to a tool position (mm), IK solutions nearest-first (seed 002).
+
+        A non-finite or unreachable target is refused (:class:`Unreachable`)
+        before any inverse kinematics or roadmap search runs.
+        """
+        return super().plan_to(start, self.workspace.require(xyz))
 
     def _links(self, q: np.ndarray) -> list[tuple[int, float]]:
         assert self._tree is not None and self._roadmap is not None
