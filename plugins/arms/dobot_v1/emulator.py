@@ -146,6 +146,13 @@ class DobotV1Emulator(PtyEmulator):
         self._start_due_moves(t)
 
     def _command(self, cmd: codec.Command, t: float) -> None:
+        fields = np.array(
+            [cmd.state, cmd.axis, cmd.r_head, cmd.is_grab, cmd.start_vel, cmd.end_vel, cmd.max_vel]
+        )
+        if not np.all(np.isfinite(fields)) or np.any(np.abs(fields) > 1e6):
+            # garbage the firmware cannot act on (a corrupted frame): ignored
+            self.refused += 1
+            return
         state = int(round(cmd.state))
         values = np.array([cmd.x, cmd.y, cmd.z], dtype=float)
         if state in (codec.STATE_MOVE_JOINTS, codec.STATE_MOVE_XYZ):
@@ -172,14 +179,15 @@ class DobotV1Emulator(PtyEmulator):
             self._jog(int(round(cmd.axis)), cmd.start_vel, t)
         elif state == codec.STATE_CONFIG:
             if int(round(cmd.axis)) == codec.CONFIG_PLAYBACK:
-                if cmd.x > 0:
+                if math.isfinite(cmd.x) and 0 < cmd.x <= 1e4:
                     self.joints.max_speed[:] = cmd.x
-                if cmd.y > 0:
+                if math.isfinite(cmd.y) and 0 < cmd.y <= 1e5:
                     self.joints.max_accel[:] = cmd.y
-                if cmd.max_vel > 0:
+                if 0 < cmd.max_vel <= 200:
                     self.jump_height = float(cmd.max_vel)
         elif state == codec.STATE_SPEED:
-            self.speed_ratio = float(np.clip(cmd.x / 100.0, 0.01, 1.0))
+            if math.isfinite(cmd.x):
+                self.speed_ratio = float(np.clip(cmd.x / 100.0, 0.01, 1.0))
         else:
             self.refused += 1
 
