@@ -13,7 +13,7 @@ virtual clock (20 Hz ticks, every camera frame read), simulated seconds per
 wall second; with --load-ducky also the full load_ducky tree on sim_dobot
 (arm emulator, driver, skills, trackers), goal >= 10x real time.
 
-Usage: python benchmarks/bench_sim.py [--frames N] [--rounds R] [--load-ducky]
+Usage: python benchmarks/bench_sim.py [--frames N] [--rounds R] [--load-ducky [PROFILE ...]]
 """
 
 from __future__ import annotations
@@ -187,17 +187,18 @@ def bench_pick_and_place() -> None:
     )
 
 
-def bench_load_ducky() -> None:
+def bench_load_ducky(rig: str) -> None:
     from armtree.runtime import run
     from armtree.tree_loader import load_tree
 
+    tree = load_tree("load_ducky.yaml", rig=rig)
     wall0 = time.perf_counter()
-    result = run(load_tree("load_ducky.yaml"), record=False, timeout=300, quiet=True)
+    result = run(tree, record=False, timeout=300, quiet=True)
     wall = time.perf_counter() - wall0
-    print("load_ducky on sim_dobot (full stack, virtual clock)")
+    print(f"load_ducky on {rig} (full stack: emulator, driver, skills, tracker; virtual clock)")
     print(
         f"  {result.status}: {result.seconds:.1f} s simulated in {wall:.2f} s wall: "
-        f"{result.seconds / wall:.1f}x real time (goal >= 10x)  {result.message[:80]}"
+        f"{result.seconds / wall:.1f}x real time (goal >= 10x)  {result.message[:90]}"
     )
 
 
@@ -205,12 +206,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=200, help="frames per round")
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds")
-    parser.add_argument("--load-ducky", action="store_true", help="also time the load_ducky tree")
+    parser.add_argument(
+        "--load-ducky",
+        nargs="*",
+        metavar="PROFILE",
+        help="also time the load_ducky tree on these profiles (default: sim_vicra sim_dobot)",
+    )
     args = parser.parse_args()
     bench_render(args.frames, args.rounds)
     bench_pick_and_place()
-    if args.load_ducky:
-        bench_load_ducky()
+    if args.load_ducky is not None:
+        for rig in args.load_ducky or ["sim_vicra", "sim_dobot"]:
+            bench_load_ducky(rig)
 
 
 if __name__ == "__main__":
