@@ -177,8 +177,8 @@ class Skill(armtree.Behaviour):
         value = self.params.get(pname)
         if isinstance(value, str) and self.rig is not None and value not in self.rig.places:
             known = ", ".join(sorted(self.rig.places)) or "none"
-            raise armtree.ConfigError(
-                f"{self.name}: {pname}: unknown place {value!r} (places: {known})"
+            raise self._profile_error(
+                "places", f"{self.name}: {pname}: unknown place {value!r} (places: {known})"
             )
 
     def role_check(self, pname: str) -> None:
@@ -186,9 +186,19 @@ class Skill(armtree.Behaviour):
         value = self.params.get(pname)
         if isinstance(value, str) and value and self.rig is not None and value not in self.rig.tags:
             known = ", ".join(sorted(self.rig.tags)) or "none"
-            raise armtree.ConfigError(
-                f"{self.name}: {pname}: unknown tag role {value!r} (tags: {known})"
+            raise self._profile_error(
+                "tags", f"{self.name}: {pname}: unknown tag role {value!r} (tags: {known})"
             )
+
+    def _profile_error(self, section: str, message: str) -> armtree.ConfigError:
+        """A ConfigError at the profile's ``section`` (where the name should have been)."""
+        profile = getattr(self.rig, "profile", None)
+        mark_of = getattr(profile, "mark", None)
+        mark = mark_of(section) if callable(mark_of) else None
+        if mark is not None:
+            return armtree.ConfigError(message, mark.file, mark.line, mark.column)
+        source = getattr(profile, "source", None)
+        return armtree.ConfigError(message, str(source) if source else None)
 
     def bound(self, pname: str) -> bool:
         """True when parameter ``pname`` is a ``{key}`` blackboard binding."""
