@@ -65,8 +65,9 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
     firmware = _firmware(config)
     model = dobot_v1_model(config)
     port = config.get("port", "sim")
+    simulated = port == "sim"
     options: dict[str, Any] = {}
-    if port == "sim":
+    if simulated:
         emulator = dobot_v1_emulator(config, context.clock, seed=context.seed)
         port = serve_in_run(emulator, context)
         options = sim_driver_options(emulator)
@@ -76,6 +77,8 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
         "clock": context.clock,
         "interrupt": context.interrupt,
         "link_timeout": float(config.get("link_timeout", 1.0)),
+        # A real Arduino resets when the port opens and boots for about 2 s (reference §1.1).
+        "connect_timeout": 3.0 if simulated else float(config.get("connect_timeout", 8.0)),
         **options,
     }
     if firmware == "open-dobot":
@@ -104,6 +107,13 @@ dobot_v1_factory.PARAMS = (
     ),
     Param("tool_drop_mm", "float", 0.0, unit="mm", doc="tool centre below the wrist joint"),
     Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
+    Param(
+        "connect_timeout",
+        "float",
+        8.0,
+        unit="s",
+        doc="real ports: time allowed for the board's reset and first answer",
+    ),
     Param("status_period", "float", 0.05, unit="s", doc="sim only: status frame period (original)"),
     Param("board", "str", "fpga", doc="open-dobot control board", choices=("fpga", "ramps")),
     Param("start_pose", "vector", None, unit="deg", doc="sim only: power-up joint angles"),
