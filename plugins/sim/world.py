@@ -175,7 +175,6 @@ class World:
         self.arm: ArmView | None = None
         self.held: str | None = None
         self._held_rel: np.ndarray | None = None
-        self._last_suction = False
         self._last_gripper: float | None = None
         self._grip_mode = "suction"
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
@@ -253,7 +252,6 @@ class World:
             target = self._gripper_target(arm)
             if target is not None:
                 self._grab(target, arm, now, "gripper")
-        self._last_suction = arm.suction
         self._last_gripper = arm.gripper
 
     def _opening_mm(self, arm: ArmView) -> float | None:
