@@ -237,3 +237,23 @@ def test_registered_id_wins_over_an_upside_down_reading():
     roles = TagRoles({marker_id: TagSpec("ducky", (marker_id,), 25.0)})
     dets = HammingTracker(roles=roles).detect(frame)
     assert [(d.id, d.quality, d.ambiguous) for d in dets] == [(marker_id, 1.0, False)]
+
+
+def test_profile_errors_point_at_the_value(tmp_path):
+    from armtree.profile import load_profile
+
+    path = tmp_path / "rig.yaml"
+    path.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        "tracker: {type: hamming, preprocess: {blur: 4}}\n"
+        "tags:\n"
+        "  ducky: {id: 1, size_mm: 25}\n"
+    )
+    profile = load_profile(str(path))
+    with pytest.raises(ConfigError) as err:
+        hamming_factory(profile.section("tracker"), context(profile))
+    assert err.value.file == str(path) and err.value.line == 3
+    assert "tracker.preprocess.blur" in err.value.message
+    good = hamming_factory({"type": "hamming"}, context(profile))
+    assert good.roles.describe(1) == ("ducky", 25.0)

@@ -8,7 +8,7 @@ import numpy as np
 
 from armtree.clock import Clock
 from armtree.params import Param
-from armtree.plugins.trackers.common import check_config, profile_file
+from armtree.plugins.trackers.common import check_config
 from armtree.rig import Camera, Frame, RigContext
 
 from .intrinsics import INTRINSICS_PARAMS, IntrinsicsBySize, extrinsics_from, intrinsics_from_config
@@ -49,12 +49,12 @@ class FrameSourceCamera(Camera):
 
 def camera_config(
     config: dict[str, Any], context: RigContext, params: tuple[Param, ...]
-) -> tuple[dict[str, Any], IntrinsicsBySize, np.ndarray, str | None]:
-    """Checked values, intrinsics, extrinsics and the profile file of a camera section."""
-    file = profile_file(context.profile)
-    values = check_config(config, params, "camera", file)
-    intr = IntrinsicsBySize(intrinsics_from_config(values, file))
-    return values, intr, extrinsics_from(values["extrinsics"], file), file
+) -> tuple[dict[str, Any], IntrinsicsBySize, np.ndarray, Any]:
+    """Checked values, intrinsics and extrinsics of a camera section, and where it was written."""
+    where = context.profile
+    values = check_config(config, params, "camera", where)
+    intr = IntrinsicsBySize(intrinsics_from_config(values, where))
+    return values, intr, extrinsics_from(values["extrinsics"], where), where
 
 
 __all__ = ["INTRINSICS_PARAMS", "FrameSourceCamera", "camera_config"]

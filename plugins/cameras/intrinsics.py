@@ -25,6 +25,7 @@ import yaml
 
 from armtree.errors import ConfigError
 from armtree.params import Param
+from armtree.plugins.trackers.common import config_error, profile_file
 
 #: The keys every camera type accepts for its intrinsics and mounting.
 INTRINSICS_PARAMS: tuple[Param, ...] = (
@@ -82,34 +83,31 @@ def nominal(width: int, height: int) -> Intrinsics:
     return Intrinsics(k, np.zeros(5), width, height, calibrated=False)
 
 
-def matrix_from(values: Mapping[str, Any], where: str, file: str | None = None) -> np.ndarray:
+def matrix_from(values: Mapping[str, Any], path: str, where: Any = None) -> np.ndarray:
     """A 3x3 camera matrix from ``{fx, fy, cx, cy}`` (pixels); ConfigError names what is wrong."""
     missing = [k for k in ("fx", "fy", "cx", "cy") if k not in values]
     if missing:
-        raise ConfigError(f"{where}: missing {', '.join(missing)} (pixels)", file=file)
+        raise config_error(where, path, f"missing {', '.join(missing)} (pixels)")
     try:
         fx, fy, cx, cy = (float(values[k]) for k in ("fx", "fy", "cx", "cy"))
     except (TypeError, ValueError):
-        raise ConfigError(f"{where}: fx, fy, cx and cy are numbers of pixels", file=file) from None
+        raise config_error(where, path, "fx, fy, cx and cy are numbers of pixels") from None
     if not (fx > 0 and fy > 0):
-        raise ConfigError(
-            f"{where}: focal lengths must be positive, got fx={fx}, fy={fy}", file=file
-        )
+        raise config_error(where, path, f"focal lengths must be positive, got fx={fx}, fy={fy}")
     return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
 
 
-def distortion_from(values: Any, where: str, file: str | None = None) -> np.ndarray:
+def distortion_from(values: Any, path: str, where: Any = None) -> np.ndarray:
     """OpenCV distortion coefficients (4, 5, 8, 12 or 14 numbers) as a float array."""
     if values is None:
         return np.zeros(5)
     try:
         arr = np.asarray(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):
-        raise ConfigError(f"{where}: a list of numbers [k1, k2, p1, p2, k3]", file=file) from None
+        raise config_error(where, path, "a list of numbers [k1, k2, p1, p2, k3]") from None
     if arr.size not in (4, 5, 8, 12, 14) or not np.all(np.isfinite(arr)):
-        raise ConfigError(
-            f"{where}: OpenCV takes 4, 5, 8, 12 or 14 finite coefficients, got {values!r}",
-            file=file,
+        raise config_error(
+            where, path, f"OpenCV takes 4, 5, 8, 12 or 14 finite coefficients, got {values!r}"
         )
     return arr
 
@@ -174,23 +172,22 @@ def save_calibration(path: str | Path, intrinsics: Intrinsics, **extra: Any) -> 
     Path(path).write_text(header + yaml.safe_dump(data, sort_keys=False))
 
 
-def intrinsics_from_config(
-    config: Mapping[str, Any], profile_file: str | None
-) -> Intrinsics | None:
+def intrinsics_from_config(config: Mapping[str, Any], profile: Any) -> Intrinsics | None:
     """The intrinsics a camera section gives (a calibration file or inline values), or None."""
     calibration = config.get("calibration")
+    source = profile_file(profile)
     if calibration:
         path = Path(calibration)
         if not path.is_absolute():
-            beside = Path(profile_file).parent / path if profile_file else None
+            beside = Path(source).parent / path if source else None
             path = beside if beside is not None and beside.exists() else Path.cwd() / path
         if not path.exists():
-            raise ConfigError(f"camera.calibration: no file {calibration}", file=profile_file)
+            raise config_error(profile, "camera.calibration", f"no file {calibration}")
         return load_calibration(path)
     if config.get("intrinsics") is not None:
-        k = matrix_from(config["intrinsics"], "camera.intrinsics", profile_file)
-        dist = distortion_from(config.get("distortion"), "camera.distortion", profile_file)
-        return Intrinsics(k, dist, None, None, True, profile_file)
+        k = matrix_from(config["intrinsics"], "camera.intrinsics", profile)
+        dist = distortion_from(config.get("distortion"), "camera.distortion", profile)
+        return Intrinsics(k, dist, None, None, True, source)
     return None
 
 
@@ -211,7 +208,7 @@ class IntrinsicsBySize:
         return self._cache[key]
 
 
-def extrinsics_from(value: Any, file: str | None = None) -> np.ndarray:
+def extrinsics_from(value: Any, where: Any = None) -> np.ndarray:
     """A 4x4 pose (mm) from a nested list, identity when absent."""
     if value is None:
         return np.eye(4)
@@ -220,7 +217,7 @@ def extrinsics_from(value: Any, file: str | None = None) -> np.ndarray:
     except (TypeError, ValueError):
         arr = np.zeros(0)
     if arr.shape != (4, 4) or not np.all(np.isfinite(arr)):
-        raise ConfigError(
-            f"camera.extrinsics: a 4x4 matrix of numbers (mm), got {value!r}", file=file
+        raise config_error(
+            where, "camera.extrinsics", f"a 4x4 matrix of numbers (mm), got {value!r}"
         )
     return arr

@@ -19,8 +19,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.errors import ConfigError, HardwareFault
+from armtree.errors import HardwareFault
 from armtree.params import Param
+from armtree.plugins.trackers.common import config_error
 from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
@@ -168,15 +169,15 @@ class OpenCVCamera(FrameSourceCamera):
 
 def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:
     """A USB camera (index or path) through cv2.VideoCapture, captured on its own thread."""
-    values, intr, extrinsics, file = camera_config(config, context, opencv_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, opencv_factory.PARAMS)
     device = values["device"]
     if isinstance(device, bool) or not isinstance(device, (int, str)) or device == "":
-        raise ConfigError(
-            f"camera.device: an index (0) or a path (/dev/video0), got {device!r}", file=file
+        raise config_error(
+            where, "camera.device", f"an index (0) or a path (/dev/video0), got {device!r}"
         )
     for key in ("open_timeout_s", "stall_timeout_s", "fps"):
         if values[key] is not None and not values[key] > 0:
-            raise ConfigError(f"camera.{key}: must be positive, got {values[key]}", file=file)
+            raise config_error(where, f"camera.{key}", f"must be positive, got {values[key]}")
     return OpenCVCamera(
         device,
         context.clock,

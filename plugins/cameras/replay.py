@@ -23,6 +23,7 @@ import numpy as np
 
 from armtree.errors import ConfigError, HardwareFault
 from armtree.params import Param
+from armtree.plugins.trackers.common import config_error
 from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
@@ -171,7 +172,7 @@ def video_fps(path: Path) -> float | None:
     return float(fps) if fps and np.isfinite(fps) and fps > 0 else None
 
 
-def image_paths(spec: str, file: str | None = None) -> list[Path]:
+def image_paths(spec: str, where: Any = None) -> list[Path]:
     """The images of a folder or a glob pattern, sorted by name; ConfigError when there are none."""
     path = Path(spec)
     if path.is_dir():
@@ -179,10 +180,10 @@ def image_paths(spec: str, file: str | None = None) -> list[Path]:
     elif any(ch in spec for ch in "*?["):
         found = sorted(Path(p) for p in glob.glob(spec) if Path(p).is_file())
     else:
-        raise ConfigError(f"camera.path: {spec} is not a folder of images", file=file)
+        raise config_error(where, "camera.path", f"{spec} is not a folder of images")
     if not found:
-        raise ConfigError(
-            f"camera.path: no images ({', '.join(IMAGE_SUFFIXES)}) in {spec}", file=file
+        raise config_error(
+            where, "camera.path", f"no images ({', '.join(IMAGE_SUFFIXES)}) in {spec}"
         )
     return found
 
@@ -200,24 +201,24 @@ _REPLAY_PARAMS = (
 )
 
 
-def _check_fps(fps: Any, file: str | None) -> float:
+def _check_fps(fps: Any, where: Any) -> float:
     if not fps > 0:
-        raise ConfigError(f"camera.fps: must be positive, got {fps}", file=file)
+        raise config_error(where, "camera.fps", f"must be positive, got {fps}")
     return float(fps)
 
 
 def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
     """Replays a video file as a camera, paced by the run's clock."""
-    values, intr, extrinsics, file = camera_config(config, context, video_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, video_factory.PARAMS)
     path = Path(values["path"])
     if not path.is_file():
-        raise ConfigError(f"camera.path: no video file {path}", file=file)
+        raise config_error(where, "camera.path", f"no video file {path}")
     fps = values["fps"] or video_fps(path) or 30.0
     return VideoCamera(
         path,
         context.clock,
         intr,
-        fps=_check_fps(fps, file),
+        fps=_check_fps(fps, where),
         pace=values["pace"],
         loop=values["loop"],
         mount=values["mount"],
@@ -234,12 +235,12 @@ video_factory.PARAMS = (
 
 def images_factory(config: dict[str, Any], context: RigContext) -> ImagesCamera:
     """Replays a folder of images (name order) as a camera, paced by the run's clock."""
-    values, intr, extrinsics, file = camera_config(config, context, images_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, images_factory.PARAMS)
     return ImagesCamera(
-        image_paths(values["path"], file),
+        image_paths(values["path"], where),
         context.clock,
         intr,
-        fps=_check_fps(values["fps"], file),
+        fps=_check_fps(values["fps"], where),
         pace=values["pace"],
         loop=values["loop"],
         mount=values["mount"],

@@ -24,7 +24,14 @@ from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import TagRoles, check_config, finish_detection, positive_size, profile_file, tag_table
+from .common import (
+    TagRoles,
+    check_config,
+    config_error,
+    finish_detection,
+    positive_size,
+    tag_table,
+)
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
 
@@ -41,10 +48,11 @@ def dictionary_names() -> dict[str, int]:
     return names
 
 
-def get_dictionary(name: str, file: str | None = None) -> cv2.aruco.Dictionary:
+def get_dictionary(name: str, where: Any = None) -> cv2.aruco.Dictionary:
     """OpenCV's predefined dictionary called ``name`` (``4x4_50``, ``DICT_6X6_250``, ...).
 
-    An unknown name is a :class:`ConfigError` with a did-you-mean.
+    An unknown name is a :class:`ConfigError` with a did-you-mean (about the
+    profile's ``tracker.dictionary`` when ``where`` is the profile).
     """
     names = dictionary_names()
     key = str(name).strip().lower()
@@ -52,7 +60,12 @@ def get_dictionary(name: str, file: str | None = None) -> cv2.aruco.Dictionary:
     if key not in names:
         close = difflib.get_close_matches(key, list(names), n=1, cutoff=0.5)
         hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(sorted(names))}"
-        raise ConfigError(f"unknown ArUco dictionary {name!r}{hint}", file=file)
+        message = f"unknown ArUco dictionary {name!r}{hint}"
+        raise (
+            ConfigError(message)
+            if where is None
+            else config_error(where, "tracker.dictionary", message)
+        )
     return cv2.aruco.getPredefinedDictionary(names[key])
 
 
@@ -64,7 +77,7 @@ _REFINEMENT = {
 }
 
 
-def detector_parameters(overrides: Mapping[str, Any] | None, file: str | None = None) -> Any:
+def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) -> Any:
     """``cv2.aruco.DetectorParameters`` with sub-pixel refinement and the profile's overrides.
 
     Keys are OpenCV's attribute names (``adaptiveThreshWinSizeMin``, ...);
@@ -78,27 +91,28 @@ def detector_parameters(overrides: Mapping[str, Any] | None, file: str | None = 
         if key not in known:
             close = difflib.get_close_matches(str(key), known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError(f"tracker.detector: unknown ArUco parameter {key!r}{hint}", file=file)
+            raise config_error(where, "tracker.detector", f"unknown ArUco parameter {key!r}{hint}")
         if key == "cornerRefinementMethod" and isinstance(value, str):
             if value.lower() not in _REFINEMENT:
-                raise ConfigError(
-                    f"tracker.detector.cornerRefinementMethod: one of {', '.join(_REFINEMENT)}, "
-                    f"got {value!r}",
-                    file=file,
+                raise config_error(
+                    where,
+                    "tracker.detector.cornerRefinementMethod",
+                    f"one of {', '.join(_REFINEMENT)}, got {value!r}",
                 )
             value = _REFINEMENT[value.lower()]
         current = getattr(params, key)
         if isinstance(current, bool) != isinstance(value, bool) or not isinstance(
             value, (int, float)
         ):
-            raise ConfigError(
-                f"tracker.detector.{key}: expected {type(current).__name__}, got {value!r}",
-                file=file,
+            raise config_error(
+                where,
+                f"tracker.detector.{key}",
+                f"expected {type(current).__name__}, got {value!r}",
             )
         try:
             setattr(params, key, type(current)(value))
         except (TypeError, ValueError, cv2.error) as exc:
-            raise ConfigError(f"tracker.detector.{key}: {exc}", file=file) from None
+            raise config_error(where, f"tracker.detector.{key}", f"{exc}") from None
     return params
 
 
@@ -116,16 +130,16 @@ class ArucoTracker(Tracker):
         *,
         only_registered: bool = False,
         refine: str = "edges",
-        file: str | None = None,
+        where: Any = None,
     ) -> None:
         self.dictionary_name = dictionary
-        self.dictionary = get_dictionary(dictionary, file)
+        self.dictionary = get_dictionary(dictionary, where)
         params = parameters if parameters is not None else detector_parameters(None)
         self.preprocessing = preprocessing or Preprocessing()
         self.roles = roles or TagRoles({})
         self.only_registered = only_registered
         if refine not in ("edges", "opencv"):
-            raise ConfigError(f"tracker.refine: edges or opencv, got {refine!r}", file=file)
+            raise config_error(where, "tracker.refine", f"edges or opencv, got {refine!r}")
         self._edges = refine == "edges"
         if self._edges:
             params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
@@ -172,19 +186,19 @@ class ArucoTracker(Tracker):
 
 def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
-    file = profile_file(context.profile)
-    values = check_config(config, aruco_factory.PARAMS, "tracker", file)
+    where = context.profile
+    values = check_config(config, aruco_factory.PARAMS, "tracker", where)
     roles = TagRoles(
-        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", file)
+        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", where)
     )
     return ArucoTracker(
         values["dictionary"],
-        detector_parameters(values["detector"], file),
-        Preprocessing.from_config(values["preprocess"], file),
+        detector_parameters(values["detector"], where),
+        Preprocessing.from_config(values["preprocess"], where),
         roles,
         only_registered=values["only_registered"],
         refine=values["refine"],
-        file=file,
+        where=where,
     )
 
 

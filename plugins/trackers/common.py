@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -26,6 +27,19 @@ def profile_file(profile: Any) -> str | None:
     """The file a profile was loaded from, for error messages (None when unknown)."""
     source = getattr(profile, "source", None) or getattr(profile, "path", None)
     return str(source) if source is not None else None
+
+
+def config_error(where: Any, path: str, message: str) -> ConfigError:
+    """A :class:`ConfigError` about the value at dotted ``path`` (``tracker.size_mm``).
+
+    ``where`` is a loaded Profile (its ``error()`` gives the file, line and
+    column the value was written at), a file name, or None.
+    """
+    error = getattr(where, "error", None)
+    if callable(error):
+        return error(path, message)
+    file = str(where) if isinstance(where, (str, Path)) else profile_file(where)
+    return ConfigError(f"{path}: {message}", file=file)
 
 
 def profile_section(profile: Any, key: str) -> Any:
@@ -44,17 +58,17 @@ def profile_section(profile: Any, key: str) -> Any:
 
 
 def check_config(
-    config: Any, params: tuple[Param, ...], section: str, file: str | None = None
+    config: Any, params: tuple[Param, ...], section: str, where: Any = None
 ) -> dict[str, Any]:
     """A component's mapping checked against its PARAMS, defaults filled in.
 
     ``type`` (the registry key) is ignored; an unknown key gets a did-you-mean,
-    a wrong type names the key. Raises :class:`ConfigError`.
+    a wrong type names the key. Raises :class:`ConfigError` (see :func:`config_error`).
     """
     if config is None:
         config = {}
     if not isinstance(config, Mapping):
-        raise ConfigError(f"{section}: expected a mapping, got {config!r}", file=file)
+        raise config_error(where, f"{section}", f"expected a mapping, got {config!r}")
     known = {p.name: p for p in params}
     values = {p.name: p.default for p in params}
     for key, value in config.items():
@@ -63,14 +77,14 @@ def check_config(
         if key not in known:
             close = difflib.get_close_matches(str(key), list(known), n=1)
             hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(known)}"
-            raise ConfigError(f"{section}: unknown key {key!r}{hint}", file=file)
+            raise config_error(where, f"{section}", f"unknown key {key!r}{hint}")
         if value is None and known[key].default is None:
             values[key] = None
             continue
         try:
             values[key] = check_value(known[key], value)
         except ValueError as exc:
-            raise ConfigError(f"{section}.{key}: {exc}", file=file) from None
+            raise config_error(where, f"{section}.{key}", f"{exc}") from None
     return values
 
 
@@ -81,47 +95,46 @@ def tag_table(profile: Any) -> dict[int, TagSpec]:
     ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``). A size
     that is not a positive number, or an id given to two roles, is a ConfigError.
     """
-    file = profile_file(profile)
+    where = profile
     tags_method = getattr(profile, "tags", None)
     raw = tags_method() if callable(tags_method) else profile_section(profile, "tags")
     table: dict[int, TagSpec] = {}
     for role, spec in (raw or {}).items():
         if not isinstance(spec, TagSpec):
-            spec = _parse_tag(role, spec, file)
+            spec = _parse_tag(role, spec, where)
         if not spec.size_mm > 0:
-            raise ConfigError(
-                f"tags.{role}.size_mm: a marker size must be positive, got {spec.size_mm}",
-                file=file,
+            raise config_error(
+                where, f"tags.{role}.size_mm", f"a marker size must be positive, got {spec.size_mm}"
             )
         for marker_id in spec.ids:
             if marker_id in table and table[marker_id].role != spec.role:
-                raise ConfigError(
-                    f"tags: id {marker_id} is given to both {table[marker_id].role!r} "
-                    f"and {spec.role!r}",
-                    file=file,
+                raise config_error(
+                    where,
+                    "tags",
+                    f"id {marker_id} is given to both {table[marker_id].role!r} and {spec.role!r}",
                 )
             table[marker_id] = spec
     return table
 
 
-def _parse_tag(role: str, spec: Any, file: str | None) -> TagSpec:
+def _parse_tag(role: str, spec: Any, where: Any) -> TagSpec:
     if (
         not isinstance(spec, Mapping)
         or "size_mm" not in spec
         or not ("id" in spec or "ids" in spec)
     ):
-        raise ConfigError(f"tags.{role}: give id (or ids) and size_mm", file=file)
+        raise config_error(where, f"tags.{role}", "give id (or ids) and size_mm")
     ids = spec["ids"] if "ids" in spec else [spec["id"]]
     if isinstance(ids, (str, bytes)) or not isinstance(ids, (list, tuple)):
-        raise ConfigError(f"tags.{role}.ids: a list of marker ids, got {ids!r}", file=file)
+        raise config_error(where, f"tags.{role}.ids", f"a list of marker ids, got {ids!r}")
     for marker_id in ids:
         if isinstance(marker_id, bool) or not isinstance(marker_id, int) or marker_id < 0:
-            raise ConfigError(
-                f"tags.{role}: marker ids are integers >= 0, got {marker_id!r}", file=file
+            raise config_error(
+                where, f"tags.{role}", f"marker ids are integers >= 0, got {marker_id!r}"
             )
     size = spec["size_mm"]
     if isinstance(size, bool) or not isinstance(size, (int, float)):
-        raise ConfigError(f"tags.{role}.size_mm: a number of millimetres, got {size!r}", file=file)
+        raise config_error(where, f"tags.{role}.size_mm", f"a number of millimetres, got {size!r}")
     return TagSpec(str(role), tuple(int(i) for i in ids), float(size))
 
 
@@ -199,10 +212,10 @@ def finish_detection(
     return det
 
 
-def positive_size(value: float | None, name: str, file: str | None = None) -> float | None:
+def positive_size(value: float | None, name: str, where: Any = None) -> float | None:
     """``value`` unless it is given and not a positive number of mm (ConfigError)."""
     if value is not None and not value > 0:
-        raise ConfigError(
-            f"{name}: a marker size must be positive millimetres, got {value}", file=file
+        raise config_error(
+            where, f"{name}", f"a marker size must be positive millimetres, got {value}"
         )
     return value

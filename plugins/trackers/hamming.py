@@ -29,7 +29,7 @@ import numpy as np
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import TagRoles, check_config, finish_detection, positive_size, profile_file, tag_table
+from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
 from .hamming_code import BITS, GRID, decode_bits
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
@@ -289,13 +289,13 @@ def _dedupe(readings: list[_Reading]) -> list[_Reading]:
 
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
     """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
-    file = profile_file(context.profile)
-    values = check_config(config, hamming_factory.PARAMS, "tracker", file)
+    where = context.profile
+    values = check_config(config, hamming_factory.PARAMS, "tracker", where)
     roles = TagRoles(
-        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", file)
+        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", where)
     )
     return HammingTracker(
-        Preprocessing.from_config(values["preprocess"], file),
+        Preprocessing.from_config(values["preprocess"], where),
         roles,
         min_side_px=values["min_side_px"],
         max_corrected_bits=values["max_corrected_bits"],

@@ -21,8 +21,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.errors import ConfigError
 from armtree.params import Param, check_value
+
+from .common import config_error
 
 #: The keys of a ``preprocess:`` mapping.
 PREPROCESS_PARAMS: tuple[Param, ...] = (
@@ -61,18 +62,18 @@ class Preprocessing:
         return not self.binarises and self.blur == 0
 
     @classmethod
-    def from_config(cls, config: Any, file: str | None = None) -> Preprocessing:
+    def from_config(cls, config: Any, where: Any = None) -> Preprocessing:
         """Validate a profile's ``preprocess:`` mapping (None for none); ConfigError names the key."""
         if config is None:
             return cls()
         if not isinstance(config, Mapping):
-            raise ConfigError(f"tracker.preprocess: expected a mapping, got {config!r}", file=file)
+            raise config_error(where, "tracker.preprocess", f"expected a mapping, got {config!r}")
         known = {p.name: p for p in PREPROCESS_PARAMS}
         values: dict[str, Any] = {}
         for key, value in config.items():
             if key not in known:
-                raise ConfigError(
-                    f"tracker.preprocess: unknown key {key!r}; known: {', '.join(known)}", file=file
+                raise config_error(
+                    where, "tracker.preprocess", f"unknown key {key!r}; known: {', '.join(known)}"
                 )
             if value is None and key == "threshold":
                 values[key] = None
@@ -80,21 +81,21 @@ class Preprocessing:
             try:
                 values[key] = check_value(known[key], value)
             except ValueError as exc:
-                raise ConfigError(f"tracker.preprocess.{key}: {exc}", file=file) from None
+                raise config_error(where, f"tracker.preprocess.{key}", f"{exc}") from None
         prep = cls(**values)
         if prep.threshold is not None and not 0.0 < prep.threshold < 1.0:
-            raise ConfigError(
-                f"tracker.preprocess.threshold: a fraction of full scale between 0 and 1 "
-                f"(0.4 in seed 004), got {prep.threshold}",
-                file=file,
+            raise config_error(
+                where,
+                "tracker.preprocess.threshold",
+                f"a fraction of full scale between 0 and 1 (0.4 in seed 004), got {prep.threshold}",
             )
         if prep.block_px < 3 or prep.block_px % 2 == 0:
-            raise ConfigError(
-                f"tracker.preprocess.block_px: an odd number >= 3, got {prep.block_px}", file=file
+            raise config_error(
+                where, "tracker.preprocess.block_px", f"an odd number >= 3, got {prep.block_px}"
             )
         if prep.blur < 0 or (prep.blur and prep.blur % 2 == 0):
-            raise ConfigError(
-                f"tracker.preprocess.blur: 0 or an odd kernel size, got {prep.blur}", file=file
+            raise config_error(
+                where, "tracker.preprocess.blur", f"0 or an odd kernel size, got {prep.blur}"
             )
         return prep
 
