@@ -223,3 +223,30 @@ def test_same_seed_same_world_state():
     assert a.state() == b.state()
     assert a.score() == b.score()
     assert a.duckybots["bot"].trail == b.duckybots["bot"].trail
+
+
+def test_missed_steps_under_load_at_the_configured_rate():
+    faults = {"missed_steps": {"rate_per_s": 4.0, "max_amount": 1.5, "joints": [1, 2]}}
+    world, emu = make_world(faults=faults)
+    run(world, emu, 5.0)
+    assert emu.injected == [], "an idle arm does not slip"
+    emu.target = emu.model.ik(np.array([150.0, 150.0, 100.0]))
+    emu.speed = 20.0
+    run(world, emu, 5.0)
+    slips = [opts for fault, opts in emu.injected if fault == "missed_steps"]
+    assert 8 <= len(slips) <= 35
+    assert all(o["joint"] in (1, 2) and abs(o["amount"]) <= 1.5 for o in slips)
+    assert len(world.score()["missed_steps"]) == len(slips)
+    again, emu2 = make_world(faults=faults)
+    run(again, emu2, 5.0)
+    emu2.target = emu2.model.ik(np.array([150.0, 150.0, 100.0]))
+    emu2.speed = 20.0
+    run(again, emu2, 5.0)
+    assert emu2.injected == emu.injected, "the same slips for the same seed"
+
+
+def test_bad_missed_steps_options():
+    from armtree.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="world.faults.missed_steps.joints"):
+        make_world(faults={"missed_steps": {"rate_per_s": 1.0, "joints": ["x"]}})

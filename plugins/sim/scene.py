@@ -123,6 +123,20 @@ class PhysicsSpec:
     gripper_mm_per_unit: float = 1.0
 
 
+@dataclass(frozen=True)
+class SlipSpec:
+    """Missed steps under load (seeds 000 and 004): a random joint slips now and then.
+
+    While the arm moves or holds something, slips come at ``rate`` per second,
+    each by up to ``max_amount`` degrees (or mm) either way, on one of ``joints``
+    (all joints when empty). The emulator keeps reporting the commanded angle.
+    """
+
+    rate: float
+    max_amount: float = 2.0
+    joints: tuple[int, ...] = ()
+
+
 @dataclass
 class LightSpec:
     """A point lamp above the table (mm) and the ambient share of light (0-1)."""
@@ -144,6 +158,7 @@ class SceneSpec:
     light: LightSpec = field(default_factory=LightSpec)
     tool_marker: MarkerSpec | None = None
     tool_marker_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    slips: SlipSpec | None = None
 
 
 # ---------------------------------------------------------------------------
@@ -582,7 +597,7 @@ def parse_scene(profile: Any) -> SceneSpec:
     ]
     objects += _profile_obstacles(err, profile, table)
     _check_layout(err, table, objects + [b.body for b in duckybots])
-    faults = _parse_faults(err, world.get("faults"))
+    faults, slips = _parse_faults(err, world.get("faults"))
     physics = _parse_physics(err, world.get("physics"))
     light = _parse_light(err, world.get("light"))
     tool_marker, tool_offset = None, np.zeros(3)
@@ -610,6 +625,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         light=light,
         tool_marker=tool_marker,
         tool_marker_offset=tool_offset,
+        slips=slips,
     )
 
 
@@ -661,20 +677,36 @@ def _body_path(body: ObjectSpec) -> tuple[Any, ...]:
     return ("world", group, body.name)
 
 
-def _parse_faults(err: _Errors, value: Any) -> dict[str, dict[str, float]]:
+def _parse_faults(err: _Errors, value: Any) -> tuple[dict[str, dict[str, float]], SlipSpec | None]:
+    """One-shot faults for the emulator's ``inject``, and random missed steps under load."""
     spec = _mapping(err, ("world", "faults"), value, ("missed_steps", "corrupt", "drop", "cut"))
     out: dict[str, dict[str, float]] = {}
+    slips = None
     for name, options in spec.items():
+        path = ("world", "faults", name)
         if options is None or options is False:
             continue
         if options is True:
             options = {}
         if not isinstance(options, Mapping):
-            raise err(("world", "faults", name), f"expected a mapping of options, got {options!r}")
-        out[name] = {
-            str(k): _number(err, ("world", "faults", name, k), v) for k, v in options.items()
-        }
-    return out
+            raise err(path, f"expected a mapping of options, got {options!r}")
+        if name == "missed_steps" and "rate_per_s" in options:
+            options = _mapping(err, path, options, ("rate_per_s", "max_amount", "joints"))
+            joints = options.get("joints", [])
+            if not isinstance(joints, Sequence) or not all(
+                isinstance(j, int) and not isinstance(j, bool) and j >= 0 for j in joints
+            ):
+                raise err((*path, "joints"), f"expected a list of joint indices, got {joints!r}")
+            slips = SlipSpec(
+                rate=_number(err, (*path, "rate_per_s"), options["rate_per_s"], positive=True),
+                max_amount=_number(
+                    err, (*path, "max_amount"), options.get("max_amount", 2.0), positive=True
+                ),
+                joints=tuple(int(j) for j in joints),
+            )
+            continue
+        out[name] = {str(k): _number(err, (*path, k), v) for k, v in options.items()}
+    return out, slips
 
 
 def _parse_physics(err: _Errors, value: Any) -> PhysicsSpec:

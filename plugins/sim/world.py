@@ -178,6 +178,8 @@ class World:
         self._last_gripper: float | None = None
         self._grip_mode = "suction"
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
+        self._slip_rng = np.random.default_rng(self._seq.spawn(2)[1])
+        self._last_joints: np.ndarray | None = None
         self.events: list[WorldEvent] = []
 
     # -- wiring -------------------------------------------------------------------
@@ -219,6 +221,7 @@ class World:
         with self.lock:
             dt = max(0.0, now - self.time)
             self._read_arm()
+            self._missed_steps(dt, now)
             for name, bot in self.duckybots.items():
                 before = self.bodies[name].pose.copy()
                 bot.advance(now)
@@ -232,6 +235,24 @@ class World:
             self._check_collisions(now)
             self.time = now
             self.version += 1
+
+    def _missed_steps(self, dt: float, now: float) -> None:
+        """Random slips of a loaded stepper (``world.faults.missed_steps.rate_per_s``)."""
+        slips = self.scene.slips
+        arm = self.arm
+        if slips is None or arm is None or dt <= 0:
+            return
+        moving = self._last_joints is not None and not np.allclose(arm.joints, self._last_joints)
+        self._last_joints = arm.joints.copy()
+        if not (moving or self.held is not None):
+            return
+        if self._slip_rng.random() >= 1.0 - math.exp(-slips.rate * dt):
+            return
+        joints = slips.joints or tuple(range(len(arm.joints)))
+        joint = int(joints[int(self._slip_rng.integers(len(joints)))])
+        amount = float(self._slip_rng.uniform(-slips.max_amount, slips.max_amount))
+        self.emulator.inject("missed_steps", joint=joint, amount=amount)
+        self.events.append(WorldEvent(now, "missed_steps", {"joint": joint, "amount": amount}))
 
     def _tool_physics(self, now: float) -> None:
         arm = self.arm
@@ -548,6 +569,11 @@ class World:
                     }
                     for name, bot in self.duckybots.items()
                 },
+                "missed_steps": [
+                    e.detail | {"time": round(e.time, 6)}
+                    for e in self.events
+                    if e.kind == "missed_steps"
+                ],
                 "events": len(self.events),
             }
 
