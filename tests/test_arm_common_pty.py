@@ -269,3 +269,35 @@ def test_unknown_fault_is_refused():
 
 def test_serial_module_is_pyserial():
     assert hasattr(serial, "Serial")
+
+
+def test_dropped_bytes_lose_frames_and_the_parser_resynchronises():
+    clock = VirtualClock()
+    emu, drv = _pair(clock)
+    try:
+        drv.connect()
+        emu.step(clock.advance(0.05))
+        before = len(drv.frames)
+        emu.inject("drop", count=2)
+        for _ in range(4):
+            emu.step(clock.advance(0.05))
+        # the frame that lost two bytes is gone; every later one is parsed again
+        assert len(drv.frames) == before + 3
+        assert all(f[0] == 0xA5 and f[-1] == 0x5A for _, f in drv.frames)
+    finally:
+        drv.close()
+        emu.close()
+
+
+def test_busy_port_through_a_driver():
+    clock = VirtualClock()
+    emu, first = _pair(clock)
+    second = ToyDriver(OneJoint(), emu.path, baud=9600, clock=clock)
+    try:
+        first.connect()
+        with pytest.raises(HardwareFault, match="busy") as err:
+            second.connect()
+        assert err.value.device == emu.path
+    finally:
+        first.close()
+        emu.close()

@@ -251,3 +251,20 @@ def test_open_dobot_driver_on_original_firmware_names_it():
     finally:
         drv.close()
         emu.close()
+
+
+def test_two_open_dobot_runs_exchange_identical_bytes():
+    def run():
+        s = Sim(board="fpga", start_pose=[5.0, 10.0, 50.0])
+        try:
+            s.arm.connect()
+            s.until(s.arm.move_joints([25.0, 8.0, 48.0]))
+            s.until(s.arm.set_suction(True))
+            s.until(s.arm.move_joints([-15.0, 3.0, 55.0]))
+            return list(s.emu.transcript), s.arm.joints().tolist()
+        finally:
+            s.close()
+
+    first, second = run(), run()
+    assert first == second
+    assert len(first[0]) > 50
