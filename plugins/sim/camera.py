@@ -128,6 +128,8 @@ class SimCamera(Camera):
         assert self.world is not None and self.renderer is not None
         cam_pose = self.world.camera_pose(self.mount, self.extrinsics)
         drawables = self.world.drawables()
+        if self.mount == "eye_in_hand":
+            drawables = [d for d in drawables if not d.tool_mounted]
         previous, frame_dt = None, 1.0 / self.fps
         if self._previous is not None and index > self._previous[0]:
             previous = self._previous[1]

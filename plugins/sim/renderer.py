@@ -63,6 +63,7 @@ class Drawable:
     container: str | None = None
     shadow: bool = True
     velocity: np.ndarray | None = None
+    tool_mounted: bool = False
 
 
 class CameraModel:

@@ -172,6 +172,8 @@ class World:
             )
         self.emulator: Any = None
         self.model: Any = None
+        #: Indices of link boxes that move rigidly with the tool (the end effector).
+        self.tool_boxes: frozenset[int] = frozenset()
         self.arm: ArmView | None = None
         self.held: str | None = None
         self._held_rel: np.ndarray | None = None
@@ -192,6 +194,7 @@ class World:
         with self.lock:
             self.emulator = emulator
             self.model = emulator.model
+            self.tool_boxes = _tool_rigid_boxes(self.model)
             for fault, options in self.scene.faults.items():
                 emulator.inject(fault, **options)
             self._read_arm()
@@ -479,10 +482,19 @@ class World:
                     )
                 )
             if self.arm is not None:
-                for name, p, s in zip(
-                    self.arm.box_names, self.arm.box_poses, self.arm.box_sizes, strict=True
+                for i, (name, p, s) in enumerate(
+                    zip(self.arm.box_names, self.arm.box_poses, self.arm.box_sizes, strict=True)
                 ):
-                    out.append(Drawable(f"link {name}", "link", p, s, LINK_COLOR))
+                    out.append(
+                        Drawable(
+                            f"link {name}",
+                            "link",
+                            p,
+                            s,
+                            LINK_COLOR,
+                            tool_mounted=i in self.tool_boxes,
+                        )
+                    )
                 if self.scene.tool_marker is not None:
                     plate = self.arm.tool_pose @ pose(np.eye(3), self.scene.tool_marker_offset)
                     plate[:3, :3] = rot_z(math.atan2(plate[1, 0], plate[0, 0]))
@@ -593,3 +605,20 @@ def world_for(context: Any) -> World:
         world = World(parse_scene(context.profile), seed=context.seed)
         context.shared[SHARED_KEY] = world
     return world
+
+
+def _tool_rigid_boxes(model: Any) -> frozenset[int]:
+    """Link boxes that keep their pose relative to the tool in three sample configurations."""
+    if not model.boxes:
+        return frozenset()
+    lower, upper = np.asarray(model.lower, dtype=float), np.asarray(model.upper, dtype=float)
+    samples = [lower + f * (upper - lower) for f in (0.3, 0.5, 0.8)]
+    relative = []
+    for q in samples:
+        tool = np.linalg.inv(model.fk(q))
+        relative.append(tool @ model.box_poses(q))
+    return frozenset(
+        i
+        for i in range(len(model.boxes))
+        if all(np.allclose(relative[0][i], r[i], atol=1e-6) for r in relative[1:])
+    )
