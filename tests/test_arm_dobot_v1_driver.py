@@ -206,3 +206,34 @@ def test_two_runs_exchange_identical_bytes():
             s.close()
 
     assert run() == run()
+
+
+def _ticks_to_finish(sim, handle):
+    n = 0
+    while not handle.done:
+        sim.tick()
+        n += 1
+    return n
+
+
+def test_speed_fraction_goes_to_the_firmware_as_state_10(sim):
+    fast = _ticks_to_finish(sim, sim.arm.move_joints([60.0, 5.0, 45.0], speed=1.0))
+    slow = _ticks_to_finish(sim, sim.arm.move_joints([0.0, 5.0, 45.0], speed=0.25))
+    assert sim.emu.speed_ratio == pytest.approx(0.25)
+    assert slow > 2 * fast
+
+
+def test_jump_mode_lifts_crosses_and_lowers(sim):
+    model = sim.arm.model
+    start = sim.emu.true_joints()
+    goal = np.array([40.0, 10.0, 50.0])
+    frame = codec.move_joints(goal, mode=codec.MODE_JUMP).encode()
+    sim.tick()
+    sim.arm.write(frame)
+    heights = []
+    for _ in range(100):
+        sim.tick()
+        heights.append(model.position(sim.emu.true_joints())[2])
+    z0 = model.position(start)[2]
+    assert max(heights) > z0 + 15.0
+    assert np.allclose(sim.emu.true_joints(), goal, atol=1e-4)

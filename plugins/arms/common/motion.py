@@ -49,6 +49,7 @@ class JointMove:
         delta = np.abs(self.goal - self.start)
         moving = delta > 1e-12
         speed = float(min(1.0, max(speed, 1e-3)))
+        self._accel = 0.0
         if not np.any(moving):
             self._segments = [_Segment(self.t0, 1.0, 0.0, 0.0, self.t0)]
             return
@@ -103,7 +104,7 @@ class JointMove:
         if t >= self.end_time:
             return
         s, ds = self._s(t)
-        a = getattr(self, "_accel", 0.0)
+        a = self._accel
         if ds <= 0.0 or a <= 0.0:
             self._segments = [_Segment(t, s, 0.0, 0.0, t)]
             return
