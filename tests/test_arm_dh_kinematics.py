@@ -98,7 +98,7 @@ def test_batched_fk_equals_one_at_a_time_and_geometric_jacobian_matches():
     np.testing.assert_allclose(np.radians(1) * J[:3], PUMA.jacobian(q[7]), atol=1e-4)
 
 
-@settings(max_examples=10, deadline=None)
+@settings(max_examples=10, deadline=None, derandomize=True)
 @given(angles(6, -150, 150))
 def test_puma_ik_solutions_reach_the_pose_and_contain_q_from_near(q):
     T = PUMA.fk(q)
