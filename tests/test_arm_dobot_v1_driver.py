@@ -237,3 +237,14 @@ def test_jump_mode_lifts_crosses_and_lowers(sim):
     z0 = model.position(start)[2]
     assert max(heights) > z0 + 15.0
     assert np.allclose(sim.emu.true_joints(), goal, atol=1e-4)
+
+
+def test_gripper_angle_is_set_and_kept_through_moves(sim):
+    handle = sim.arm.set_gripper(30.0)
+    sim.until(handle)
+    assert handle.status is MotionStatus.DONE
+    assert sim.emu.tool().gripper == pytest.approx(30.0) and sim.arm.tool.gripper == 30.0
+    sim.until(sim.arm.move_joints([15.0, 5.0, 45.0]))
+    assert sim.emu.tool().gripper == pytest.approx(30.0)
+    bad = sim.arm.set_gripper(120.0)
+    assert bad.status is MotionStatus.FAILED and isinstance(bad.error, Unreachable)

@@ -14,7 +14,9 @@ last command is not re-sent (a suction change alone goes as a jog frame).
 from __future__ import annotations
 
 import collections
+import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,9 +35,9 @@ class _Pending:
     command: codec.Command
     handle: MotionHandle | None
     key: object
-    kind: str  # "move", "suction", "config"
+    kind: str  # "move", "tool", "config"
     target: np.ndarray | None = None
-    suction: bool | None = None
+    done_when: Callable[[codec.Status], bool] | None = None
 
 
 class DobotV1Driver(SerialArmDriver):
@@ -57,11 +59,13 @@ class DobotV1Driver(SerialArmDriver):
         self._inflight: collections.deque[tuple[MotionHandle, np.ndarray, np.ndarray]] = (
             collections.deque()
         )
-        self._suction_waits: list[tuple[MotionHandle, bool]] = []
+        self._tool_waits: list[tuple[MotionHandle, Callable[[codec.Status], bool]]] = []
         self._status: codec.Status | None = None
         self._previous: np.ndarray | None = None
         self._wrote_since_status = False
         self._suction = False
+        self._gripper = 0.0
+        self._last_target: np.ndarray | None = None
         self._speed = 1.0
         #: Status frames received, for figures and tests.
         self.frames_received = 0
@@ -90,6 +94,7 @@ class DobotV1Driver(SerialArmDriver):
             with self._lock:
                 if self._status is None:
                     self._suction = status.is_grab != 0.0
+                    self._gripper = status.gripper
                 self._status = status
                 self.frames_received += 1
                 self._wrote_since_status = False
@@ -124,8 +129,8 @@ class DobotV1Driver(SerialArmDriver):
             start = np.array(self._status.joints) if self._status else item.target
             self._inflight.append((item.handle, start, item.target))
             item.handle.update(MotionStatus.RUNNING, 0.0)
-        elif item.kind == "suction" and item.handle is not None:
-            self._suction_waits.append((item.handle, bool(item.suction)))
+        elif item.kind == "tool" and item.handle is not None and item.done_when is not None:
+            self._tool_waits.append((item.handle, item.done_when))
             item.handle.update(MotionStatus.RUNNING)
 
     def _update_handles(self, status: codec.Status) -> None:
@@ -146,14 +151,13 @@ class DobotV1Driver(SerialArmDriver):
             if span > 0:
                 handle.update(MotionStatus.RUNNING, 1.0 - left / span)
             break
-        grabbed = status.is_grab != 0.0
         waits = []
-        for handle, want in self._suction_waits:
-            if grabbed == want:
+        for handle, done_when in self._tool_waits:
+            if done_when(status):
                 handle.update(MotionStatus.DONE)
             elif not handle.done:
-                waits.append((handle, want))
-        self._suction_waits = waits
+                waits.append((handle, done_when))
+        self._tool_waits = waits
 
     # ------------------------------------------------------------------ ArmDriver
 
@@ -189,7 +193,7 @@ class DobotV1Driver(SerialArmDriver):
         handle = self.track(MotionHandle(description, target))
         with self._lock:
             suction = self._suction
-            key = ("move", tuple(target.tolist()), suction)
+            key = ("move", tuple(target.tolist()), suction, self._gripper)
             if self.is_duplicate(key) and not self._queue:
                 # seed 004, third safeguard: do not re-send the same angles
                 start = np.array(self._status.joints) if self._status else target
@@ -200,8 +204,11 @@ class DobotV1Driver(SerialArmDriver):
                 self._speed = speed
                 config = codec.set_speed(speed * 100.0, 100.0)
                 self._queue.append(_Pending(config, None, ("speed", speed), "config"))
-            command = codec.move_joints(target, suction=suction, mode=codec.MODE_MOVJ)
+            command = codec.move_joints(
+                target, suction=suction, mode=codec.MODE_MOVJ, gripper=self._gripper
+            )
             self._queue.append(_Pending(command, handle, key, "move", target=target))
+            self._last_target = target
             self._send_if_free()
         return handle
 
@@ -213,14 +220,65 @@ class DobotV1Driver(SerialArmDriver):
             handle.update(MotionStatus.FAILED, error=fault)
             return handle
         with self._lock:
-            if self._suction == on and not any(p.kind == "suction" for p in self._queue):
-                status = self._status
-                if status is not None and (status.is_grab != 0.0) == on:
-                    handle.update(MotionStatus.DONE)
-                    return handle
+            status = self._status
+            if (
+                self._suction == on
+                and not any(p.kind == "tool" for p in self._queue)
+                and status is not None
+                and (status.is_grab != 0.0) == on
+            ):
+                handle.update(MotionStatus.DONE)
+                return handle
             self._suction = on
             command = codec.jog(codec.AXIS_GRAB if on else codec.AXIS_RELEASE)
-            self._queue.append(_Pending(command, handle, ("suction", on), "suction", suction=on))
+
+            def done_when(st: codec.Status) -> bool:
+                return (st.is_grab != 0.0) == on
+
+            self._queue.append(
+                _Pending(command, handle, ("suction", on), "tool", done_when=done_when)
+            )
+            self._send_if_free()
+        return handle
+
+    def set_gripper(self, opening: float) -> MotionHandle:
+        """Set the gripper servo angle (degrees, -90..90) with a state-6 frame at the last target."""
+        handle = self.track(MotionHandle(f"gripper {opening}"))
+        if not (isinstance(opening, (int, float)) and math.isfinite(opening)) or not (
+            -90.0 <= opening <= 90.0
+        ):
+            handle.update(
+                MotionStatus.FAILED,
+                error=Unreachable(f"gripper angle {opening!r} is not within -90..90 degrees"),
+            )
+            return handle
+        fault = self.ensure_connected()
+        if fault is not None:
+            handle.update(MotionStatus.FAILED, error=fault)
+            return handle
+        opening = float(np.float32(opening))
+        with self._lock:
+            status = self._status
+            if status is not None and abs(status.gripper - opening) < 1e-3:
+                self._gripper = opening
+                handle.update(MotionStatus.DONE)
+                return handle
+            self._gripper = opening
+            if self._last_target is not None:
+                target = self._last_target
+            elif status is not None:
+                target = np.array(status.joints)
+            else:
+                target = self.model.home
+            command = codec.move_joints(
+                target, suction=self._suction, mode=codec.MODE_MOVJ, gripper=opening
+            )
+
+            def done_when(st: codec.Status) -> bool:
+                return abs(st.gripper - opening) < 1e-3
+
+            key = ("move", tuple(np.asarray(target).tolist()), self._suction, opening)
+            self._queue.append(_Pending(command, handle, key, "tool", done_when=done_when))
             self._send_if_free()
         return handle
 
@@ -232,7 +290,7 @@ class DobotV1Driver(SerialArmDriver):
         firmware would drop it.
         """
         with self._lock:
-            self._queue = collections.deque(p for p in self._queue if p.kind == "suction")
+            self._queue = collections.deque(p for p in self._queue if p.kind == "tool")
             self._inflight.clear()
             self.remember_sent(None)
             stop = _Pending(codec.jog(codec.AXIS_STOP), None, ("stop",), "config")
@@ -241,5 +299,5 @@ class DobotV1Driver(SerialArmDriver):
             else:
                 self._queue.appendleft(stop)
         for handle in self.active_handles():
-            if not handle.description.startswith("suction"):
+            if handle.description.startswith("move"):
                 handle.update(MotionStatus.STOPPED)
