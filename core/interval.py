@@ -183,6 +183,8 @@ def atan2(y: Any, x: Any) -> Any:
     if not isinstance(y, Interval) and not isinstance(x, Interval):
         return np.arctan2(y, x)
     y, x = as_interval(y), as_interval(x)
+    # -0.0 and 0.0 are the same point; atan2 tells them apart (-pi vs pi), so fold to +0.
+    y = Interval(y.lo + 0.0, y.hi + 0.0)
     corners = [np.arctan2(a, b) for a in (y.lo, y.hi) for b in (x.lo, x.hi)]
     lo = np.minimum(np.minimum(corners[0], corners[1]), np.minimum(corners[2], corners[3]))
     hi = np.maximum(np.maximum(corners[0], corners[1]), np.maximum(corners[2], corners[3]))

@@ -155,32 +155,6 @@ def _normals(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return n, -_vdot(n, t[:, 0])
 
 
-def _snap(dist: np.ndarray, n: np.ndarray) -> np.ndarray:
-    tol = PLANE_TOL * np.abs(n).sum(axis=-1)
-    return np.where(np.abs(dist) <= tol[:, None], 0.0, dist)
-
-
-def _one_side(dist: np.ndarray) -> np.ndarray:
-    return np.all(dist > 0, axis=1) | np.all(dist < 0, axis=1)
-
-
-def _intervals(p: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d0, d1, d2 = d[:, 0], d[:, 1], d[:, 2]
-    k = np.select(
-        [d0 * d1 > 0, d0 * d2 > 0, (d1 * d2 > 0) | (d0 != 0), d1 != 0],
-        [2, 1, 0, 1],
-        default=2,
-    )
-    rows = np.arange(len(k))
-    i, j = (k + 1) % 3, (k + 2) % 3
-    pk, pi, pj = p[rows, k], p[rows, i], p[rows, j]
-    dk, di, dj = d[rows, k], d[rows, i], d[rows, j]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = pk + (pi - pk) * dk / (dk - di)
-        b = pk + (pj - pk) * dk / (dk - dj)
-    return np.minimum(a, b), np.maximum(a, b)
-
-
 def _orient2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (
         c[..., 0] - a[..., 0]
@@ -218,33 +192,53 @@ def _coplanar_batch(n1: np.ndarray, t1: np.ndarray, t2: np.ndarray) -> np.ndarra
     return hit | inside(a[:, 0], b) | inside(b[:, 0], a)
 
 
-def _straddle(t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
-    """Moller's two plane rejections for all pairs, in structure-of-arrays form.
+def _soa(t: np.ndarray) -> np.ndarray:
+    """``(N, 3, 3)`` triangles as ``(vertex, coordinate, N)``: every coordinate contiguous."""
+    return np.ascontiguousarray(t.transpose(1, 2, 0))
 
-    Boolean ``(N,)``: True where neither triangle lies strictly on one side of
-    the other's plane. Each coordinate is a contiguous ``(N,)`` array, so every
-    step is one pass of plain arithmetic; the order of operations is the scalar
-    reference's, so the decisions agree bit for bit.
-    """
-    a = np.ascontiguousarray(t1.transpose(1, 2, 0))  # (vertex, coordinate, pair)
-    b = np.ascontiguousarray(t2.transpose(1, 2, 0))
-    result = np.ones(a.shape[2], dtype=bool)
-    for tri, other in ((a, b), (b, a)):
-        e1 = other[1] - other[0]
-        e2 = other[2] - other[0]
-        nx = e1[1] * e2[2] - e1[2] * e2[1]
-        ny = e1[2] * e2[0] - e1[0] * e2[2]
-        nz = e1[0] * e2[1] - e1[1] * e2[0]
-        d = -(nx * other[0][0] + ny * other[0][1] + nz * other[0][2])
-        tol = PLANE_TOL * (np.abs(nx) + np.abs(ny) + np.abs(nz))
-        pos = neg = None
-        for v in tri:
-            dist = nx * v[0] + ny * v[1] + nz * v[2] + d
-            p, q = dist > tol, dist < -tol
-            pos = p if pos is None else pos & p
-            neg = q if neg is None else neg & q
-        result &= ~(pos | neg)
-    return result
+
+def _plane_soa(tri: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+    """Normals, offsets and snapping tolerances of triangles in SoA form (the reference's order)."""
+    e1 = tri[1] - tri[0]
+    e2 = tri[2] - tri[0]
+    nx = e1[1] * e2[2] - e1[2] * e2[1]
+    ny = e1[2] * e2[0] - e1[0] * e2[2]
+    nz = e1[0] * e2[1] - e1[1] * e2[0]
+    d = -(nx * tri[0][0] + ny * tri[0][1] + nz * tri[0][2])
+    return (nx, ny, nz), d, PLANE_TOL * (np.abs(nx) + np.abs(ny) + np.abs(nz))
+
+
+def _distances_soa(
+    tri: np.ndarray, n: tuple[np.ndarray, ...], d: np.ndarray, tol: np.ndarray
+) -> list[np.ndarray]:
+    out = []
+    for v in tri:
+        dist = n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + d
+        out.append(np.where(np.abs(dist) <= tol, 0.0, dist))
+    return out
+
+
+def _one_side_soa(d: list[np.ndarray]) -> np.ndarray:
+    return ((d[0] > 0) & (d[1] > 0) & (d[2] > 0)) | ((d[0] < 0) & (d[1] < 0) & (d[2] < 0))
+
+
+def _interval_soa(p: list[np.ndarray], d: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Where a triangle crosses the line of the two planes, as in :func:`_interval`."""
+    d0, d1, d2 = d
+    c01 = d0 * d1 > 0
+    c02 = ~c01 & (d0 * d2 > 0)
+    k0 = ~c01 & ~c02 & ((d1 * d2 > 0) | (d0 != 0))
+    k1 = c02 | (~c01 & ~c02 & ~k0 & (d1 != 0))
+
+    def pick(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+        return np.where(k0, x0, np.where(k1, x1, x2))
+
+    pk, pi, pj = pick(p[0], p[1], p[2]), pick(p[1], p[2], p[0]), pick(p[2], p[0], p[1])
+    dk, di, dj = pick(d0, d1, d2), pick(d1, d2, d0), pick(d2, d0, d1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = pk + (pi - pk) * dk / (dk - di)
+        y = pk + (pj - pk) * dk / (dk - dj)
+    return np.minimum(x, y), np.maximum(x, y)
 
 
 def intersect_pairs(t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
@@ -265,39 +259,49 @@ def intersect_pairs(t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
 
 
 #: Pairs per block in :func:`intersect_pairs`.
-_BLOCK = 16384
+_BLOCK = 4096
 
 
 def _pairs(t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
+    """One block of :func:`intersect_pairs`, in structure-of-arrays form throughout."""
     out = np.zeros(len(t1), dtype=bool)
-    live = np.flatnonzero(_straddle(t1, t2))
+    a, b = _soa(t1), _soa(t2)
+    n2, off2, tol2 = _plane_soa(b)
+    dv = _distances_soa(a, n2, off2, tol2)
+    live = np.flatnonzero(~_one_side_soa(dv))
     if len(live) == 0:
         return out
-    t1, t2 = t1[live], t2[live]
-    n2, d2 = _normals(t2)
-    dv = _snap(_vdot(n2[:, None], t1) + d2[:, None], n2)
-    n1, d1 = _normals(t1)
-    du = _snap(_vdot(n1[:, None], t2) + d1[:, None], n1)
-    keep = ~_one_side(du) & ~_one_side(dv)
-    live, t1, t2, dv, du, n1, n2 = (
-        live[keep],
-        t1[keep],
-        t2[keep],
-        dv[keep],
-        du[keep],
-        n1[keep],
-        n2[keep],
-    )
-    if len(live) == 0:
+    a, b = a[:, :, live], b[:, :, live]
+    n2 = tuple(x[live] for x in n2)
+    dv = [x[live] for x in dv]
+    n1, off1, tol1 = _plane_soa(a)
+    du = _distances_soa(b, n1, off1, tol1)
+    keep = np.flatnonzero(~_one_side_soa(du))
+    if len(keep) == 0:
         return out
-    coplanar = np.all(dv == 0, axis=1) | np.all(du == 0, axis=1)
-    rows = np.arange(len(live))
-    axis = np.argmax(np.abs(np.cross(n1, n2)), axis=1)
-    lo1, hi1 = _intervals(t1[rows, :, axis], dv)
-    lo2, hi2 = _intervals(t2[rows, :, axis], du)
+    live, a, b = live[keep], a[:, :, keep], b[:, :, keep]
+    n1, n2 = tuple(x[keep] for x in n1), tuple(x[keep] for x in n2)
+    dv, du = [x[keep] for x in dv], [x[keep] for x in du]
+    # Project onto the axis most aligned with the planes' line of intersection.
+    lx = np.abs(n1[1] * n2[2] - n1[2] * n2[1])
+    ly = np.abs(n1[2] * n2[0] - n1[0] * n2[2])
+    lz = np.abs(n1[0] * n2[1] - n1[1] * n2[0])
+    use_x = (lx >= ly) & (lx >= lz)
+    use_y = ~use_x & (ly >= lz)
+
+    def project(tri: np.ndarray) -> list[np.ndarray]:
+        return [np.where(use_x, v[0], np.where(use_y, v[1], v[2])) for v in tri]
+
+    lo1, hi1 = _interval_soa(project(a), dv)
+    lo2, hi2 = _interval_soa(project(b), du)
     hit = ~((hi1 < lo2) | (hi2 < lo1))
+    coplanar = ((dv[0] == 0) & (dv[1] == 0) & (dv[2] == 0)) | (
+        (du[0] == 0) & (du[1] == 0) & (du[2] == 0)
+    )
     if coplanar.any():
-        hit[coplanar] = _coplanar_batch(n1[coplanar], t1[coplanar], t2[coplanar])
+        rows = live[coplanar]
+        normal = np.stack([x[coplanar] for x in n1], axis=1)
+        hit[coplanar] = _coplanar_batch(normal, t1[rows], t2[rows])
     out[live] = hit
     return out
 
