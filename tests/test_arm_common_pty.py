@@ -301,3 +301,34 @@ def test_busy_port_through_a_driver():
     finally:
         first.close()
         emu.close()
+
+
+def test_a_driver_bug_becomes_a_hardware_fault_not_a_hang():
+    clock = VirtualClock()
+    reasons = []
+
+    class Buggy(ToyDriver):
+        def on_data(self, data):
+            super().on_data(data)
+            if len(self.frames) >= 3:
+                raise KeyError("oops")
+
+    emu = ToyEmulator(OneJoint(), clock)
+    path = emu.start()
+    drv = Buggy(
+        OneJoint(),
+        path,
+        baud=9600,
+        clock=clock,
+        interrupt=lambda reason, fault=None: reasons.append(fault),
+        **sim_driver_options(emu),
+    )
+    try:
+        drv.connect()
+        for _ in range(5):
+            emu.step(clock.advance(0.05))
+        assert drv.fault is not None and "KeyError" in str(drv.fault)
+        assert reasons == [drv.fault]
+    finally:
+        drv.close()
+        emu.close()

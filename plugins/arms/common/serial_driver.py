@@ -365,14 +365,18 @@ class SerialArmDriver(ArmDriver):
                     self.lose_link(f"link lost: {exc}")
                 return
             self._now = self._current_time()
-            if data:
-                if len(self._seen) < 512:
-                    self._seen.extend(data[: 512 - len(self._seen)])
-                self.on_data(data)
+            try:
+                if data:
+                    if len(self._seen) < 512:
+                        self._seen.extend(data[: 512 - len(self._seen)])
+                    self.on_data(data)
+                if self._fault is None and math.isfinite(self._now):
+                    self.on_time(self._now)
+            except Exception as exc:  # noqa: BLE001 - a protocol bug must stop the arm, not hang it
+                self.lose_link(f"driver error ({type(exc).__name__}: {exc}); link closed")
+                return
             if self._fault is not None:
                 return
-            if math.isfinite(self._now):
-                self.on_time(self._now)
             if (
                 self._connected
                 and math.isfinite(self._last_alive)
