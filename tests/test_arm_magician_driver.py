@@ -289,3 +289,23 @@ def test_ptp_parameters_are_queued_and_applied(sim):
     assert sim.arm.left_space is not None and 0 <= sim.arm.left_space <= 32
     with pytest.raises(ValueError):
         sim.arm.set_ptp_params(joint_velocity=-1.0)
+
+
+def test_lost_reply_resends_absolute_moves_but_not_incremental_ones(sim):
+    sim.until(sim.arm.move_joints([0.0, 45.0, 45.0, 0.0]))  # speed ratio now set
+    reply = len(P.encode(P.Cmd.PTP, 3, P.index_params(1)))
+    # the reply to an absolute move is lost: the driver resends it (running it twice is harmless)
+    sim.emu.inject("drop", count=reply)
+    handle = sim.until(sim.arm.move_joints([10.0, 40.0, 40.0, 0.0]))
+    assert handle.status is MotionStatus.DONE
+    np.testing.assert_allclose(sim.emu.true_joints(), [10.0, 40.0, 40.0, 0.0], atol=1e-3)
+    # the reply to an incremental move is lost: not sent twice, the move fails instead
+    sim.emu.inject("drop", count=reply)
+    inc = sim.until(sim.arm.move_ptp(P.PTPMode.MOVJ_INC, [5.0, 0.0, 0.0, 0.0]))
+    assert inc.status is MotionStatus.FAILED and "not resent" in str(inc.error)
+    sim.tick(40)
+    ptp = [b for _, d, b in sim.emu.transcript if d == "rx" and b[3:4] == bytes([84])]
+    assert [b[5] for b in ptp[-3:]] == [P.PTPMode.MOVJ_ANGLE] * 2 + [P.PTPMode.MOVJ_INC]
+    # the arm did run it once
+    np.testing.assert_allclose(sim.emu.true_joints(), [15.0, 40.0, 40.0, 0.0], atol=1e-3)
+    assert not sim.interrupts

@@ -37,6 +37,8 @@ class _Request:
     on_reply: Callable[[P.Frame], None] | None = None
     sent_at: float = -math.inf
     tries: int = 0
+    #: Called instead of a resend when resending could run the command twice.
+    on_lost: Callable[[], None] | None = None
 
 
 @dataclass
@@ -47,7 +49,7 @@ class _Pending:
     index: int | None = None
     start: np.ndarray | None = None
     goal: np.ndarray | None = None
-    extra: list = field(default_factory=list)
+    extra: list[Callable[[], None]] = field(default_factory=list)
 
 
 class MagicianDriver(SerialArmDriver):
@@ -86,6 +88,7 @@ class MagicianDriver(SerialArmDriver):
         self._next_poll = -math.inf
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
+        self._ratio_sent: float | None = None
         #: Free slots in the arm's command queue, as last read (GetQueuedCmdLeftSpace).
         self.left_space: int | None = None
         #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
@@ -99,6 +102,7 @@ class MagicianDriver(SerialArmDriver):
             self._requests.clear()
             self._outstanding = None
             self._joints = None
+            self._ratio_sent = None
         self._request(P.Cmd.QUEUE_CLEAR, 0x01)
         self._request(P.Cmd.QUEUE_START, 0x01)
         self._request(P.Cmd.GET_POSE, 0x00, on_reply=self._on_pose)
@@ -126,9 +130,13 @@ class MagicianDriver(SerialArmDriver):
         fail = False
         with self._lock:
             req = self._outstanding
+            lost = None
             if req is not None and now - req.sent_at > self.reply_timeout:
                 fail = req.tries > self.retries
                 resend = None if fail else req
+                if resend is not None and req.on_lost is not None:
+                    # the arm may have queued it and only the reply was lost
+                    self._outstanding, resend, lost = None, None, req.on_lost
             if self._outstanding is None and not self._requests and now >= self._next_poll:
                 self._next_poll = now + self.poll_period
                 if self._pending:
@@ -138,6 +146,8 @@ class MagicianDriver(SerialArmDriver):
         if fail:
             self.lose_link(f"link lost: no reply to command {req.id} after {req.tries} tries")
             return
+        if lost is not None:
+            lost()
         if resend is not None:
             self._transmit(resend)
         self._send_next()
@@ -145,9 +155,15 @@ class MagicianDriver(SerialArmDriver):
     # ------------------------------------------------------------------ requests
 
     def _request(
-        self, cid: int, ctrl: int, params: bytes = b"", on_reply=None, front: bool = False
+        self,
+        cid: int,
+        ctrl: int,
+        params: bytes = b"",
+        on_reply: Callable[[P.Frame], None] | None = None,
+        front: bool = False,
+        on_lost: Callable[[], None] | None = None,
     ) -> None:
-        req = _Request(P.encode(cid, ctrl, params), int(cid), on_reply)
+        req = _Request(P.encode(cid, ctrl, params), int(cid), on_reply, on_lost=on_lost)
         with self._lock:
             if front:
                 self._requests.appendleft(req)
@@ -207,9 +223,15 @@ class MagicianDriver(SerialArmDriver):
         cid: int,
         params: bytes,
         goal: np.ndarray | None = None,
-        extra: list | None = None,
+        extra: list[Callable[[], None]] | None = None,
+        resend: bool = True,
     ) -> MotionHandle:
-        """Send one queued command; the handle is DONE when the arm has executed it."""
+        """Send one queued command; the handle is DONE when the arm has executed it.
+
+        With ``resend=False`` (incremental moves) a lost reply fails the handle
+        instead of resending: the arm may have queued the command already, and
+        running a relative move twice would go too far.
+        """
         fault = self.ensure_connected()
         if fault is not None:
             return self.refused(description, fault)
@@ -226,9 +248,24 @@ class MagicianDriver(SerialArmDriver):
             pending.index = P.unpack_index(frame.params)
             handle.update(MotionStatus.RUNNING, progress=0.0)
 
+        def on_lost() -> None:
+            handle.update(
+                MotionStatus.FAILED,
+                error=HardwareFault(
+                    f"{description}: no reply, not resent (the arm may have queued it)",
+                    self.device,
+                ),
+            )
+
         with self._lock:
             self._pending.append(pending)
-        self._request(cid, P.CTRL_WRITE | P.CTRL_QUEUED, params, on_reply=on_reply)
+        self._request(
+            cid,
+            P.CTRL_WRITE | P.CTRL_QUEUED,
+            params,
+            on_reply=on_reply,
+            on_lost=None if resend else on_lost,
+        )
         self._send_next()
         return handle
 
@@ -265,10 +302,17 @@ class MagicianDriver(SerialArmDriver):
         if self.is_duplicate(key) and self._last_handle is not None and not self._last_handle.done:
             return self._last_handle
         ratio = float(min(max(speed, 0.01), 1.0)) * 100.0
-        self._request(
-            P.Cmd.PTP_COMMON_PARAMS, P.CTRL_WRITE | P.CTRL_QUEUED, struct.pack("<2f", ratio, ratio)
+        if ratio != self._ratio_sent:  # the speed ratio stays set in the arm until changed
+            self._request(
+                P.Cmd.PTP_COMMON_PARAMS,
+                P.CTRL_WRITE | P.CTRL_QUEUED,
+                struct.pack("<2f", ratio, ratio),
+            )
+            self._ratio_sent = ratio
+        incremental = int(mode) in (P.PTPMode.MOVJ_INC, P.PTPMode.MOVL_INC, P.PTPMode.MOVJ_XYZ_INC)
+        handle = self._queued(
+            desc, P.Cmd.PTP, P.ptp_params(int(mode), *target), goal=goal, resend=not incremental
         )
-        handle = self._queued(desc, P.Cmd.PTP, P.ptp_params(int(mode), *target), goal=goal)
         self.remember_sent(key)
         self._last_handle = handle
         return handle
@@ -393,6 +437,7 @@ class MagicianDriver(SerialArmDriver):
         self.stop_all()
         self.remember_sent(None)
         self._last_handle = None
+        self._ratio_sent = None  # a cleared queue may have dropped the last speed setting
         if self._ser is None:
             return
         self.write(P.encode(P.Cmd.QUEUE_FORCE_STOP, 0x01))
