@@ -260,3 +260,12 @@ def test_prm_on_the_dobot_v1_model_from_a_profile(tmp_path):
     _path_is_valid(planner.checker, path)
     radius = np.hypot(*model.position(path)[:, :2].T)
     assert radius.min() < 150.0
+
+
+def test_factories_need_an_arm_and_accept_a_raw_obstacle_list():
+    ctx = RigContext(profile=None, clock=None)
+    with pytest.raises(ConfigError, match="needs an arm"):
+        prm_factory({"type": "prm"}, ctx, None, Scene())
+    raw = [{"box": {"center": [0, 250, 50], "size": [400, 20, 300]}}]
+    planner = direct_factory({"type": "direct"}, ctx, wide_dobot(), raw)
+    assert len(planner.checker.scene.boxes) == 1

@@ -13,9 +13,11 @@ from typing import Any
 import numpy as np
 
 from armtree.collision import CollisionChecker
+from armtree.errors import ConfigError
 from armtree.kinematics import KinematicModel
 from armtree.params import Param
 from armtree.rig import Planner
+from armtree.scene import Scene
 from armtree.validation import check_config, validate_samples
 from armtree.workspace import ArmWorkspace
 
@@ -62,11 +64,22 @@ def sample_segment(q0: np.ndarray, q1: np.ndarray, step: float) -> np.ndarray:
     return q0 + t * (q1 - q0)
 
 
+def planner_checker(
+    config: Mapping[str, Any], model: KinematicModel | None, scene: Any
+) -> CollisionChecker:
+    """The collision checker a planner factory needs; ConfigError without an arm model."""
+    if model is None:
+        raise ConfigError(f"planner {config.get('type', '')!r} needs an arm: the profile has none")
+    if not isinstance(scene, Scene):
+        scene = Scene.from_profile({"obstacles": scene or []})
+    return CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+
+
 def direct_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> DirectPlanner:
     """Straight joint-space moves, validated for limits, collisions and singularities."""
-    checker = CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+    checker = planner_checker(config, model, scene)
     checker.check_start(model.home, "home")
     min_sv = config.get("min_singular", 0.2)
     return DirectPlanner(checker, float(config.get("resolution_deg", 2.0)), min_sv)

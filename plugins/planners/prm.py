@@ -31,6 +31,7 @@ from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError, PlanningError
 from armtree.kinematics import KinematicModel
 from armtree.params import Param
+from armtree.plugins.planners.direct import planner_checker
 from armtree.rig import Planner
 from armtree.validation import check_config
 from armtree.workspace import ArmWorkspace
@@ -347,7 +348,7 @@ def prm_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> PRMPlanner:
     """Probabilistic roadmap in joint space (KD-tree neighbours, A*, shortcuts), cached on disk."""
-    checker = CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+    checker = planner_checker(config, model, scene)
     checker.check_start(model.home, "home")
     cache = config.get("cache_dir", "default")
     if cache == "default":
