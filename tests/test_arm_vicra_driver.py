@@ -310,3 +310,16 @@ def test_two_runs_exchange_identical_bytes():
             s.close()
 
     assert run() == run()
+
+
+def test_a_lost_ok_is_recovered_by_sending_the_line_again(sim):
+    sim.tick()
+    handle = sim.arm.move_joints([250.0, -20.0, 120.0, 0.0])
+    sim.emu.inject("corrupt", count=2)  # the G1's "ok" arrives unreadable
+    sim.until(handle)
+    assert handle.status is MotionStatus.DONE and not sim.interrupts
+    replies = b"".join(b for _, d, b in sim.emu.transcript if d == "tx").decode("ascii", "replace")
+    assert "Error:Line Number is not Last Line Number+1" in replies
+    g1 = [c for c in sim.lines_received() if c.startswith("G1")]
+    assert len(g1) == 2 and g1[0] == g1[1]  # sent twice, run once
+    np.testing.assert_allclose(sim.emu.true_joints()[:3], [250.0, -20.0, 120.0], atol=0.02)

@@ -74,6 +74,7 @@ class VicraDriver(SerialArmDriver):
         tool: str = "gripper",
         feed: float = 6000.0,
         poll_period: float = 0.02,
+        reply_timeout: float = 1.0,
         resend_ok: bool = True,
         **options,
     ) -> None:
@@ -87,6 +88,7 @@ class VicraDriver(SerialArmDriver):
         self.tool_kind = tool
         self.feed = feed
         self.poll_period = poll_period
+        self.reply_timeout = reply_timeout
         self.resend_ok = resend_ok
         self.banner: list[str] = []
         self.endstops: dict[str, bool] = {}
@@ -216,12 +218,28 @@ class VicraDriver(SerialArmDriver):
             target.replies.append(line)
 
     def on_time(self, now: float) -> None:
-        """Poll the position when idle; send what is queued."""
+        """Poll the position when idle; send what is queued; resend a line whose ok is overdue.
+
+        A line that is not one of the long ones (G28, M400, G4) and got no
+        ``ok`` within ``reply_timeout`` is sent again with the same number: if
+        Marlin had run it and only its ``ok`` was lost, it answers with a line
+        number error and ``Resend:`` of the next line, which tells the driver so.
+        """
+        overdue = None
         with self._lock:
+            head = self._inflight[0] if self._inflight else None
+            if (
+                head is not None
+                and head.command.split()[0] not in BLOCKING
+                and now - head.sent_at > self.reply_timeout
+            ):
+                overdue = head
             idle = not self._inflight and not self._queue
             if idle and self._ready and now >= self._next_poll:
                 self._next_poll = now + self.poll_period
                 self._enqueue("M114 R", self._on_position)
+        if overdue is not None:
+            self._transmit(overdue)
         self._pump()
 
     # ------------------------------------------------------------------ line traffic
@@ -257,8 +275,15 @@ class VicraDriver(SerialArmDriver):
         with self._lock:
             if self.resend_ok:
                 self._swallow_ok += 1
+            # lines before n were run (only their ok was lost): they are done
+            done = []
+            while self._inflight and (self._inflight[0].number or 0) < n:
+                done.append(self._inflight.popleft())
             lines = [ln for ln in self._inflight if ln.number is not None and ln.number >= n]
             known = n in self._history or n == self._next_n
+        for line in done:
+            if line.on_ok is not None:
+                line.on_ok(line.replies)
         if not known:
             self.lose_link(f"Marlin asked to resend line {n}, which was never sent")
             return
