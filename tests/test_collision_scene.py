@@ -275,3 +275,39 @@ def test_errors_carry_the_profile_position(tmp_path):
     with pytest.raises(ConfigError) as err:
         Scene.from_profile(profile)
     assert err.value.line == 5 and "obstacles[1].mesh.scale" in str(err.value)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(
+        st.lists(
+            st.lists(st.floats(-1e4, 1e4, allow_nan=False, width=32), min_size=3, max_size=3),
+            min_size=3,
+            max_size=3,
+        ),
+        min_size=1,
+        max_size=20,
+    ),
+    st.sampled_from(["ascii", "binary", "obj"]),
+)
+def test_property_mesh_files_round_trip(tmp_path_factory, triangles, kind):
+    tris = np.array(triangles, dtype=np.float32).astype(float)
+    path = tmp_path_factory.mktemp("mesh") / ("m.obj" if kind == "obj" else "m.stl")
+    if kind == "ascii":
+        write_stl_ascii(path, tris)
+    elif kind == "binary":
+        write_stl_binary(path, tris)
+    else:
+        verts = tris.reshape(-1, 3)
+        lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in verts.tolist()]
+        lines += [f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(len(tris))]
+        path.write_text("\n".join(lines) + "\n")
+    np.testing.assert_allclose(load_mesh(path), tris, rtol=1e-6, atol=1e-6)
+
+
+def test_binary_stl_whose_header_says_solid(tmp_path):
+    write_stl_binary(tmp_path / "b.stl", _cube([0, 0, 0], 2))
+    data = bytearray((tmp_path / "b.stl").read_bytes())
+    data[:11] = b"solid cube "
+    (tmp_path / "b.stl").write_bytes(bytes(data))
+    assert load_mesh(tmp_path / "b.stl").shape == (12, 3, 3)
