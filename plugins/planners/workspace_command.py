@@ -38,7 +38,7 @@ def arm_model(profile: Any, manager: Any = None) -> Any:
 
 
 class WorkspaceCommand:
-    """``armtree workspace``: cover an arm's reachable workspace with boxes and plot it."""
+    """Cover an arm's reachable workspace with boxes (seed 003) and plot it (armtree workspace)."""
 
     help = "cover the arm's reachable workspace with boxes (seed 003); --plot FILE.png draws it"
 
