@@ -53,7 +53,9 @@ def test_fk_of_ik_is_the_target(q):
     good = MODEL.ik_all(p)
     good = good[np.all(np.isfinite(good), axis=-1)]
     assert len(good) >= 1
-    np.testing.assert_allclose(MODEL.position(good), np.broadcast_to(p, (len(good), 3)), atol=1e-6)
+    np.testing.assert_allclose(
+        MODEL.position(good), np.broadcast_to(p, (len(good), 3)), atol=1e-3
+    )  # 1 um
 
 
 def test_link_frames_agree_with_position_and_batch():

@@ -25,6 +25,9 @@ import numpy as np
 
 from armtree.kinematics import Joint, KinematicModel, LinkBox
 
+#: Degrees / mm by which an IK solution may miss a limit through round-off and be clamped.
+LIMIT_SLACK = 1e-5
+
 
 class MagicianModel(KinematicModel):
     """Closed-form, batched kinematics of the Dobot Magician (mm, degrees).
@@ -141,6 +144,10 @@ class MagicianModel(KinematicModel):
             j4 = np.zeros_like(x) if r is None else _wrap(r - deg[..., 0])
             sols.append(np.concatenate([deg, j4[..., None]], axis=-1))
         out = np.stack(sols, axis=-2)
+        # round-off at a stretched arm can put a limit-value solution a hair outside
+        lo, hi = self.lower, self.upper
+        out = np.where((out < lo) & (out > lo - LIMIT_SLACK), lo, out)
+        out = np.where((out > hi) & (out < hi + LIMIT_SLACK), hi, out)
         ok = self.within_limits(out)
         return np.where(ok[..., None], out, np.nan)
 

@@ -23,6 +23,9 @@ import numpy as np
 
 from armtree.kinematics import Joint, KinematicModel, LinkBox
 
+#: Degrees / mm by which an IK solution may miss a limit through round-off and be clamped.
+LIMIT_SLACK = 1e-5
+
 #: Height of the arm plane above the tool tip (the gripper hangs this far below it), mm.
 TOOL_DROP = 80.0
 
@@ -127,6 +130,10 @@ class VicraModel(KinematicModel):
             w = np.zeros_like(x) if yaw is None else (yaw - t1d - t2d + 180.0) % 360.0 - 180.0
             sols.append(np.stack([z, t1d, t2d, w], axis=-1))
         out = np.stack(sols, axis=-2)
+        # round-off at a stretched arm can put a limit-value solution a hair outside
+        lo, hi = self.lower, self.upper
+        out = np.where((out < lo) & (out > lo - LIMIT_SLACK), lo, out)
+        out = np.where((out > hi) & (out < hi + LIMIT_SLACK), hi, out)
         ok = self.within_limits(out)
         return np.where(ok[..., None], out, np.nan)
 
