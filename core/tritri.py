@@ -306,7 +306,12 @@ def _pairs(t1: np.ndarray, t2: np.ndarray) -> np.ndarray:
     return out
 
 
-def intersect_matrix(a: np.ndarray, b: np.ndarray, chunk: int = 1 << 22) -> np.ndarray:
+def _one_side_of(d0: np.ndarray, d1: np.ndarray, d2: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    """All three vertex distances beyond ``tol`` on the same side of the plane."""
+    return (np.minimum(np.minimum(d0, d1), d2) > tol) | (np.maximum(np.maximum(d0, d1), d2) < -tol)
+
+
+def intersect_matrix(a: np.ndarray, b: np.ndarray, chunk: int = 1 << 17) -> np.ndarray:
     """Boolean ``(Na, Nb)``: every triangle of ``a`` against every triangle of ``b`` (mm).
 
     The plane rejections of all ``Na * Nb`` pairs are matrix products (each
@@ -332,9 +337,9 @@ def intersect_matrix(a: np.ndarray, b: np.ndarray, chunk: int = 1 << 22) -> np.n
     for s in range(0, len(a), step):
         e = min(len(a), s + step)
         dist_a = (a[s:e].reshape(-1, 3) @ nb.T).reshape(e - s, 3, len(b)) + db
-        side_a = np.all(dist_a > tol_b, axis=1) | np.all(dist_a < -tol_b, axis=1)
+        side_a = _one_side_of(dist_a[:, 0], dist_a[:, 1], dist_a[:, 2], tol_b)
         dist_b = (vb @ na[s:e].T).reshape(len(b), 3, e - s) + da[s:e]
-        side_b = np.all(dist_b > tol_a[s:e], axis=1) | np.all(dist_b < -tol_a[s:e], axis=1)
+        side_b = _one_side_of(dist_b[:, 0], dist_b[:, 1], dist_b[:, 2], tol_a[s:e])
         ia, ib = np.nonzero(~(side_a | side_b.T))
         if len(ia):
             out[s + ia, ib] = intersect_pairs(a[s + ia], b[ib])
