@@ -72,3 +72,8 @@ def test_link_frames_agree_with_position_and_batch():
 def test_outside_workspace_is_unreachable(target):
     with pytest.raises(Unreachable):
         MODEL.ik(np.array(target, dtype=float))
+
+
+def test_closed_form_fk_equals_the_link_frames_tool():
+    q = np.random.default_rng(3).uniform(MODEL.lower, MODEL.upper, size=(200, 4))
+    np.testing.assert_allclose(MODEL.fk(q), MODEL.link_frames(q)[..., -1, :, :], atol=1e-9)

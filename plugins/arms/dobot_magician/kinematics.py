@@ -102,6 +102,11 @@ class MagicianModel(KinematicModel):
         )
         return out
 
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """Tool pose ``(..., 4, 4)`` in mm: level, turned by r = J1 + J4; closed form."""
+        q = np.asarray(q, dtype=float)
+        return _pose(self.position(q), np.radians(q[..., 0] + q[..., 3]))
+
     def position(self, q: np.ndarray) -> np.ndarray:
         """Tool position ``(..., 3)`` in mm, closed form (no frames built)."""
         q = np.asarray(q, dtype=float)
@@ -155,6 +160,16 @@ class MagicianModel(KinematicModel):
         """The firmware's pose report ``(..., 4)``: x, y, z (mm) and r = J1 + J4 (degrees)."""
         q = np.asarray(q, dtype=float)
         return np.concatenate([self.position(q), (q[..., 0] + q[..., 3])[..., None]], axis=-1)
+
+
+def _pose(p: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """4x4 poses ``(..., 4, 4)`` at positions ``p`` turned by ``yaw`` (radians) about z."""
+    out = np.zeros((*p.shape[:-1], 4, 4))
+    c, s = np.cos(yaw), np.sin(yaw)
+    out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1] = c, -s, s, c
+    out[..., 2, 2] = out[..., 3, 3] = 1.0
+    out[..., :3, 3] = p
+    return out
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:

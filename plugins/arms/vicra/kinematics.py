@@ -101,6 +101,17 @@ class VicraModel(KinematicModel):
             out[..., i, 0, 3], out[..., i, 1, 3], out[..., i, 2, 3] = px, py, pz
         return out
 
+    def fk(self, q: np.ndarray) -> np.ndarray:
+        """Tool pose ``(..., 4, 4)`` in mm: vertical, turned by theta1 + theta2 + wrist."""
+        q = np.asarray(q, dtype=float)
+        yaw = np.radians(q[..., 1] + q[..., 2] + q[..., 3])
+        out = np.zeros((*q.shape[:-1], 4, 4))
+        c, s = np.cos(yaw), np.sin(yaw)
+        out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1] = c, -s, s, c
+        out[..., 2, 2] = out[..., 3, 3] = 1.0
+        out[..., :3, 3] = self.position(q)
+        return out
+
     def position(self, q: np.ndarray) -> np.ndarray:
         """Tool position ``(..., 3)`` in mm, closed form."""
         q = np.asarray(q, dtype=float)
