@@ -221,3 +221,16 @@ def test_two_runs_exchange_identical_bytes():
             s.close()
 
     assert run() == run()
+
+
+def test_busy_port_is_a_clear_hardware_fault():
+    emulator = dh_factory.emulator(puma_config(), WallClock())
+    path = emulator.start()
+    try:
+        with serial.Serial(path, 115200, exclusive=True):
+            arm = dh_factory({**puma_config(), "port": path}, RigContext(None, WallClock()))
+            with pytest.raises(HardwareFault, match="busy") as err:
+                arm.connect()
+            assert err.value.device == path
+    finally:
+        emulator.close()
