@@ -269,3 +269,19 @@ def test_factories_need_an_arm_and_accept_a_raw_obstacle_list():
     raw = [{"box": {"center": [0, 250, 50], "size": [400, 20, 300]}}]
     planner = direct_factory({"type": "direct"}, ctx, wide_dobot(), raw)
     assert len(planner.checker.scene.boxes) == 1
+
+
+def test_concurrent_queries_share_the_roadmap_safely(checker, tmp_path):
+    from concurrent.futures import ThreadPoolExecutor
+
+    planner = _prm(checker, tmp_path)
+    planner.build()
+    pairs = [
+        (np.array([30.0 - k, 30.0, 20.0]), np.array([130.0 - k, 30.0, 20.0])) for k in range(8)
+    ]
+    with ThreadPoolExecutor(4) as pool:
+        paths = list(pool.map(lambda p: planner.plan(*p), pairs))
+    for (start, goal), path in zip(pairs, paths, strict=True):
+        np.testing.assert_allclose(path[[0, -1]], [start, goal])
+        _path_is_valid(checker, path)
+    assert set(planner._graph.nodes) == set(range(len(planner.roadmap.nodes)))

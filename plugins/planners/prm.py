@@ -18,6 +18,7 @@ import hashlib
 import os
 import sys
 import tempfile
+import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -180,6 +181,7 @@ class PRMPlanner(Planner):
         self.progress = progress
         self.smooth = smooth
         self._roadmap: Roadmap | None = None
+        self._lock = threading.RLock()
         self._graph: nx.Graph | None = None
         self._tree: cKDTree | None = None
         #: True when the roadmap in use came from the disk cache.
@@ -210,8 +212,9 @@ class PRMPlanner(Planner):
     @property
     def roadmap(self) -> Roadmap:
         """The roadmap, loaded from the cache or built now."""
-        if self._roadmap is None:
-            self.build()
+        with self._lock:
+            if self._roadmap is None:
+                self.build()
         assert self._roadmap is not None
         return self._roadmap
 
@@ -275,29 +278,32 @@ class PRMPlanner(Planner):
             )
         graph = self._graph
         s_id, g_id = -1, -2
-        graph.add_weighted_edges_from((s_id, n, w) for n, w in s_links)
-        graph.add_weighted_edges_from((g_id, n, w) for n, w in g_links)
         nodes = rm.nodes
 
         def config(n: int) -> np.ndarray:
             return start if n == s_id else goal if n == g_id else nodes[n]
 
-        try:
-            ids = nx.astar_path(
-                graph,
-                s_id,
-                g_id,
-                heuristic=lambda a, b: float(np.linalg.norm(config(a) - config(b))),
-                weight="weight",
-            )
-        except nx.NetworkXNoPath:
-            raise PlanningError(
-                "no path: start and goal are in different components of the roadmap "
-                f"({self.milestones} milestones); add milestones or move obstacles",
-                reason="disconnected",
-            ) from None
-        finally:
-            graph.remove_nodes_from([s_id, g_id])
+        # The query nodes are added to the shared graph for the search (seed 004,
+        # appendix E); the lock keeps concurrent queries from seeing each other's.
+        with self._lock:
+            graph.add_weighted_edges_from((s_id, n, w) for n, w in s_links)
+            graph.add_weighted_edges_from((g_id, n, w) for n, w in g_links)
+            try:
+                ids = nx.astar_path(
+                    graph,
+                    s_id,
+                    g_id,
+                    heuristic=lambda a, b: float(np.linalg.norm(config(a) - config(b))),
+                    weight="weight",
+                )
+            except nx.NetworkXNoPath:
+                raise PlanningError(
+                    "no path: start and goal are in different components of the roadmap "
+                    f"({self.milestones} milestones); add milestones or move obstacles",
+                    reason="disconnected",
+                ) from None
+            finally:
+                graph.remove_nodes_from([s_id, g_id])
         path = np.stack([config(n) for n in ids])
         return self.shortcut(path) if self.smooth else path
 
