@@ -78,8 +78,10 @@ def test_board_emulator_and_driver_take_any_bytes(chunks):
     maps = S.servo_maps_from_config(None, 2)
     emulator = SSC32Emulator(model, VirtualClock(), maps)  # not started: replies go nowhere
     driver = SSC32Driver(model, "/dev/null", maps, clock=VirtualClock())
+    driver.version = S.VERSION  # past the handshake: replies to queries are expected
     for i, chunk in enumerate(chunks):
         emulator.on_bytes(chunk, 0.1 * i)
+        driver.on_time(0.1 * i)  # a query goes out (nowhere) and its reply is awaited
         driver.on_data(chunk)
         assert len(emulator._buf) <= 256 and len(driver._buf) <= 256
     pulses = emulator.pulses(10.0)

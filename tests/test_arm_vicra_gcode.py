@@ -117,4 +117,5 @@ def test_marlin_emulator_and_driver_take_any_bytes(chunks):
         driver.on_data(chunk)
         assert sum(len(x) for x in emulator._rx) <= 128
         assert len(emulator._ring) <= 4
+        assert len(driver.banner) <= 64
     assert np.all(np.isfinite(emulator.true_joints()))

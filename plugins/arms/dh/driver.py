@@ -111,7 +111,10 @@ class SSC32Driver(SerialArmDriver):
                 elif len(self._buf) > 64:
                     del self._buf[:-64]
                 return
-            if self._expect and len(self._buf) >= self._expect:
+            if not self._expect:
+                self._buf.clear()  # nothing asked: the board never talks unasked, so it is noise
+                return
+            if len(self._buf) >= self._expect:
                 reply = bytes(self._buf[: self._expect])
                 del self._buf[: self._expect]
                 self._expect = 0
@@ -159,6 +162,7 @@ class SSC32Driver(SerialArmDriver):
                 self._next_poll = now + self.poll_period
                 channels = [m.channel for m in self.servos]
                 self._expect = len(channels) + 1
+                self._buf.clear()
                 self._query_sent = now
                 self._query_seq = self._move_seq + 1
         if fail:

@@ -34,6 +34,8 @@ from .kinematics import VicraModel
 #: Marlin prints M114 with two decimals.
 POSITION_TOL = 0.011
 BLOCKING = ("G28", "M400", "G4")
+#: Reply lines kept per command (and banner lines): a device that only talks is not buffered.
+MAX_KEPT = 64
 
 
 @dataclass
@@ -210,11 +212,12 @@ class VicraDriver(SerialArmDriver):
             self.mark_alive()
             return
         if not self._ready:
-            self.banner.append(line)
+            if len(self.banner) < MAX_KEPT:
+                self.banner.append(line)
             return
         with self._lock:
             target = self._inflight[0] if self._inflight else None
-        if target is not None:
+        if target is not None and len(target.replies) < MAX_KEPT:
             target.replies.append(line)
 
     def on_time(self, now: float) -> None:
