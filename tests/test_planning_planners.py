@@ -277,8 +277,9 @@ def test_concurrent_queries_share_the_roadmap_safely(checker, tmp_path):
     planner = _prm(checker, tmp_path)
     planner.build()
     pairs = [
-        (np.array([30.0 - k, 30.0, 20.0]), np.array([130.0 - k, 30.0, 20.0])) for k in range(8)
+        (np.array([30.0 - k, 30.0, 20.0]), np.array([130.0 + k, 30.0, 20.0])) for k in range(4)
     ]
+    pairs = pairs * 2
     with ThreadPoolExecutor(4) as pool:
         paths = list(pool.map(lambda p: planner.plan(*p), pairs))
     for (start, goal), path in zip(pairs, paths, strict=True):
