@@ -309,3 +309,18 @@ def test_lost_reply_resends_absolute_moves_but_not_incremental_ones(sim):
     # the arm did run it once
     np.testing.assert_allclose(sim.emu.true_joints(), [15.0, 40.0, 40.0, 0.0], atol=1e-3)
     assert not sim.interrupts
+
+
+def test_a_straight_line_through_the_unreachable_middle_is_refused(sim):
+    model = sim.arm.model
+    a = model.pose_xyzr(np.array([-80.0, 45.0, 30.0, 0.0]))
+    b = model.pose_xyzr(np.array([80.0, 45.0, 30.0, 0.0]))
+    sim.until(sim.arm.move_ptp(P.PTPMode.MOVJ_XYZ, a))
+    sent = [x for _, d, x in sim.emu.transcript if d == "rx" and x[3:4] == bytes([84])]
+    # both ends reachable, but the chord passes too close to the base
+    line = sim.arm.move_ptp(P.PTPMode.MOVL_XYZ, b)
+    assert line.status is MotionStatus.FAILED and "leaves the workspace" in str(line.error)
+    sim.tick(2)
+    assert [x for _, d, x in sim.emu.transcript if d == "rx" and x[3:4] == bytes([84])] == sent
+    # the joint-interpolated move to the same point is fine
+    assert sim.until(sim.arm.move_ptp(P.PTPMode.MOVJ_XYZ, b)).status is MotionStatus.DONE

@@ -28,6 +28,7 @@ from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import protocol as P
 from .kinematics import MagicianModel
+from .paths import PathPlanner
 
 
 @dataclass
@@ -89,6 +90,8 @@ class MagicianDriver(SerialArmDriver):
         self._tool = ToolState()
         self._last_handle: MotionHandle | None = None
         self._ratio_sent: float | None = None
+        #: The firmware's path planner with the PTP parameters this driver has set.
+        self._paths = PathPlanner(model)
         #: Free slots in the arm's command queue, as last read (GetQueuedCmdLeftSpace).
         self.left_space: int | None = None
         #: Wall time (``time.perf_counter``) of the newest joint report, for latency figures.
@@ -332,7 +335,18 @@ class MagicianDriver(SerialArmDriver):
             goal[3] = p[3] - goal[0]
         else:
             raise Unreachable(f"{self.model.name}: unknown PTP mode {mode}")
-        return self.checked_joints(goal)
+        goal = self.checked_joints(goal)
+        if mode in (0, 2, 3, 5, 7, 9):
+            # straight lines and jumps: every point of the path must be reachable, as the
+            # firmware will refuse the whole command (and not move) otherwise
+            try:
+                self._paths.plan(mode, target, q, 0.0)
+            except ValueError as exc:
+                raise Unreachable(
+                    f"{self.model.name}: PTP {P.PTPMode(mode).name} to "
+                    f"{np.round(target, 2).tolist()}: the path leaves the workspace ({exc})"
+                ) from exc
+        return goal
 
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
         """Joint move (MOVJ_ANGLE) to ``q`` (degrees)."""
@@ -414,6 +428,11 @@ class MagicianDriver(SerialArmDriver):
             P.CTRL_WRITE | P.CTRL_QUEUED,
             struct.pack("<4f", xyz_velocity, xyz_velocity, xyz_accel, xyz_accel),
         )
+        self._paths.joint_speed = np.full(4, float(joint_velocity))
+        self._paths.joint_accel = np.full(4, float(joint_accel))
+        self._paths.xyz_speed = self._paths.r_speed = float(xyz_velocity)
+        self._paths.xyz_accel = self._paths.r_accel = float(xyz_accel)
+        self._paths.jump_height, self._paths.z_limit = float(jump_height), float(z_limit)
         return self._queued(
             "PTP parameters", P.Cmd.PTP_JUMP_PARAMS, struct.pack("<2f", jump_height, z_limit)
         )
