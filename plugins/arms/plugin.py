@@ -55,11 +55,12 @@ class EmulateCommand:
             raise ConfigError(f"emulate: arm type {args.arm!r} has no firmware emulator")
         config = self._config(args, manager)
         emulator = make(config, WallClock())
-        path = emulator.start()
-        print(path, flush=True)
-        print(f"serving {args.arm} on {path}; Ctrl-C to stop", file=sys.stderr, flush=True)
+        # Handlers first: a client may signal as soon as it has read the path.
         restore = self._on_signals()
         try:
+            path = emulator.start()
+            print(path, flush=True)
+            print(f"serving {args.arm} on {path}; Ctrl-C to stop", file=sys.stderr, flush=True)
             while not self.stop.wait(0.2):
                 pass
         except KeyboardInterrupt:

@@ -10,10 +10,10 @@ runs the deterministic step loop, injects faults and integrates joint motion
 
 Step loop (``step(now)``): bytes the driver wrote since the last step are
 handled at the previous time; then every timed event up to ``now`` fires in
-order, and after each one the emulator waits (through
-:class:`~.barrier.StepBarrier`) until the driver has handled what was sent and
-answers have been read; finally the tick ``now`` is announced to the driver
-and the same settling is repeated. On a wall clock (``armtree emulate``,
+order. After each of these the emulator settles: it waits (through
+:class:`~.barrier.StepBarrier`) until the driver has handled what was sent,
+reads the answers and handles them, until both sides are quiet. Only then is
+the tick ``now`` announced to the driver, and the settling is repeated. On a wall clock (``armtree emulate``,
 ``--realtime``) a service thread steps the emulator every few milliseconds and
 the barrier is never used.
 """
@@ -140,7 +140,10 @@ class PtyEmulator(FirmwareEmulator):
         with self._lock:
             if self._master is None:
                 return
+            # Every exchange is finished at the time it belongs to before the next tick
+            # is announced, so the driver never sees a reply early or late.
             self._pump_input(complete=True)
+            self._settle(None)
             while True:
                 t = self.next_event_time()
                 if t is None or t > now:
@@ -150,6 +153,7 @@ class PtyEmulator(FirmwareEmulator):
                 self._settle(None)
             self._time = max(self._time, now)
             self.on_timer(self._time)
+            self._settle(None)
             self.barrier.begin(now)
             self._settle(now)
 
