@@ -11,6 +11,12 @@ Built from a hardware profile (:meth:`Scene.from_profile`)::
       - table: {z: -10}                 # the same as the top-level key
     places: {garbage_bin: [60, 230, 40], ...}
 
+The table plane is a half-space (everything below ``z`` is solid). A hardware
+profile checked by :mod:`armtree.profile` accepts only the listed obstacle shapes,
+so there a table is written as a flat box under the arm's base, e.g.
+``box: {center: [0, 0, -105], size: [800, 800, 10], name: table}``; the
+``table`` keys serve scenes given as plain mappings.
+
 Units: mm and degrees. Mesh paths are relative to the profile's folder.
 Cylinders and spheres are checked as closed polyhedra that contain them (a
 24-sided prism, a 12 x 24 faceted ball), so a contact is never missed and a
