@@ -557,7 +557,11 @@ def model_from_config(config: Mapping[str, Any], source: str = "<profile>") -> D
     """Build a :class:`DHModel` from a profile's ``arm`` mapping (its ``dh:`` section)."""
     dh = config.get("dh")
     if not isinstance(dh, Mapping):
-        raise ConfigError("arm.dh must be a mapping with convention and table", source)
+        raise ConfigError(
+            "a dh arm needs its DH table: arm.dh, a mapping with convention and table "
+            "(e.g. the shipped profiles dh_puma560 and dh_motoman_l3)",
+            source,
+        )
     convention, rows, limits = parse_dh(dh, source)
     tool = dh.get("tool_offset_mm", config.get("tool_offset_mm", [0.0, 0.0, 0.0]))
     base = dh.get("base_mm", [0.0, 0.0, 0.0])
