@@ -99,10 +99,7 @@ class Trajectory:
     @property
     def waypoints(self) -> np.ndarray:
         """The configurations at the segment boundaries, ``(S + 1, n)``."""
-        starts = [c[0] for c in self.coeffs]
-        return np.stack(
-            starts + [self._eval(len(self.coeffs) - 1, self.times[-1] - self.times[-2], 0)]
-        )
+        return self.position(self.times)
 
     def _eval(self, seg: int | np.ndarray, tau: np.ndarray | float, order: int) -> np.ndarray:
         segs = np.atleast_1d(seg)
@@ -114,7 +111,7 @@ class Trajectory:
             for p in range(order, len(c)):
                 fac = np.prod(np.arange(p - order + 1, p + 1)) if order else 1.0
                 out[sel] += fac * c[p] * tau[sel, None] ** (p - order)
-        return out if np.ndim(seg) or np.ndim(tau) > 1 or len(out) > 1 else out[0]
+        return out
 
     def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)

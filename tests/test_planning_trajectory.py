@@ -64,6 +64,7 @@ def test_limits_are_respected_and_velocity_is_continuous_at_via_points(kind):
 def test_given_durations_and_sampling():
     traj = plan_trajectory(np.array([[0.0], [10.0], [10.0], [30.0]]), durations=[1.0, 0.5, 2.0])
     assert traj.duration == pytest.approx(3.0)  # the repeated waypoint is merged with its segment
+    np.testing.assert_allclose(traj.waypoints, [[0.0], [10.0], [30.0]], atol=1e-12)
     times, q = traj.sample(0.1)
     assert times[0] == 0 and times[-1] == pytest.approx(3.0) and np.all(np.diff(times) > 0)
     assert q[0, 0] == pytest.approx(0) and q[-1, 0] == pytest.approx(30)
