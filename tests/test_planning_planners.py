@@ -286,3 +286,14 @@ def test_concurrent_queries_share_the_roadmap_safely(checker, tmp_path):
         np.testing.assert_allclose(path[[0, -1]], [start, goal])
         _path_is_valid(checker, path)
     assert set(planner._graph.nodes) == set(range(len(planner.roadmap.nodes)))
+
+
+def test_a_start_pose_inside_an_obstacle_is_refused_at_rig_build():
+    scene = Scene.from_profile(PROFILE)
+    ctx = RigContext(profile={"arm": {"type": "x", "start_pose": [90.0, 30.0, 20.0]}}, clock=None)
+    with pytest.raises(ConfigError, match=r"start \(arm.start_pose\).*wall"):
+        prm_factory({"type": "prm"}, ctx, wide_dobot(), scene)
+    ok = RigContext(profile={"arm": {"type": "x", "start_pose": [0.0, 30.0, 20.0]}}, clock=None)
+    assert (
+        prm_factory({"type": "prm", "cache_dir": None}, ok, wide_dobot(), scene).cache_dir is None
+    )

@@ -17,6 +17,7 @@ from armtree.errors import ConfigError
 from armtree.kinematics import KinematicModel
 from armtree.params import Param
 from armtree.rig import Planner
+from armtree.rig_builder import profile_section
 from armtree.scene import Scene
 from armtree.validation import check_config, validate_samples
 from armtree.workspace import ArmWorkspace
@@ -65,22 +66,31 @@ def sample_segment(q0: np.ndarray, q1: np.ndarray, step: float) -> np.ndarray:
 
 
 def planner_checker(
-    config: Mapping[str, Any], model: KinematicModel | None, scene: Any
+    config: Mapping[str, Any], context: Any, model: KinematicModel | None, scene: Any
 ) -> CollisionChecker:
-    """The collision checker a planner factory needs; ConfigError without an arm model."""
+    """The collision checker a planner factory needs, with the arm's start checked.
+
+    ConfigError without an arm model, and when the arm's home or its simulated
+    power-up pose (the arm section's ``start_pose``) overlaps an obstacle.
+    """
     if model is None:
         raise ConfigError(f"planner {config.get('type', '')!r} needs an arm: the profile has none")
     if not isinstance(scene, Scene):
         scene = Scene.from_profile({"obstacles": scene or []})
-    return CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+    checker = CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
+    checker.check_start(np.asarray(model.home, dtype=float), "home")
+    arm = profile_section(getattr(context, "profile", None), "arm")
+    start = arm.get("start_pose") if isinstance(arm, Mapping) else None
+    if start is not None and len(start) == model.dof:
+        checker.check_start(np.asarray(start, dtype=float), "start (arm.start_pose)")
+    return checker
 
 
 def direct_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> DirectPlanner:
     """Straight joint-space moves, validated for limits, collisions and singularities."""
-    checker = planner_checker(config, model, scene)
-    checker.check_start(model.home, "home")
+    checker = planner_checker(config, context, model, scene)
     min_sv = config.get("min_singular", 0.2)
     return DirectPlanner(checker, float(config.get("resolution_deg", 2.0)), min_sv)
 

@@ -354,8 +354,7 @@ def prm_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> PRMPlanner:
     """Probabilistic roadmap in joint space (KD-tree neighbours, A*, shortcuts), cached on disk."""
-    checker = planner_checker(config, model, scene)
-    checker.check_start(model.home, "home")
+    checker = planner_checker(config, context, model, scene)
     cache = config.get("cache_dir", "default")
     if cache == "default":
         cache = default_cache_dir()
