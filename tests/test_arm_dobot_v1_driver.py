@@ -248,3 +248,24 @@ def test_gripper_angle_is_set_and_kept_through_moves(sim):
     assert sim.emu.tool().gripper == pytest.approx(30.0)
     bad = sim.arm.set_gripper(120.0)
     assert bad.status is MotionStatus.FAILED and isinstance(bad.error, Unreachable)
+
+
+@pytest.mark.parametrize("firmware", ["original", "open-dobot"])
+def test_a_port_path_is_driven_exactly_like_hardware(firmware):
+    """An emulator serving on the wall clock (as ``armtree emulate`` does) behind a device path."""
+    from armtree.clock import WallClock
+    from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_emulator
+
+    emu = dobot_v1_emulator({"firmware": firmware}, WallClock())
+    path = emu.start()
+    context = RigContext(profile=None, clock=WallClock())
+    arm = dobot_v1_factory({"port": path, "firmware": firmware}, context)
+    try:
+        assert context.steppers == [] and SHARED_KEY not in context.shared
+        arm.connect()
+        handle = arm.move_joints(np.asarray(arm.joints()) + [3.0, 0.0, 0.0])
+        assert handle.wait(10.0)
+        assert handle.status is MotionStatus.DONE
+    finally:
+        arm.close()
+        emu.close()
