@@ -268,3 +268,14 @@ def test_two_open_dobot_runs_exchange_identical_bytes():
     first, second = run(), run()
     assert first == second
     assert len(first[0]) > 50
+
+
+def test_silent_link_is_lost_on_the_run_clock(sim):
+    handle = sim.arm.move_joints([40.0, 5.0, 45.0])
+    sim.tick(3)
+    sim.emu.inject("cut", silent=1)
+    sim.tick(40)
+    assert handle.wait(2.0)
+    assert handle.status is MotionStatus.FAILED
+    assert "link lost" in str(handle.error) and handle.error.device == sim.arm.device
+    assert sim.interrupts and sim.interrupts[0][1] is handle.error

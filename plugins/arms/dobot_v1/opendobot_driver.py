@@ -197,7 +197,9 @@ class OpenDobotDriver(SerialArmDriver):
             self._last_time = now
             req = self._inflight
             if req is not None and math.isfinite(req.sent_at) and now - req.sent_at > REPLY_TIMEOUT:
-                if req.tries >= MAX_RETRIES:
+                # While connecting, keep asking: the board resets when the port opens and
+                # boots for about 2 s (open-dobot's driver retries BOARD_VERSION 200 times).
+                if req.tries >= MAX_RETRIES and self._ready:
                     self.lose_link(
                         f"link lost: no open-dobot reply to command {req.cmd} after {req.tries} tries"
                     )
