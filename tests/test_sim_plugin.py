@@ -107,3 +107,22 @@ def test_recording_writes_videos_png_and_score(tmp_path):
 
     u, v = Overhead(world).px(world.bodies["ducky"].pose[:2, 3])[0].astype(int)
     assert tuple(png[v - 8, u - 8]) == (40, 205, 250)
+
+
+def test_a_body_inside_the_arm_at_start_is_a_config_error():
+    import pytest
+
+    from armtree.errors import ConfigError
+
+    profile = copy.deepcopy(PROFILE)
+    profile["world"]["objects"]["post"] = {
+        "kind": "obstacle",
+        "at": [183, -6],
+        "size": [30, 30, 300],
+    }
+    context = RigContext(profile=profile, clock=VirtualClock())
+    emulator = FakeEmulator()
+    emulator.put([183, -6, 200])
+    context.shared[EMULATOR_KEY] = emulator
+    with pytest.raises(ConfigError, match="world.objects.post: post is inside the arm's"):
+        plugin.armtree_rig_ready(rig=Rig(profile=profile, clock=context.clock), context=context)

@@ -17,7 +17,7 @@ from armtree.emulation import SHARED_KEY as EMULATOR_KEY
 
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
-from .scene import profile_section
+from .scene import body_error, profile_section
 from .world import SHARED_KEY, World, world_for
 
 
@@ -70,6 +70,11 @@ def armtree_rig_ready(rig: Any, context: Any) -> None:
     emulator = context.shared.get(EMULATOR_KEY)
     if emulator is not None and world.emulator is None:
         world.attach_arm(emulator)
+        for link, body in world.start_overlaps():
+            spec = world.bodies[body].spec
+            raise body_error(
+                context.profile, spec, f"{body} is inside the arm's {link} at its start pose"
+            )
     camera = rig.camera if isinstance(rig.camera, SimCamera) else None
     context.steppers.append(WorldStepper(world, camera))
 

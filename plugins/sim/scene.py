@@ -670,6 +670,11 @@ def _inside_bin(container: ObjectSpec, item: ObjectSpec) -> bool:
     )
 
 
+def body_error(profile: Any, body: ObjectSpec, message: str) -> ConfigError:
+    """A ConfigError about one body of the world, at its entry in the profile."""
+    return _Errors(profile)(_body_path(body), message)
+
+
 def _body_path(body: ObjectSpec) -> tuple[Any, ...]:
     if body.name.startswith("obstacles["):
         return ("obstacles", int(body.name[len("obstacles[") : -1]))

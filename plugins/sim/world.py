@@ -389,10 +389,19 @@ class World:
             else:
                 body.pose[2, 3] = new_bottom
 
-    def _check_collisions(self, now: float) -> None:
+    def start_overlaps(self) -> list[tuple[str, str]]:
+        """(link, body) pairs that interpenetrate now: a world placing bodies inside the arm."""
+        with self.lock:
+            if self.arm is None:
+                return []
+            links, others = self._solids()
+            probe = CollisionMonitor(self.collisions.tolerance)
+            return [(hit.link, hit.other) for hit in probe.update(self.time, links, others)]
+
+    def _solids(self) -> tuple[list[SolidBox], list[SolidBox]]:
+        """The arm's boxes (and what it holds), and the bodies they could hit."""
         arm = self.arm
-        if arm is None:
-            return
+        assert arm is not None
         links = [
             SolidBox(n, p, s)
             for n, p, s in zip(arm.box_names, arm.box_poses, arm.box_sizes, strict=True)
@@ -411,6 +420,13 @@ class World:
             if not b.held and b.top > tip[2] + tol
             for solid in b.solids()
         ]
+        return links, others
+
+    def _check_collisions(self, now: float) -> None:
+        arm = self.arm
+        if arm is None:
+            return
+        links, others = self._solids()
         below_table = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
         fresh = self.collisions.update(now, links, others, below_table)
         for hit in fresh:
