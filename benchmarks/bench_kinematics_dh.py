@@ -229,12 +229,41 @@ def dh_rows(n: int, n_rtb_fk: int, n_ik: int, n_ik_ours: int, progress: Progress
     return rows
 
 
+def motoman_rows(n: int, n_ik: int) -> list[Row]:
+    """The shipped 5-joint Motoman L-3 profile: FK, and IK of tool positions (3 constraints)."""
+    from armtree.plugins.arms.dh.plugin import dh_factory
+    from armtree.profile import load_profile
+
+    model = dh_factory.model(load_profile("dh_motoman_l3").component("arm"))
+    rng = np.random.default_rng(2)
+    q = rng.uniform(model.lower, model.upper, size=(n, model.dof))
+    p = model.position(q[:n_ik])
+    t0 = clock()
+    sols = model.ik_batch(p, tol=1e-3)
+    rate = n_ik / (clock() - t0)
+    ok = np.all(np.isfinite(sols), axis=-1)
+    err = np.linalg.norm(model.position(sols[ok]) - p[ok], axis=-1)
+    return [
+        Row("motoman_l3", "FK 4x4 pose", best_rate(model.fk, q, 3)),
+        Row(
+            "motoman_l3",
+            "IK (DLS, position)",
+            rate,
+            note=f"success {ok.mean():.2%}, max error {err.max():.1e} mm",
+        ),
+    ]
+
+
 def rows(
     n: int = 100_000, n_rtb_fk: int = 2_000, n_ik: int = 300, n_ik_ours: int = 20_000
 ) -> list[Row]:
     """Every figure of this benchmark (for a shared kinematics table)."""
     with Progress(transient=True) as progress:
-        return analytic_rows(n) + dh_rows(n, n_rtb_fk, n_ik, max(n_ik, n_ik_ours), progress)
+        return (
+            analytic_rows(n)
+            + dh_rows(n, n_rtb_fk, n_ik, max(n_ik, n_ik_ours), progress)
+            + motoman_rows(n, n_ik_ours)
+        )
 
 
 def main() -> None:
