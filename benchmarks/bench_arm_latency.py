@@ -93,6 +93,7 @@ def measure(arm: str, seconds: float) -> tuple[list[float], list[float]]:
             while not driver.settled and time.monotonic() < deadline:
                 time.sleep(0.01)
         home = driver.model.home
+        driver.move_joints(home).wait(30.0)  # start at home: the measured moves are short
         span = driver.model.upper - driver.model.lower
         command, status = [], []
         end = time.monotonic() + seconds
