@@ -274,6 +274,12 @@ class Run:
             self.manager = factory(getattr(self.tree, "plugins", ()) or ())
         return self.manager
 
+    @property
+    def record_requested(self) -> bool:
+        """True when the caller named a record directory (``--record DIR``), so plugins
+        record videos there; the default ``runs/`` directory gets only the log."""
+        return self._record not in (None, True, False)
+
     def _open_log(self) -> None:
         if self._record is False:
             return

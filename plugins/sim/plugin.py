@@ -85,11 +85,8 @@ def armtree_run_started(run: Any) -> None:
     stepper = _stepper(run)
     if stepper is None or stepper.recorder is not None:
         return
-    requested = getattr(run, "record_requested", None)
-    if requested is None:
-        requested = getattr(run, "_record", None) not in (None, True, False)
     directory = getattr(run, "record_dir", None)
-    if not requested or directory is None:
+    if not run.record_requested or directory is None:
         return
     planner = getattr(getattr(run, "rig", None), "planner", None)
     stepper.recorder = Recorder(directory, stepper.world, stepper.camera, planner)
