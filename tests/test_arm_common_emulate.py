@@ -87,3 +87,17 @@ def test_armtree_emulate_subprocess_prints_the_path_then_serves():
         proc.send_signal(signal.SIGINT)
         code = proc.wait(10)
     assert code == 0
+
+
+def test_emulate_set_chooses_the_firmware_and_checks_the_option():
+    command, args = _args("dobot_v1", "--set", "firmware=open-dobot", "--set", "board=ramps")
+    from armtree.plugin_manager import get_plugin_manager
+
+    config = command._config(args, get_plugin_manager())
+    assert config["firmware"] == "open-dobot" and config["board"] == "ramps"
+    command, args = _args("dobot_v1", "--set", "firmware=marlin")
+    with pytest.raises(ConfigError, match="firmware"):
+        command._config(args, get_plugin_manager())
+    command, args = _args("dobot_v1", "--set", "colour=red")
+    with pytest.raises(ConfigError, match="no option 'colour'"):
+        command._config(args, get_plugin_manager())

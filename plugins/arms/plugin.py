@@ -16,9 +16,12 @@ import sys
 import threading
 from typing import Any
 
+import yaml
+
 import armtree
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
+from armtree.params import check_value
 
 
 class EmulateCommand:
@@ -31,12 +34,20 @@ class EmulateCommand:
         self.stop = threading.Event()
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        """Add ``ARM``, ``--profile`` and ``--seed``."""
+        """Add ``ARM``, ``--profile``, ``--seed`` and ``--set KEY=VALUE``."""
         parser.add_argument("arm", metavar="ARM", help="arm type, e.g. dobot_v1 or dobot_magician")
         parser.add_argument(
             "--profile", metavar="P", help="hardware profile whose arm section configures it"
         )
         parser.add_argument("--seed", type=int, default=0, help="seed of injected faults")
+        parser.add_argument(
+            "--set",
+            dest="overrides",
+            action="append",
+            default=[],
+            metavar="KEY=VALUE",
+            help="arm option, e.g. --set firmware=open-dobot (YAML value; repeatable)",
+        )
 
     def run(self, args: argparse.Namespace) -> int:
         """Serve until stopped; exit 0, or 2 for an unknown arm or a mismatched profile."""
@@ -71,16 +82,30 @@ class EmulateCommand:
         return 0
 
     def _config(self, args: argparse.Namespace, manager: Any) -> dict[str, Any]:
-        if not args.profile:
-            return {"type": args.arm}
-        from armtree.profile import load_profile
+        config: dict[str, Any] = {"type": args.arm}
+        if args.profile:
+            from armtree.profile import load_profile
 
-        profile = load_profile(args.profile, manager=manager)
-        config = profile.component("arm") or {}
-        if config.get("type") != args.arm:
-            raise profile.error(
-                "arm.type", f"the profile's arm is {config.get('type')!r}, not {args.arm!r}"
-            )
+            profile = load_profile(args.profile, manager=manager)
+            config = dict(profile.component("arm") or {})
+            if config.get("type") != args.arm:
+                raise profile.error(
+                    "arm.type", f"the profile's arm is {config.get('type')!r}, not {args.arm!r}"
+                )
+        params = {p.name: p for p in manager.registry.get("arm", args.arm).params}
+        for text in getattr(args, "overrides", None) or []:
+            key, sep, raw = text.partition("=")
+            if not sep or not key:
+                raise ConfigError(f"emulate: --set {text!r}: write KEY=VALUE")
+            value = yaml.safe_load(raw)
+            if params and key not in params:
+                raise ConfigError(f"emulate: {args.arm} has no option {key!r}")
+            if key in params:
+                try:
+                    value = check_value(params[key], value)
+                except ValueError as exc:
+                    raise ConfigError(f"emulate: --set {key}: {exc}") from exc
+            config[key] = value
         return config
 
     def _on_signals(self) -> Any:
