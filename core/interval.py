@@ -91,7 +91,8 @@ class Interval:
             c = np.asarray(other, dtype=float)
             a, b = self.lo * c, self.hi * c
             return Interval(np.minimum(a, b), np.maximum(a, b))
-        with np.errstate(invalid="ignore"):
+        # Overflow to +-inf is a valid (outward) bound; 0 * inf is repaired below.
+        with np.errstate(invalid="ignore", over="ignore"):
             p1, p2 = self.lo * other.lo, self.lo * other.hi
             p3, p4 = self.hi * other.lo, self.hi * other.hi
         if not np.all(np.isfinite(self.lo) & np.isfinite(self.hi)) or not np.all(
@@ -111,7 +112,7 @@ class Interval:
     def reciprocal(self) -> Interval:
         """``1 / x``; the whole line where ``x`` contains zero."""
         zero = (self.lo <= 0) & (self.hi >= 0)
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             lo = np.where(zero, -np.inf, 1.0 / self.hi)
             hi = np.where(zero, np.inf, 1.0 / self.lo)
         return Interval(lo, hi)
