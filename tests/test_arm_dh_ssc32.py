@@ -86,3 +86,26 @@ def test_board_emulator_and_driver_take_any_bytes(chunks):
         assert len(emulator._buf) <= 256 and len(driver._buf) <= 256
     pulses = emulator.pulses(10.0)
     assert np.all((pulses >= S.PULSE_MIN) & (pulses <= S.PULSE_MAX))
+
+
+def test_group_moves_arrive_together_at_the_slowest_speed():
+    from armtree.clock import VirtualClock
+    from armtree.plugins.arms.dh.emulator import SSC32Emulator
+    from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
+
+    model = DHModel([DHRow(0, 0, 0), DHRow(100, 0, 0)], [(-90, 90)] * 2, "modified")
+    emulator = SSC32Emulator(model, VirtualClock(), S.servo_maps_from_config(None, 2))
+    start = emulator.pulses(0.0)[:2].copy()
+    np.testing.assert_allclose(start, [1500, 1500])
+    # channel 0 at 500 us/s over 500 us (1 s), channel 1 over 100 us: both take 1 s
+    emulator.on_bytes(b"#0P2000S500#1P1600\r", 0.0)
+    np.testing.assert_allclose(emulator.pulses(0.5)[:2], [1750, 1550])
+    np.testing.assert_allclose(emulator.pulses(1.0)[:2], [2000, 1600])
+    # T stretches a group move; STOP freezes a channel where it is
+    emulator.on_bytes(b"#0P1000T2000\r", 1.0)
+    emulator.on_bytes(b"STOP0\r", 2.0)
+    assert emulator.pulses(5.0)[0] == pytest.approx(1500)
+    # a digital output for a pump, and ESC cancels a half-typed line
+    emulator.suction_channel = 7
+    emulator.on_bytes(b"#7H\r#1P900\x1b\r", 5.0)
+    assert emulator.tool().suction and emulator.pulses(9.0)[1] == pytest.approx(1600)
