@@ -4,7 +4,8 @@ Run with ``python benchmarks/bench_vision.py [--quick]``. All frames are
 synthetic 640x480 views rendered through a pinhole camera like seed 004's
 C270 (fx 810 px), so ground truth is exact. Figures printed:
 
-1. milliseconds per frame with three markers: the ``aruco`` tracker (grey,
+1. milliseconds per frame with three markers, on a plain background and on a
+   cluttered desk (shading, texture, dark and light shapes): the ``aruco`` tracker (grey,
    detection, sub-pixel refinement, pose of every marker) against bare
    ``ArucoDetector.detectMarkers`` on the same frames in the same run (goal
    <= 1.2x), and the ``hamming`` tracker (against ``hampy.detect_markers``
@@ -40,7 +41,7 @@ from armtree.plugins.trackers.common import TagRoles
 from armtree.plugins.trackers.detection_rate import marker_detection_rate
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.plugins.trackers.preprocess import Preprocessing
-from armtree.rig import Frame
+from armtree.rig import Frame, TagSpec
 
 K = syn.nominal_camera()
 FX = K[0, 0]
@@ -63,6 +64,7 @@ def scene(
     effects: syn.Effects,
     size_mm: float = 25.0,
     max_tilt: float = 30.0,
+    backdrop: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[int, np.ndarray], list[syn.Placement]]:
     """Three markers whose frontal side is ``side_px``, at random tilts and spins."""
     distance = FX * size_mm / side_px
@@ -79,7 +81,9 @@ def scene(
         turn = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
         rvec = cv2.Rodrigues(rot @ turn)[0].reshape(3)
         placements.append(syn.Placement(marker_id, size_mm, rvec, tvec))
-    image, truth = syn.render_markers(family, placements, K, effects=effects, background=170.0)
+    image, truth = syn.render_markers(
+        family, placements, K, effects=effects, background=170.0, backdrop=backdrop
+    )
     return image, truth, placements
 
 
@@ -99,34 +103,28 @@ def hard_effects(rng: np.random.Generator) -> dict[str, float]:
 # -- 1. speed ------------------------------------------------------------------
 
 
-def bench_speed(n_frames: int, rounds: int) -> None:
+def speed_frames(
+    family: str, n_frames: int, clutter: bool, rng: np.random.Generator
+) -> list[np.ndarray]:
+    """BGR frames with three markers (70 px ArUco, 90 px Hamming), plain or cluttered background."""
+    frames = []
+    for i in track(range(n_frames), f"rendering {family} frames", console=console, transient=True):
+        ids = (
+            list(rng.choice(50, 3, replace=False))
+            if family == "aruco"
+            else [HAMMING_IDS[(3 * i + k) % 9] for k in range(3)]
+        )
+        backdrop = syn.cluttered(seed=i) if clutter else None
+        side = 70 if family == "aruco" else 90
+        image = scene(family, ids, side, rng, syn.Effects(noise=2.0, seed=i), backdrop=backdrop)[0]
+        frames.append(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR))
+    return frames
+
+
+def bench_speed(n_frames: int, rounds: int, clutter: bool) -> None:
     rng = np.random.default_rng(1)
-    aruco_frames = [
-        cv2.cvtColor(
-            scene(
-                "aruco",
-                list(rng.choice(50, 3, replace=False)),
-                70,
-                rng,
-                syn.Effects(noise=2.0, seed=i),
-            )[0],
-            cv2.COLOR_GRAY2BGR,
-        )
-        for i in track(range(n_frames), "rendering aruco frames", console=console, transient=True)
-    ]
-    hamming_frames = [
-        cv2.cvtColor(
-            scene(
-                "hamming",
-                [HAMMING_IDS[(3 * i + k) % 9] for k in range(3)],
-                90,
-                rng,
-                syn.Effects(noise=2.0, seed=i),
-            )[0],
-            cv2.COLOR_GRAY2BGR,
-        )
-        for i in track(range(n_frames), "rendering hamming frames", console=console, transient=True)
-    ]
+    aruco_frames = speed_frames("aruco", n_frames, clutter, rng)
+    hamming_frames = speed_frames("hamming", n_frames, clutter, rng)
     bare = cv2.aruco.ArucoDetector(get_dictionary("4x4_50"), cv2.aruco.DetectorParameters())
     aruco = ArucoTracker(roles=TagRoles({}, 25.0))
     hamming = HammingTracker(roles=TagRoles({}, 25.0))
@@ -158,8 +156,10 @@ def bench_speed(n_frames: int, rounds: int) -> None:
                 best["hampy"][i] = min(best["hampy"][i], time.perf_counter() - t4)
     ms = {k: 1000 * float(np.mean(v)) for k, v in best.items()}
     total = rounds * n_frames * 3
+    where = "a cluttered desk" if clutter else "a plain background"
     print(
-        f"1. ms per 640x480 frame with three markers ({n_frames} frames, best of {rounds} rounds each)"
+        f"1. ms per 640x480 frame with three markers on {where} "
+        f"({n_frames} frames, best of {rounds} rounds each)"
     )
     print(
         f"   bare ArucoDetector.detectMarkers (4x4_50)     {ms['bare']:6.2f} ms  ({found['bare']}/{total} found)"
@@ -192,6 +192,13 @@ def bench_detection(sides: list[int], n_frames: int) -> None:
         "hamming, adaptive threshold": (
             "hamming",
             HammingTracker(Preprocessing(adaptive=True, blur=3)),
+        ),
+        "hamming, adaptive, ids registered": (
+            "hamming",
+            HammingTracker(
+                Preprocessing(adaptive=True, blur=3),
+                TagRoles({i: TagSpec("ducky", (i,), 25.0) for i in HAMMING_IDS}),
+            ),
         ),
     }
     print("2. detection on frames with perspective (tilt <= 30 deg), noise sd 3, blur sd 0.4-1 px,")
@@ -339,7 +346,8 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="fewer frames")
     args = parser.parse_args()
     quick = args.quick
-    bench_speed(n_frames=10 if quick else 30, rounds=3 if quick else 5)
+    for clutter in (False, True):
+        bench_speed(n_frames=10 if quick else 30, rounds=3 if quick else 5, clutter=clutter)
     bench_detection([20, 30, 60] if quick else [16, 20, 25, 30, 40, 60, 100], 10 if quick else 40)
     bench_pose(10 if quick else 40)
     bench_mdr(60 if quick else 200)

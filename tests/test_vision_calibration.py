@@ -1,9 +1,6 @@
 """Camera calibration on synthetic board views rendered with a known camera, and hand-eye (seed 000)."""
 
 import argparse
-import re
-import subprocess
-import sys
 
 import cv2
 import numpy as np
@@ -143,12 +140,17 @@ def test_hand_eye_checks_the_moves(tmp_path):
         CalibrateCommand().run(args)
 
 
-def test_calibrate_through_the_cli(chessboard_dir):
-    proc = subprocess.run(
-        [sys.executable, "-m", "armtree.cli", "calibrate", "camera", "--images", str(chessboard_dir),
-         "--cols", "9", "--rows", "7", "--square-mm", "25", "--board", "chessboard"],
-        capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    fx = float(re.search(r"fx ([0-9.]+)", proc.stdout).group(1))
-    assert fx == pytest.approx(600.0, rel=0.02)
+def test_live_frames_from_a_profile_camera(chessboard_dir, tmp_path, capsys):
+    profile = tmp_path / "rig.yaml"
+    profile.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        f"camera: {{type: images, path: {chessboard_dir}, pace: each}}\n"
+    )
+    argv = ["camera", "--rig", str(profile), "--frames", "4", "--interval", "0",
+            "--cols", "9", "--rows", "7", "--square-mm", "25"]  # fmt: skip
+    assert CalibrateCommand().run(parse(argv)) == 0
+    assert "4 of 4 images used" in capsys.readouterr().out
+    argv[4] = "20"
+    with pytest.raises(ConfigError, match="recording ended after 7 view"):
+        CalibrateCommand().run(parse(argv))

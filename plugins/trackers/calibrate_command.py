@@ -186,6 +186,10 @@ class CalibrateCommand:
             print(f"move the board around in front of the camera; taking {args.frames} views")
             while len(images) < args.frames:
                 frame = camera.read()
+                if frame is None and getattr(camera, "finished", False):
+                    raise ConfigError(
+                        f"the camera's recording ended after {len(images)} view(s) with the board"
+                    )
                 if frame is None or time.monotonic() - last < args.interval:
                     time.sleep(0.01)
                     continue

@@ -122,7 +122,7 @@ class CalibrationResult:
 def find_board(gray: np.ndarray, board: Board) -> tuple[np.ndarray, np.ndarray] | None:
     """``(image_points (N, 2) px, object_points (N, 3) mm)`` of the board in ``gray``, or None."""
     if board.kind == "chessboard":
-        flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
+        flags = cv2.CALIB_CB_NORMALIZE_IMAGE
         found, corners = cv2.findChessboardCornersSB(gray, board.inner, flags=flags)
         if not found:
             return None

@@ -30,7 +30,7 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
-from .hamming_code import BITS, GRID, decode_bits
+from .hamming_code import BITS, GRID, corrected_columns, decode_bits
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
 
@@ -90,7 +90,10 @@ class HammingTracker(Tracker):
     """Finds Hampy-format Hamming markers; one detection per physical marker.
 
     ``max_corrected_bits`` bounds the corrections over the seven rows (each
-    row corrects at most one, as Hamming(7,4) allows); ``max_border_errors``
+    row corrects at most one, as Hamming(7,4) allows); a correction that flips
+    a clearly read cell while another cell of the row is in doubt (margin
+    below ``max_flip_margin``, a fraction of the local black-white difference)
+    is refused, as that is how a double error looks; ``max_border_errors``
     how many of the 32 border cells may read white; ``only_registered``
     drops ids the profile does not list.
     """
@@ -108,6 +111,7 @@ class HammingTracker(Tracker):
         min_contrast: float = 20.0,
         only_registered: bool = False,
         refine: bool = True,
+        max_flip_margin: float = 0.25,
     ) -> None:
         self.preprocessing = preprocessing or Preprocessing(**SEED_PREPROCESS)
         self.roles = roles or TagRoles({})
@@ -117,6 +121,7 @@ class HammingTracker(Tracker):
         self.min_contrast = float(min_contrast)
         self.only_registered = bool(only_registered)
         self.refine = bool(refine)
+        self.max_flip_margin = float(max_flip_margin)
 
     # -- the Tracker contract -------------------------------------------------
 
@@ -196,14 +201,18 @@ class HammingTracker(Tracker):
         cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
         return cells, values[:, n_cells:]
 
-    def classify(self, cells: np.ndarray, quiet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """White cells ``(N, 81)`` and the black-white contrast ``(N,)`` of every quad.
+    def classify(
+        self, cells: np.ndarray, quiet: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """White cells ``(N, 81)``, their margins ``(N, 81)`` and the contrast ``(N,)`` of every quad.
 
         Blur bleeds neighbouring cells into each other (a lone white cell of 2 px
         under 1 px of blur keeps about half its contrast), so each cell is first
         pushed away from the mean of its four neighbours (the quiet zone beyond
         the border), then compared with the midpoint of the black plane (fitted
         to the border cells) and the white plane (fitted to the quiet zone).
+        A margin is the distance from that midpoint as a fraction of the local
+        black-white difference: about 0.5 for a clear cell, near 0 for a doubtful one.
         """
         n = len(cells)
         padded = np.empty((n, GRID + 2, GRID + 2))
@@ -219,14 +228,15 @@ class HammingTracker(Tracker):
         black = cells[:, _BORDER_FLAT] @ _BLACK_FIT.T  # (N, 3)
         white = quiet @ _WHITE_FIT.T
         threshold = 0.5 * (black + white) @ _CELL_DESIGN.T  # (N, 81)
+        local = np.maximum((white - black) @ _CELL_DESIGN.T, 1.0)
         contrast = (white - black) @ np.array([1.0, GRID / 2, GRID / 2])
-        return sharp > threshold, contrast
+        return sharp > threshold, (sharp - threshold) / local, contrast
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
         if len(quads) == 0:
             return []
-        white, contrast = self.classify(*self.sample_cells(gray, quads))
+        white, margin, contrast = self.classify(*self.sample_cells(gray, quads))
         border_white = white[:, _BORDER_FLAT].sum(axis=1)
         keep = (contrast >= self.min_contrast) & (border_white <= self.max_border_errors)
         grids = white.reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
@@ -236,9 +246,20 @@ class HammingTracker(Tracker):
         if not keep.any():
             return []
         quads, grids = quads[keep], grids[keep]
+        margins = np.abs(margin[keep]).reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
         # rot90(grid, k) is the marker as printed when its top-left corner is quads[k].
         rotated = np.stack([np.rot90(grids, k, axes=(1, 2)) for k in range(4)], axis=1)
+        rotated_margins = np.stack([np.rot90(margins, k, axes=(1, 2)) for k in range(4)], axis=1)
         ids, corrected = decode_bits(rotated)  # (M, 4)
+        # A row with two misread (doubtful) cells decodes to a wrong nibble by flipping
+        # a third, clearly read, cell: a correction that flips a clear cell while
+        # another cell of its row is in doubt is refused. A clear single error (a
+        # damaged print) is still corrected.
+        flips = corrected_columns(rotated)  # (M, 4, 7)
+        flipped = np.take_along_axis(rotated_margins, np.maximum(flips, 0)[..., None], axis=-1)
+        doubt_elsewhere = rotated_margins.min(axis=-1) < self.max_flip_margin
+        refused = (flips >= 0) & (flipped[..., 0] > self.max_flip_margin) & doubt_elsewhere
+        corrected = np.where(refused.any(axis=-1), BITS + 1, corrected)
         readings = []
         for quad, quad_ids, quad_corr in zip(quads, ids, corrected, strict=True):
             reading = self._choose(quad, quad_ids, quad_corr)
@@ -303,6 +324,7 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
         min_contrast=values["min_contrast"],
         only_registered=values["only_registered"],
         refine=values["refine"],
+        max_flip_margin=values["max_flip_margin"],
     )
 
 
@@ -315,4 +337,10 @@ hamming_factory.PARAMS = (
     Param("min_contrast", "float", 20.0, doc="grey levels between a marker's black and white"),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
     Param("refine", "bool", True, doc="sub-pixel corners from the square's edges"),
+    Param(
+        "max_flip_margin",
+        "float",
+        0.25,
+        doc="cells read closer than this to the threshold are in doubt",
+    ),
 )

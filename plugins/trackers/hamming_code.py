@@ -60,16 +60,20 @@ def _codeword(nibble: int) -> np.ndarray:
 CODEWORDS = np.array([_codeword(n) for n in range(16)], dtype=np.uint8)
 
 
-def _decode_tables() -> tuple[np.ndarray, np.ndarray]:
+def _decode_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     words = (np.arange(128)[:, None] >> np.arange(BITS - 1, -1, -1)) & 1
-    dist = (words[:, None, :] != CODEWORDS[None, :, :]).sum(axis=2)
+    diff = words[:, None, :] != CODEWORDS[None, :, :]
+    dist = diff.sum(axis=2)
     nibble = dist.argmin(axis=1)
-    return nibble.astype(np.int64), dist.min(axis=1).astype(np.int64)
+    nearest = diff[np.arange(128), nibble]
+    flip = np.where(nearest.any(axis=1), nearest.argmax(axis=1), -1)
+    return nibble.astype(np.int64), dist.min(axis=1).astype(np.int64), flip.astype(np.int64)
 
 
 #: For each 7-bit word (as an integer, left bit most significant): the nearest
-#: code word's nibble, and the bits corrected to reach it (0 or 1).
-WORD_NIBBLE, WORD_ERRORS = _decode_tables()
+#: code word's nibble, the bits corrected to reach it (0 or 1), and which bit
+#: (0-6 from the left, -1 for none).
+WORD_NIBBLE, WORD_ERRORS, WORD_FLIP = _decode_tables()
 
 
 def check_id(marker_id: int) -> int:
@@ -108,3 +112,9 @@ def decode_bits(bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     shifts = 4 * np.arange(BITS - 1, -1, -1)
     ids = (nibbles << shifts).sum(axis=-1)
     return ids, errors.sum(axis=-1)
+
+
+def corrected_columns(bits: np.ndarray) -> np.ndarray:
+    """For data grids ``(..., 7, 7)``: the column each row's correction flips, ``(..., 7)`` (-1: none)."""
+    words = (np.asarray(bits, dtype=np.int64) * _ROW_WEIGHTS).sum(axis=-1)
+    return WORD_FLIP[words]

@@ -31,15 +31,26 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int 
     """Refined corners ``(N, 4, 2)`` of quads ``(N, 4, 2)`` running clockwise on screen.
 
     ``cells`` is the number of cells across a marker (border included), which
-    bounds how far a profile may reach. Corners whose edges cannot be measured
-    (no contrast, off the image) are left as they were.
+    bounds how far a profile may reach. A further pass (up to ``passes``) is
+    made only for markers whose corners moved by more than a third of the
+    profile's reach, where the first profiles may have been cut short.
+    Corners whose edges cannot be measured (no contrast, off the image) are
+    left as they were.
     """
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     if len(quads) == 0:
         return quads.astype(np.float32)
     out = quads.copy()
+    active = np.ones(len(out), dtype=bool)
     for _ in range(passes):
-        out = _refine_once(gray, out, cells)
+        before = out[active]
+        after, reach = _refine_once(gray, before, cells)
+        out[active] = after
+        moved = np.sqrt(((after - before) ** 2).sum(axis=2)).max(axis=1)
+        still = moved > 0.35 * reach
+        if not still.any():
+            break
+        active[np.flatnonzero(active)[~still]] = False
     return out.astype(np.float32)
 
 
@@ -47,22 +58,28 @@ _NEXT = np.array([1, 2, 3, 0])
 _PREV = np.array([3, 0, 1, 2])
 
 
-def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
+def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """One pass over every quad: refined corners and each quad's profile reach (px).
+
+    x and y are kept as separate arrays: this runs on a handful of markers per
+    frame, where the count of numpy calls, not their size, sets the time.
+    """
     n = len(quads)
-    d = quads[:, _NEXT] - quads  # edge k runs from corner k to corner k+1, (N, 4, 2)
-    length = np.maximum(np.sqrt((d * d).sum(axis=2)), 1e-9)  # (N, 4)
-    unit = d / length[..., None]
-    normal_out = np.stack([unit[..., 1], -unit[..., 0]], axis=-1)  # outwards for clockwise quads
+    qx, qy = quads[..., 0], quads[..., 1]  # (N, 4)
+    dx, dy = qx[:, _NEXT] - qx, qy[:, _NEXT] - qy  # edge k runs from corner k to corner k+1
+    length = np.maximum(np.hypot(dx, dy), 1e-9)
+    ux, uy = dx / length, dy / length
+    nx, ny = uy, -ux  # outward normal of a clockwise quad
     side = length.mean(axis=1)  # (N,)
-    reach = np.clip(0.8 * side / cells, 0.8, 4.0)  # (N,) pixels
-    # points along each edge (N, 4, T, 2), then profiles across it (N, 4, T, S, 2)
-    base = quads[:, :, None, :] + _T[None, None, :, None] * d[:, :, None, :]
-    step = reach[:, None, None] * normal_out  # (N, 4, 2)
-    pts = base[:, :, :, None, :] + _S[None, None, None, :, None] * step[:, :, None, None, :]
-    flat = pts.astype(np.float32).reshape(-1, 1, 2)
-    values = cv2.remap(
-        gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
-    )
+    reach = np.minimum(np.maximum(0.8 * side / cells, 0.8), 4.0)  # (N,) pixels
+    # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
+    bx = qx[..., None] + _T * dx[..., None]
+    by = qy[..., None] + _T * dy[..., None]
+    sx = (reach[:, None] * nx)[..., None, None] * _S
+    sy = (reach[:, None] * ny)[..., None, None] * _S
+    map_x = (bx[..., None] + sx).astype(np.float32).reshape(-1, 1)
+    map_y = (by[..., None] + sy).astype(np.float32).reshape(-1, 1)
+    values = cv2.remap(gray, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
     inside = 0.5 * (v[..., 0] + v[..., 1])
     contrast = 0.5 * (v[..., -1] + v[..., -2]) - inside
@@ -70,32 +87,28 @@ def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
     frac = np.clip((v - inside[..., None]) / np.where(valid, contrast, 1.0)[..., None], 0.0, 1.0)
     # e = w - integral of the light fraction over [-w, w] (trapezoid), in units of reach
     integral = _DS * (frac.sum(axis=-1) - 0.5 * (frac[..., 0] + frac[..., -1]))
-    e = (1.0 - integral) * reach[:, None, None]  # (N, 4, T) px along normal_out
-    edge_pts = base + e[..., None] * normal_out[:, :, None, :]
+    e = (1.0 - integral) * reach[:, None, None]  # (N, 4, T) px along the normal
+    ex, ey = bx + e * nx[..., None], by + e * ny[..., None]
     # weighted total-least-squares line through each edge's points (closed form in 2-D)
     w = valid.astype(np.float64)
     count = w.sum(axis=2)  # (N, 4)
     ok_edge = count >= 4
     wsum = np.maximum(count, 1.0)
-    centre = (w[..., None] * edge_pts).sum(axis=2) / wsum[..., None]  # (N, 4, 2)
-    r = edge_pts - centre[:, :, None, :]
-    sxx = (w * r[..., 0] * r[..., 0]).sum(axis=2)
-    syy = (w * r[..., 1] * r[..., 1]).sum(axis=2)
-    sxy = (w * r[..., 0] * r[..., 1]).sum(axis=2)
+    cx, cy = (w * ex).sum(axis=2) / wsum, (w * ey).sum(axis=2) / wsum
+    rx, ry = ex - cx[..., None], ey - cy[..., None]
+    sxx, syy, sxy = (w * rx * rx).sum(axis=2), (w * ry * ry).sum(axis=2), (w * rx * ry).sum(axis=2)
     angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
-    direction = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
-    direction = np.where(ok_edge[..., None], direction, unit)
-    centre = np.where(ok_edge[..., None], centre, quads + 0.5 * d)
+    vx = np.where(ok_edge, np.cos(angle), ux)
+    vy = np.where(ok_edge, np.sin(angle), uy)
+    cx = np.where(ok_edge, cx, qx + 0.5 * dx)
+    cy = np.where(ok_edge, cy, qy + 0.5 * dy)
     # corner k is where edge k-1 (ending at k) meets edge k (starting at k)
-    p1, d1 = centre[:, _PREV], direction[:, _PREV]
-    denom = d1[..., 0] * direction[..., 1] - d1[..., 1] * direction[..., 0]
-    diff = centre - p1
+    px, py, wx, wy = cx[:, _PREV], cy[:, _PREV], vx[:, _PREV], vy[:, _PREV]
+    denom = wx * vy - wy * vx
     parallel = np.abs(denom) < 1e-6
-    t = (diff[..., 0] * direction[..., 1] - diff[..., 1] * direction[..., 0]) / np.where(
-        parallel, 1.0, denom
-    )
-    corners = p1 + t[..., None] * d1
-    moved = np.sqrt(((corners - quads) ** 2).sum(axis=2))
+    t = ((cx - px) * vy - (cy - py) * vx) / np.where(parallel, 1.0, denom)
+    corners = np.stack([px + t * wx, py + t * wy], axis=-1)
+    moved = np.hypot(corners[..., 0] - qx, corners[..., 1] - qy)
     # a corner that jumps more than two cells is a failed fit, not a refinement
     keep = ok_edge & ok_edge[:, _PREV] & ~parallel & (moved < (2.0 * side / cells)[:, None])
-    return np.where(keep[..., None], corners, quads)
+    return np.where(keep[..., None], corners, quads), reach

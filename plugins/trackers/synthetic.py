@@ -152,6 +152,34 @@ def blank(width: int = 640, height: int = 480, level: float = 200.0) -> np.ndarr
     return np.full((height, width), level, np.float32)
 
 
+def cluttered(width: int = 640, height: int = 480, seed: int = 0, shapes: int = 25) -> np.ndarray:
+    """A desk-like grey float32 background: shading, wood-like texture and dark and light shapes.
+
+    Gives a detector the many edges and contours a real scene has.
+    """
+    rng = np.random.default_rng(seed)
+    shade = cv2.resize(
+        rng.uniform(-40, 40, (4, 5)).astype(np.float32),
+        (width, height),
+        interpolation=cv2.INTER_CUBIC,
+    )
+    grain = cv2.resize(
+        rng.uniform(-18, 18, (height // 8, width // 8)).astype(np.float32),
+        (width, height),
+        interpolation=cv2.INTER_LINEAR,
+    )
+    image = 150.0 + shade + grain
+    for _ in range(shapes):
+        level = float(rng.choice([rng.uniform(20, 70), rng.uniform(190, 250)]))
+        x, y = int(rng.integers(0, width)), int(rng.integers(0, height))
+        a, b = int(rng.integers(8, 60)), int(rng.integers(4, 40))
+        if rng.random() < 0.5:
+            cv2.rectangle(image, (x, y), (x + a, y + b), level, -1)
+        else:
+            cv2.ellipse(image, (x, y), (a, b), float(rng.uniform(0, 180)), 0, 360, level, -1)
+    return image.astype(np.float32)
+
+
 @dataclass(frozen=True)
 class Placement:
     """One marker in a synthetic scene: id, side (mm, black square) and pose in the camera frame."""
@@ -175,6 +203,7 @@ def render_markers(
     white: float = 220.0,
     texture_px: int = 180,
     square: Callable[[int, int], np.ndarray] | None = None,
+    backdrop: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
     """A grey uint8 frame of printed markers, and their true corners ``{id: (4, 2)}``.
 
@@ -182,10 +211,13 @@ def render_markers(
     ``black`` and ``white`` are the grey levels of the print in full light.
     ``square(marker_id, side_px)`` replaces the built-in generator (grey
     uint8 black square, no quiet zone), e.g. to draw another library's code words.
+    ``backdrop`` (float32, e.g. :func:`cluttered`) replaces the uniform background.
     """
     from .markers import cells_per_side, marker_image
 
-    image = blank(width, height, background)
+    image = (
+        blank(width, height, background) if backdrop is None else backdrop.astype(np.float32).copy()
+    )
     truth: dict[int, np.ndarray] = {}
     cells = cells_per_side(family, dictionary)
     for p in placements:
