@@ -133,6 +133,8 @@ class MagicianDriver(SerialArmDriver):
         fail = False
         with self._lock:
             req = self._outstanding
+            if req is not None and not math.isfinite(req.sent_at):
+                req.sent_at = now  # sent before the run's first tick: its clock starts now
             lost = None
             if req is not None and now - req.sent_at > self.reply_timeout:
                 fail = req.tries > self.retries

@@ -231,6 +231,8 @@ class VicraDriver(SerialArmDriver):
         overdue = None
         with self._lock:
             head = self._inflight[0] if self._inflight else None
+            if head is not None and not math.isfinite(head.sent_at):
+                head.sent_at = now  # sent before the run's first tick: its clock starts now
             if (
                 head is not None
                 and head.command.split()[0] not in BLOCKING
