@@ -145,7 +145,10 @@ class CollisionChecker:
         fixed = np.all(np.abs(poses - poses[:1]) < 1e-9, axis=(0, 2, 3))
         self.moving = np.flatnonzero(~fixed)
         self.fixed = np.flatnonzero(fixed)
-        self.half = half + self.margin
+        # The margin is clearance around what moves; the base keeps its true size
+        # (it stands on the table).
+        self.half = half.copy()
+        self.half[self.moving] += self.margin
         self.half_moving = self.half[self.moving]
         # Boxes offset from their link frame by a translation only (and a model that
         # keeps the generic box_poses) get their poses without 4x4 products.
@@ -179,8 +182,8 @@ class CollisionChecker:
             return cand
         home = self.model.box_poses(np.asarray(self.model.home, dtype=float))
         touching = obb_overlap(
-            home[cand[:, 0], :3, 3], home[cand[:, 0], :3, :3], 0.5 * self.model.box_sizes()[cand[:, 0]],
-            home[cand[:, 1], :3, 3], home[cand[:, 1], :3, :3], 0.5 * self.model.box_sizes()[cand[:, 1]],
+            home[cand[:, 0], :3, 3], home[cand[:, 0], :3, :3], self.half[cand[:, 0]],
+            home[cand[:, 1], :3, 3], home[cand[:, 1], :3, :3], self.half[cand[:, 1]],
         )  # fmt: skip
         # Boxes that already overlap at home are modelled as touching parts, not a collision.
         return cand[~touching]

@@ -311,3 +311,18 @@ def test_binary_stl_whose_header_says_solid(tmp_path):
     data[:11] = b"solid cube "
     (tmp_path / "b.stl").write_bytes(bytes(data))
     assert load_mesh(tmp_path / "b.stl").shape == (12, 3, 3)
+
+
+def test_margin_grows_moving_boxes_only():
+    model = wide_dobot()
+    table = Scene.from_profile(
+        {"obstacles": [{"box": {"center": [0, 0, -105], "size": [800, 800, 10], "name": "table"}}]}
+    )
+    # The base still stands on the table: a margin does not grow what never moves.
+    assert not CollisionChecker(model, table, margin=10.0).collides(model.home)
+    near_wall = Scene.from_profile({"obstacles": [WALL]})
+    reach = np.stack([np.array([90.0, t1, 50.0]) for t1 in np.linspace(0, 40, 41)])
+    plain = CollisionChecker(model, near_wall).collides(reach)
+    grown = CollisionChecker(model, near_wall, margin=8.0).collides(reach)
+    assert plain.any() and not plain.all()
+    assert grown.sum() > plain.sum() and np.all(grown[plain])
