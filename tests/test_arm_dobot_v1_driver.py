@@ -269,3 +269,32 @@ def test_a_port_path_is_driven_exactly_like_hardware(firmware):
     finally:
         arm.close()
         emu.close()
+
+
+def test_movl_keeps_the_tool_on_a_straight_line(sim):
+    model = sim.arm.model
+    a = np.array([-20.0, 5.0, 45.0])
+    b = np.array([20.0, 12.0, 55.0])
+    sim.until(sim.arm.move_joints(a))
+    pa, pb = model.position(a), model.position(b)
+    sim.tick()
+    sim.arm.write(codec.move_joints(b, mode=codec.MODE_MOVL).encode())
+    off_line = []
+    for _ in range(80):
+        sim.tick()
+        p = model.position(sim.emu.true_joints())
+        s = np.clip((p - pa) @ (pb - pa) / ((pb - pa) @ (pb - pa)), 0, 1)
+        off_line.append(np.linalg.norm(p - (pa + s * (pb - pa))))
+    assert max(off_line) < 1e-6
+    assert np.allclose(sim.emu.true_joints(), b, atol=1e-6)
+    # the same target by MOVJ leaves the line (the base turns on an arc)
+    sim.until(sim.arm.move_joints(a))
+    sim.tick()
+    sim.arm.write(codec.move_joints(b, mode=codec.MODE_MOVJ).encode())
+    arc = []
+    for _ in range(80):
+        sim.tick()
+        p = model.position(sim.emu.true_joints())
+        s = np.clip((p - pa) @ (pb - pa) / ((pb - pa) @ (pb - pa)), 0, 1)
+        arc.append(np.linalg.norm(p - (pa + s * (pb - pa))))
+    assert max(arc) > 1.0

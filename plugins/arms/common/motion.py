@@ -8,6 +8,7 @@ so motion is identical whatever the tick rate. Units: degrees / mm and seconds.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -112,6 +113,68 @@ class JointMove:
         self._segments = [_Segment(t, s, ds, -a, t + tb)]
 
 
+class LineMove:
+    """A straight tool line from joints ``start_q`` to ``goal_q``, joints found by IK.
+
+    ``fk(q)`` gives tool positions (mm) and ``ik(points)`` joints for ``(..., 3)``
+    points (NaN where unreachable); the line runs at ``max_speed`` (mm/s) and
+    ``max_accel`` (mm/s^2) scaled by ``speed``. Where a point of the line has
+    no IK solution the joints take the joint-interpolated pose at the same
+    fraction of the way, so the position stays a function of ``t`` alone.
+    """
+
+    def __init__(
+        self,
+        ik: Callable[[np.ndarray], np.ndarray],
+        start_q: np.ndarray,
+        goal_q: np.ndarray,
+        fk: Callable[[np.ndarray], np.ndarray],
+        t0: float,
+        max_speed: float,
+        max_accel: float,
+        speed: float = 1.0,
+    ) -> None:
+        self._ik = ik
+        self._q0 = np.asarray(start_q, dtype=float).copy()
+        self._q1 = np.asarray(goal_q, dtype=float).copy()
+        self._p0 = np.asarray(fk(self._q0), dtype=float)
+        self._p1 = np.asarray(fk(self._q1), dtype=float)
+        self._length = float(np.linalg.norm(self._p1 - self._p0))
+        self._line = JointMove(
+            self._p0, self._p1, t0, np.full(3, max_speed), np.full(3, max_accel), speed
+        )
+
+    @property
+    def end_time(self) -> float:
+        """When the tool comes to rest, seconds."""
+        return self._line.end_time
+
+    def position(self, t: float) -> np.ndarray:
+        """Joint positions at ``t``."""
+        p = self._line.position(t)
+        if self._length <= 1e-9:
+            return self._q1.copy()
+        s = float(np.linalg.norm(p - self._p0)) / self._length
+        if s >= 1.0 - 1e-12:
+            return self._q1.copy()
+        q = np.asarray(self._ik(p), dtype=float)
+        if np.all(np.isfinite(q)):
+            return q
+        return self._q0 + (self._q1 - self._q0) * s
+
+    def velocity(self, t: float, dt: float = 1e-4) -> np.ndarray:
+        """Joint velocities at ``t`` (central differences)."""
+        return (self.position(t + dt) - self.position(t - dt)) / (2 * dt)
+
+    def done(self, t: float) -> bool:
+        """True once the tool is at rest."""
+        return self._line.done(t)
+
+    def brake(self, t: float) -> None:
+        """Decelerate along the line from ``t``."""
+        self._line.brake(t)
+
+
 class JointState:
     """Where an emulated arm's joints are: the current move, braking and missed steps.
 
@@ -123,7 +186,7 @@ class JointState:
         self.max_speed = np.asarray(max_speed, dtype=float)
         self.max_accel = np.asarray(max_accel, dtype=float)
         self._rest = np.asarray(q0, dtype=float).copy()
-        self._move: JointMove | None = None
+        self._move: JointMove | LineMove | None = None
         self.missed = np.zeros_like(self._rest)
 
     def reported(self, t: float) -> np.ndarray:
@@ -148,6 +211,11 @@ class JointState:
         start = self.reported(t)
         self._move = JointMove(start, goal, t, self.max_speed, self.max_accel, speed)
         return self._move
+
+    def start(self, move: JointMove | LineMove) -> JointMove | LineMove:
+        """Install a move built by the caller (a :class:`LineMove`, say)."""
+        self._move = move
+        return move
 
     def brake(self, t: float) -> None:
         """Decelerate to rest from ``t``."""

@@ -194,9 +194,12 @@ class DobotV1Driver(SerialArmDriver):
         with self._lock:
             suction = self._suction
             key = ("move", tuple(target.tolist()), suction, self._gripper)
-            if self.is_duplicate(key) and not self._queue:
-                # seed 004, third safeguard: do not re-send the same angles
-                start = np.array(self._status.joints) if self._status else target
+            here = np.array(self._status.joints) if self._status else None
+            there = here is not None and float(np.max(np.abs(here - target))) <= self.tolerance
+            if self.is_duplicate(key) and not self._queue and (self._inflight or there):
+                # seed 004, third safeguard: do not re-send the same angles while the arm
+                # is going there or is there (if it was moved away since, send again)
+                start = here if here is not None else target
                 self._inflight.append((handle, start, target))
                 handle.update(MotionStatus.RUNNING)
                 return handle

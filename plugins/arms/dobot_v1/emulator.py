@@ -3,7 +3,8 @@
 :class:`DobotV1Emulator` speaks the original firmware's 42-byte frames
 (reference §1): a status frame every ``status_period`` seconds, state 3 / 6
 moves in a small FIFO, jogs (axis 0 stops), suction, speed and playback
-configuration, and the documented quirk that a command arriving before the
+configuration, MOVJ / MOVL (a straight tool line) / JUMP moves, and the
+documented quirk that a command arriving before the
 next status frame was sent is dropped (reference §1.6; the official client
 writes one command per status frame, §1.4).
 
@@ -23,6 +24,7 @@ from armtree.errors import Unreachable
 from armtree.rig import ToolState
 
 from ..common import PtyEmulator
+from ..common.motion import LineMove
 from . import codec
 from .kinematics import DobotV1Model
 
@@ -39,6 +41,7 @@ class _Segment:
     speed: float
     pause: float
     queued_at: float
+    linear: bool = False
 
 
 class DobotV1Emulator(PtyEmulator):
@@ -72,6 +75,9 @@ class DobotV1Emulator(PtyEmulator):
         self.r_head = 0.0
         self.speed_ratio = 1.0
         self.jump_height = 20.0
+        #: Linear (MOVL) maxima, mm/s and mm/s^2 (state 9 sub-mode 1, F7 and F8).
+        self.linear_speed = 100.0
+        self.linear_accel = 400.0
         self._fifo: collections.deque[_Segment] = collections.deque()
         self._busy_until = -math.inf
         self._next_status = math.inf
@@ -134,15 +140,34 @@ class DobotV1Emulator(PtyEmulator):
             seg = self._fifo.popleft()
             # A queued move starts when the previous one ended, or when it arrived.
             start = max(self._busy_until, seg.queued_at)
-            move = self.joints.move_to(seg.goal, start, seg.speed)
+            if seg.linear:
+                move = self.joints.start(
+                    LineMove(
+                        self._line_ik,
+                        self.joints.reported(start),
+                        seg.goal,
+                        self.model.position,
+                        start,
+                        self.linear_speed,
+                        self.linear_accel,
+                        seg.speed,
+                    )
+                )
+            else:
+                move = self.joints.move_to(seg.goal, start, seg.speed)
             self._busy_until = move.end_time + seg.pause
 
-    def _enqueue(self, goal: np.ndarray, pause: float, t: float) -> None:
+    def _line_ik(self, xyz: np.ndarray) -> np.ndarray:
+        sols = self.model.ik_all(xyz)
+        ok = np.all(np.isfinite(sols), axis=-1)
+        return sols[np.argmax(ok)] if np.any(ok) else np.full(3, np.nan)
+
+    def _enqueue(self, goal: np.ndarray, pause: float, t: float, linear: bool = False) -> None:
         if len(self._fifo) >= self.fifo_depth:
             self.dropped += 1
             return
         goal = np.clip(goal, HARDWARE_LOWER, HARDWARE_UPPER)
-        self._fifo.append(_Segment(goal, self.speed_ratio, max(0.0, pause), t))
+        self._fifo.append(_Segment(goal, self.speed_ratio, max(0.0, pause), t, linear))
         self._start_due_moves(t)
 
     def _command(self, cmd: codec.Command, t: float) -> None:
@@ -173,8 +198,7 @@ class DobotV1Emulator(PtyEmulator):
             if mode == codec.MODE_JUMP:
                 self._enqueue_jump(values, cmd.max_vel, t)
             else:
-                # MOVL is emulated by joint interpolation to the same target.
-                self._enqueue(values, cmd.max_vel, t)
+                self._enqueue(values, cmd.max_vel, t, linear=mode == codec.MODE_MOVL)
         elif state in (codec.STATE_JOINT_JOG, codec.STATE_LINEAR_JOG):
             self._jog(int(round(cmd.axis)), cmd.start_vel, t)
         elif state == codec.STATE_CONFIG:
@@ -183,6 +207,10 @@ class DobotV1Emulator(PtyEmulator):
                     self.joints.max_speed[:] = cmd.x
                 if math.isfinite(cmd.y) and 0 < cmd.y <= 1e5:
                     self.joints.max_accel[:] = cmd.y
+                if 0 < cmd.is_grab <= 1e4:  # F7: max linear speed
+                    self.linear_speed = float(cmd.is_grab)
+                if 0 < cmd.start_vel <= 1e5:  # F8: max linear acceleration
+                    self.linear_accel = float(cmd.start_vel)
                 if 0 < cmd.max_vel <= 200:
                     self.jump_height = float(cmd.max_vel)
         elif state == codec.STATE_SPEED:
@@ -202,8 +230,9 @@ class DobotV1Emulator(PtyEmulator):
         except Unreachable:
             self._enqueue(goal, pause, t)
             return
-        for q, p in ((up, 0.0), (over, 0.0), (goal, pause)):
-            self._enqueue(q, p, t)
+        # vertical legs are straight lines, the crossing a joint move (reference §1.5)
+        for q, p, linear in ((up, 0.0, True), (over, 0.0, False), (goal, pause, True)):
+            self._enqueue(q, p, t, linear)
 
     def _jog(self, axis: int, speed_percent: float, t: float) -> None:
         if axis == codec.AXIS_STOP:
