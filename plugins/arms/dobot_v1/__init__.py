@@ -18,9 +18,9 @@ Modules
 
 Emulation choices where the sources are silent (reference "UNCONFIRMED"): the
 original firmware streams status every 50 ms, keeps up to 4 queued moves, stops
-and clears them on a jog stop (state 2/7, axis 0), emulates MOVL by joint
-interpolation, and refuses (rather than loses control on) unreachable state-3
-targets. The open-dobot emulator's limit switches sit at 135, 85 and 95 degrees
+and clears them on a jog stop (state 2/7, axis 0), runs MOVL points outside the
+workspace by joint interpolation, and refuses (rather than loses control on)
+unreachable state-3 targets. The open-dobot emulator's limit switches sit at 135, 85 and 95 degrees
 and respond whatever pin is named. Joint speeds and accelerations are assumed
 (the report gives none): 90 deg/s and 180 deg/s^2 for the base, 60 and 120 for
 the arms.
