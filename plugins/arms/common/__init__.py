@@ -22,7 +22,8 @@ Modules
 ``framing``       resynchronising parsers (:class:`FixedFrameParser`,
                   :class:`LengthPrefixedParser`, :class:`LineParser`) and
                   :func:`identify_foreign_protocol`.
-``motion``        :class:`JointMove` (synchronised trapezoid, braking) and
+``motion``        :class:`JointMove` (synchronised trapezoid, braking),
+                  :class:`LineMove` (a straight tool line through IK) and
                   :class:`JointState` (reported vs true joints).
 ``checks``        :func:`check_joint_target`, :func:`check_position_target`.
 
@@ -51,7 +52,7 @@ from armtree.rig import RigContext
 from .barrier import StepBarrier
 from .checks import check_joint_target, check_position_target
 from .framing import FixedFrameParser, LengthPrefixedParser, LineParser, identify_foreign_protocol
-from .motion import JointMove, JointState
+from .motion import JointMove, JointState, LineMove
 from .pty_emulator import FAULTS, PtyEmulator
 from .serial_driver import SerialArmDriver, open_serial_port
 
@@ -88,6 +89,7 @@ __all__ = [
     "JointMove",
     "JointState",
     "LengthPrefixedParser",
+    "LineMove",
     "LineParser",
     "PtyEmulator",
     "SerialArmDriver",
