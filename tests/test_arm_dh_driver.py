@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import serial
+from arm_fixtures import ArmSim, connected
 
-from armtree.clock import VirtualClock, WallClock
-from armtree.emulation import SHARED_KEY
+from armtree.clock import WallClock
 from armtree.errors import ConfigError, HardwareFault, Unreachable
 from armtree.plugin_manager import get_plugin_manager
 from armtree.plugins.arms.dh import ssc32 as S
@@ -21,48 +21,23 @@ def puma_config(**extra):
     return {**load_profile("dh_puma560").component("arm"), "port": "sim", **extra}
 
 
-class Sim:
+class Sim(ArmSim):
     """A factory-built DH arm on ``port: sim`` stepped as the runtime does it."""
 
+    dt = 0.02
+    limit = 1000
+
     def __init__(self, config):
-        self.clock = VirtualClock()
-        self.interrupts = []
-        self.context = RigContext(
-            profile=None,
-            clock=self.clock,
-            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
-        )
-        self.arm = dh_factory(config, self.context)
-        self.emu = self.context.shared[SHARED_KEY]
-
-    def tick(self, n=1, dt=0.02):
-        for _ in range(n):
-            now = self.clock.advance(dt)
-            for step in self.context.steppers:
-                step(now)
-
-    def until(self, handle, limit=1000):
-        for _ in range(limit):
-            if handle.done:
-                return handle
-            self.tick()
-        raise AssertionError(f"{handle} did not finish")
+        super().__init__(dh_factory, config)
 
     def sent(self):
-        return b"".join(b for _, d, b in self.emu.transcript if d == "rx")
-
-    def close(self):
-        self.arm.close()
-        for closer in reversed(self.context.closers):
-            closer()
+        return self.received_bytes()
 
 
 @pytest.fixture
 def sim():
-    s = Sim(puma_config(gripper={"channel": 6, "table": [[500, 0], [2500, 90]]}, suction_channel=7))
-    s.arm.connect()
-    yield s
-    s.close()
+    config = puma_config(gripper={"channel": 6, "table": [[500, 0], [2500, 90]]}, suction_channel=7)
+    yield from connected(Sim(config))
 
 
 def test_shipped_profiles_build_their_models():
@@ -135,13 +110,10 @@ def test_pump_and_gripper_channels(sim):
 
 
 def test_no_pump_is_a_clear_failure():
-    s = Sim(puma_config())
-    try:
+    with Sim(puma_config()) as s:
         s.arm.connect()
         handle = s.arm.set_suction(True)
         assert handle.status is MotionStatus.FAILED and "no suction" in str(handle.error)
-    finally:
-        s.close()
 
 
 @pytest.mark.parametrize(
@@ -163,8 +135,7 @@ def test_bad_targets_are_refused_and_nothing_is_sent(sim, target, match):
 
 
 def test_board_protocol_byte_exact():
-    s = Sim(puma_config())
-    try:
+    with Sim(puma_config()) as s:
         s.arm.connect()
         s.arm.close()
         with serial.Serial(s.arm.device, 115200, timeout=0.05) as port:
@@ -177,9 +148,6 @@ def test_board_protocol_byte_exact():
             port.write(b"Q QP0\r")
             s.tick()
             assert port.read(8) == b"." + bytes([100])
-    finally:
-        for closer in reversed(s.context.closers):
-            closer()
 
 
 def test_link_cut_fails_the_move_and_interrupts(sim):
@@ -211,14 +179,11 @@ def test_bad_servo_config_is_a_config_error():
 
 def test_two_runs_exchange_identical_bytes():
     def run():
-        s = Sim(puma_config())
-        try:
+        with Sim(puma_config()) as s:
             s.arm.connect()
             s.until(s.arm.move_to([300.0, 100.0, 150.0]))
             s.until(s.arm.move_joints(s.arm.model.home))
             return list(s.emu.transcript)
-        finally:
-            s.close()
 
     assert run() == run()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import ArmSim, connected
 
 from armtree.clock import VirtualClock
 from armtree.emulation import SHARED_KEY
@@ -13,45 +14,16 @@ from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
 from armtree.rig import MotionStatus, RigContext
 
 
-class Sim:
+class Sim(ArmSim):
     """A factory-built driver on ``port: sim`` and the run's stepping, as the runtime does it."""
 
     def __init__(self, **config):
-        self.clock = VirtualClock()
-        self.interrupts = []
-        self.context = RigContext(
-            profile=None,
-            clock=self.clock,
-            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
-        )
-        self.arm = dobot_v1_factory({"port": "sim", **config}, self.context)
-        self.emu = self.context.shared[SHARED_KEY]
-
-    def tick(self, n=1, dt=0.05):
-        for _ in range(n):
-            now = self.clock.advance(dt)
-            for step in self.context.steppers:
-                step(now)
-
-    def until(self, handle, limit=400):
-        for _ in range(limit):
-            if handle.done:
-                return
-            self.tick()
-        raise AssertionError(f"{handle} did not finish")
-
-    def close(self):
-        self.arm.close()
-        for closer in reversed(self.context.closers):
-            closer()
+        super().__init__(dobot_v1_factory, {"port": "sim", **config})
 
 
 @pytest.fixture
 def sim():
-    s = Sim()
-    s.arm.connect()
-    yield s
-    s.close()
+    yield from connected(Sim())
 
 
 def test_connect_reads_the_power_up_status(sim):
@@ -195,15 +167,12 @@ def test_missing_port_is_a_clear_hardware_fault():
 
 def test_two_runs_exchange_identical_bytes():
     def run():
-        s = Sim()
-        try:
+        with Sim() as s:
             s.arm.connect()
             s.until(s.arm.move_joints([25.0, 8.0, 48.0]))
             s.until(s.arm.set_suction(True))
             s.until(s.arm.move_to(s.arm.model.position([-30.0, 2.0, 55.0])))
             return [(t, d, b) for t, d, b in s.emu.transcript], s.arm.joints().tolist()
-        finally:
-            s.close()
 
     assert run() == run()
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import ArmSim, connected
 from hypothesis import given
 from hypothesis import strategies as st
 
 from armtree.clock import VirtualClock
-from armtree.emulation import SHARED_KEY
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common import sim_driver_options
 from armtree.plugins.arms.dobot_v1 import opendobot as od
@@ -18,7 +18,7 @@ from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.dobot_v1.opendobot_driver import OpenDobotDriver
 from armtree.plugins.arms.dobot_v1.opendobot_emulator import OpenDobotEmulator
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
-from armtree.rig import MotionStatus, RigContext
+from armtree.rig import MotionStatus
 
 H = bytes.fromhex
 
@@ -79,45 +79,16 @@ def test_corrupted_reply_never_passes_the_crc(data):
 # ---------------------------------------------------------------- driver <-> emulator
 
 
-class Sim:
+class Sim(ArmSim):
+    limit = 600
+
     def __init__(self, **config):
-        self.clock = VirtualClock()
-        self.interrupts = []
-        self.context = RigContext(
-            profile=None,
-            clock=self.clock,
-            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
-        )
-        self.arm = dobot_v1_factory(
-            {"port": "sim", "firmware": "open-dobot", **config}, self.context
-        )
-        self.emu = self.context.shared[SHARED_KEY]
-
-    def tick(self, n=1, dt=0.05):
-        for _ in range(n):
-            now = self.clock.advance(dt)
-            for step in self.context.steppers:
-                step(now)
-
-    def until(self, handle, limit=600):
-        for _ in range(limit):
-            if handle.done:
-                return
-            self.tick()
-        raise AssertionError(f"{handle} did not finish")
-
-    def close(self):
-        self.arm.close()
-        for closer in reversed(self.context.closers):
-            closer()
+        super().__init__(dobot_v1_factory, {"port": "sim", "firmware": "open-dobot", **config})
 
 
 @pytest.fixture(params=["fpga", "ramps"])
 def sim(request):
-    s = Sim(board=request.param, start_pose=[0.0, 12.0, 52.0])
-    s.arm.connect()
-    yield s
-    s.close()
+    yield from connected(Sim(board=request.param, start_pose=[0.0, 12.0, 52.0]))
 
 
 def test_start_up_pose_comes_from_the_accelerometers(sim):
@@ -255,15 +226,12 @@ def test_open_dobot_driver_on_original_firmware_names_it():
 
 def test_two_open_dobot_runs_exchange_identical_bytes():
     def run():
-        s = Sim(board="fpga", start_pose=[5.0, 10.0, 50.0])
-        try:
+        with Sim(board="fpga", start_pose=[5.0, 10.0, 50.0]) as s:
             s.arm.connect()
             s.until(s.arm.move_joints([25.0, 8.0, 48.0]))
             s.until(s.arm.set_suction(True))
             s.until(s.arm.move_joints([-15.0, 3.0, 55.0]))
             return list(s.emu.transcript), s.arm.joints().tolist()
-        finally:
-            s.close()
 
     first, second = run(), run()
     assert first == second

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import ArmSim, connected
 
 from armtree.clock import VirtualClock, WallClock
-from armtree.emulation import SHARED_KEY
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.dobot_magician import protocol as P
 from armtree.plugins.arms.dobot_magician.plugin import magician_factory
@@ -14,48 +14,19 @@ from armtree.plugins.arms.vicra.plugin import vicra_factory
 from armtree.rig import MotionStatus, RigContext
 
 
-class Sim:
-    """A factory-built driver on ``port: sim`` stepped as the runtime does it."""
+class Sim(ArmSim):
+    """A factory-built Magician on ``port: sim`` stepped as the runtime does it."""
 
-    def __init__(self, factory=magician_factory, **config):
-        self.clock = VirtualClock()
-        self.interrupts = []
-        self.context = RigContext(
-            profile=None,
-            clock=self.clock,
-            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
-        )
-        self.arm = factory({"port": "sim", **config}, self.context)
-        self.emu = self.context.shared[SHARED_KEY]
-
-    def tick(self, n=1, dt=0.05):
-        for _ in range(n):
-            now = self.clock.advance(dt)
-            for step in self.context.steppers:
-                step(now)
-
-    def until(self, handle, limit=400):
-        for _ in range(limit):
-            if handle.done:
-                return handle
-            self.tick()
-        raise AssertionError(f"{handle} did not finish")
+    def __init__(self, **config):
+        super().__init__(magician_factory, {"port": "sim", **config})
 
     def received(self) -> int:
-        return sum(len(b) for _, d, b in self.emu.transcript if d == "rx")
-
-    def close(self):
-        self.arm.close()
-        for closer in reversed(self.context.closers):
-            closer()
+        return len(self.received_bytes())
 
 
 @pytest.fixture
 def sim():
-    s = Sim()
-    s.arm.connect()
-    yield s
-    s.close()
+    yield from connected(Sim())
 
 
 def test_connect_reads_the_pose(sim):
@@ -260,15 +231,12 @@ def test_a_marlin_board_is_recognised_as_the_wrong_protocol():
 
 def test_two_runs_exchange_identical_bytes():
     def run():
-        s = Sim()
-        try:
+        with Sim() as s:
             s.arm.connect()
             s.until(s.arm.move_to([220.0, 30.0, 20.0]))
             s.until(s.arm.set_suction(True))
             s.until(s.arm.move_linear([200.0, -40.0, 40.0]))
             return [(t, d, b) for t, d, b in s.emu.transcript], s.arm.joints().tolist()
-        finally:
-            s.close()
 
     assert run() == run()
 

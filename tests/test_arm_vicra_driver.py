@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import serial
+from arm_fixtures import ArmSim
 
 from armtree.clock import VirtualClock, WallClock
-from armtree.emulation import SHARED_KEY
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
 from armtree.plugins.arms.vicra import gcode as G
@@ -15,32 +15,13 @@ from armtree.plugins.arms.vicra.plugin import vicra_factory
 from armtree.rig import MotionStatus, RigContext
 
 
-class Sim:
+class Sim(ArmSim):
     """A factory-built VICRA on ``port: sim`` stepped as the runtime does it."""
 
+    limit = 1000
+
     def __init__(self, **config):
-        self.clock = VirtualClock()
-        self.interrupts = []
-        self.context = RigContext(
-            profile=None,
-            clock=self.clock,
-            interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
-        )
-        self.arm = vicra_factory({"port": "sim", **config}, self.context)
-        self.emu = self.context.shared[SHARED_KEY]
-
-    def tick(self, n=1, dt=0.05):
-        for _ in range(n):
-            now = self.clock.advance(dt)
-            for step in self.context.steppers:
-                step(now)
-
-    def until(self, handle, limit=1000):
-        for _ in range(limit):
-            if handle.done:
-                return handle
-            self.tick()
-        raise AssertionError(f"{handle} did not finish")
+        super().__init__(vicra_factory, {"port": "sim", **config})
 
     def until_homed(self, limit=1000):
         for _ in range(limit):
@@ -50,27 +31,20 @@ class Sim:
         raise AssertionError("the arm did not home")
 
     def lines_received(self):
-        text = b"".join(b for _, d, b in self.emu.transcript if d == "rx").decode()
+        text = self.received_bytes().decode()
         return [G.parse_host_line(x).command for x in text.splitlines() if x]
-
-    def close(self):
-        self.arm.close()
-        for closer in reversed(self.context.closers):
-            closer()
 
 
 @pytest.fixture
 def sim():
-    s = Sim()
-    s.arm.connect()
-    s.until_homed()
-    yield s
-    s.close()
+    with Sim() as s:
+        s.arm.connect()
+        s.until_homed()
+        yield s
 
 
 def test_connect_reads_the_banner_and_homes_on_the_end_stops():
-    s = Sim()
-    try:
+    with Sim() as s:
         s.arm.connect()
         assert s.arm.banner[0] == "start" and any("Marlin" in x for x in s.arm.banner)
         # until the start-up homing ends, the driver reports where it will end
@@ -81,13 +55,10 @@ def test_connect_reads_the_banner_and_homes_on_the_end_stops():
         np.testing.assert_allclose(s.emu.true_joints(), s.arm.model.park, atol=0.02)
         assert s.lines_received()[:2] == ["M110 N0", "G90"]
         assert "G28" in s.lines_received()
-    finally:
-        s.close()
 
 
 def test_moves_are_refused_until_homed():
-    s = Sim(home_on_connect=False)
-    try:
+    with Sim(home_on_connect=False) as s:
         s.arm.connect()
         # power-up: the firmware counts from zero while the arm is elsewhere
         np.testing.assert_allclose(s.emu.reported_joints()[:3], 0.0)
@@ -100,13 +71,10 @@ def test_moves_are_refused_until_homed():
         s.until(home)
         assert home.status is MotionStatus.DONE and s.arm.homed
         np.testing.assert_allclose(s.emu.true_joints(), s.arm.model.home, atol=0.02)
-    finally:
-        s.close()
 
 
 def test_the_firmware_itself_refuses_unhomed_moves():
-    s = Sim(home_on_connect=False)
-    try:
+    with Sim(home_on_connect=False) as s:
         s.arm.connect()
         s.arm.close()
         with serial.Serial(s.arm.device, 115200, timeout=0.05) as port:
@@ -114,9 +82,6 @@ def test_the_firmware_itself_refuses_unhomed_moves():
             s.tick()
             assert port.read_until(b"ok\n") == b"ok\n"
             assert port.read(256) == b"echo:Home XYZ First\nok\n"
-    finally:
-        for closer in reversed(s.context.closers):
-            closer()
 
 
 def test_move_to_takes_the_nearer_elbow_and_completes_from_m114(sim):
@@ -147,8 +112,7 @@ def test_wrist_servo_turns_after_m400(sim):
 
 
 def test_gripper_and_pump():
-    s = Sim(tool="suction")
-    try:
+    with Sim(tool="suction") as s:
         s.arm.connect()
         s.until_homed()
         on = s.until(s.arm.set_suction(True))
@@ -157,8 +121,6 @@ def test_gripper_and_pump():
         assert grip.status is MotionStatus.DONE and s.emu.tool().gripper == 20.0
         assert "M106 S255" in s.lines_received() and "M280 P1 S20" in s.lines_received()
         assert s.arm.set_gripper(200.0).status is MotionStatus.FAILED
-    finally:
-        s.close()
 
 
 def test_gripper_tool_stands_in_for_suction(sim):
@@ -299,15 +261,12 @@ def test_missing_port():
 
 def test_two_runs_exchange_identical_bytes():
     def run():
-        s = Sim()
-        try:
+        with Sim() as s:
             s.arm.connect()
             s.until_homed()
             s.until(s.arm.move_to([400.0, 100.0, 50.0]))
             s.until(s.arm.move_joints([100.0, 10.0, 20.0, 30.0]))
             return list(s.emu.transcript)
-        finally:
-            s.close()
 
     assert run() == run()
 
