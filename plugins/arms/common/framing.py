@@ -10,35 +10,34 @@ resynchronisation, never an exception or an unbounded buffer.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 
 
-class FixedFrameParser:
-    """Fixed-length frames: ``header`` ... ``tail`` in exactly ``length`` bytes.
+class _HeaderSyncParser(ABC):
+    """Frames that start with ``header``: the scan, resynchronisation and counting they share.
 
-    ``check(frame) -> bool`` may add a validity test (a checksum); it must not raise.
+    A subclass says how long the frame at the start of the buffer is
+    (:meth:`_frame_length`) and whether a complete one is valid (:meth:`_valid`).
     """
 
-    def __init__(
-        self,
-        header: bytes,
-        length: int,
-        tail: bytes = b"",
-        check: Callable[[bytes], bool] | None = None,
-    ) -> None:
-        if not header or length < len(header) + len(tail):
-            raise ValueError("a frame needs a header and room for its tail")
+    def __init__(self, header: bytes, check: Callable[[bytes], bool] | None) -> None:
         self.header = header
-        self.length = length
-        self.tail = tail
         self.check = check
         self.discarded = 0
         self._buf = bytearray()
 
     @property
     def buffered(self) -> int:
-        """Bytes held waiting for the rest of a frame (always < ``length``)."""
+        """Bytes held waiting for the rest of a frame."""
         return len(self._buf)
+
+    @abstractmethod
+    def _frame_length(self, buf: bytearray) -> int | None:
+        """Length of the frame starting at ``buf[0]``; None: more bytes needed; 0: no frame."""
+
+    def _valid(self, frame: bytes) -> bool:
+        return self.check is None or self.check(frame)
 
     def feed(self, data: bytes) -> list[bytes]:
         """Add bytes; return every complete valid frame in order."""
@@ -56,14 +55,13 @@ class FixedFrameParser:
             if start:
                 self.discarded += start
                 del buf[:start]
-            if len(buf) < self.length:
+            total = self._frame_length(buf)
+            if total is None or len(buf) < total:
                 break
-            frame = bytes(buf[: self.length])
-            if (not self.tail or frame.endswith(self.tail)) and (
-                self.check is None or self.check(frame)
-            ):
+            frame = bytes(buf[:total])
+            if total and self._valid(frame):
                 frames.append(frame)
-                del buf[: self.length]
+                del buf[:total]
             else:
                 self.discarded += 1
                 del buf[:1]
@@ -74,7 +72,34 @@ class FixedFrameParser:
         self._buf.clear()
 
 
-class LengthPrefixedParser:
+class FixedFrameParser(_HeaderSyncParser):
+    """Fixed-length frames: ``header`` ... ``tail`` in exactly ``length`` bytes.
+
+    ``check(frame) -> bool`` may add a validity test (a checksum); it must not raise.
+    The buffer always holds fewer than ``length`` bytes between calls.
+    """
+
+    def __init__(
+        self,
+        header: bytes,
+        length: int,
+        tail: bytes = b"",
+        check: Callable[[bytes], bool] | None = None,
+    ) -> None:
+        if not header or length < len(header) + len(tail):
+            raise ValueError("a frame needs a header and room for its tail")
+        super().__init__(header, check)
+        self.length = length
+        self.tail = tail
+
+    def _frame_length(self, buf: bytearray) -> int:
+        return self.length
+
+    def _valid(self, frame: bytes) -> bool:
+        return (not self.tail or frame.endswith(self.tail)) and super()._valid(frame)
+
+
+class LengthPrefixedParser(_HeaderSyncParser):
     """Frames ``header + len + payload(len) + trailer(trailer_len)`` with a check.
 
     ``len_offset`` is the index of the one-byte payload length after the
@@ -90,56 +115,18 @@ class LengthPrefixedParser:
         check: Callable[[bytes], bool],
         max_payload: int = 255,
     ) -> None:
-        self.header = header
+        super().__init__(header, check)
         self.trailer_len = trailer_len
-        self.check = check
         self.max_payload = max_payload
-        self.discarded = 0
-        self._buf = bytearray()
 
-    @property
-    def buffered(self) -> int:
-        """Bytes held waiting for the rest of a frame."""
-        return len(self._buf)
-
-    def feed(self, data: bytes) -> list[bytes]:
-        """Add bytes; return every complete valid frame in order."""
-        frames: list[bytes] = []
-        buf = self._buf
-        buf.extend(data)
+    def _frame_length(self, buf: bytearray) -> int | None:
         h = len(self.header)
-        while True:
-            start = buf.find(self.header)
-            if start < 0:
-                keep = _partial_suffix(buf, self.header)
-                self.discarded += len(buf) - keep
-                del buf[: len(buf) - keep]
-                break
-            if start:
-                self.discarded += start
-                del buf[:start]
-            if len(buf) < h + 1:
-                break
-            n = buf[h]
-            if n > self.max_payload:
-                self.discarded += 1
-                del buf[:1]
-                continue
-            total = h + 1 + n + self.trailer_len
-            if len(buf) < total:
-                break
-            frame = bytes(buf[:total])
-            if self.check(frame):
-                frames.append(frame)
-                del buf[:total]
-            else:
-                self.discarded += 1
-                del buf[:1]
-        return frames
-
-    def reset(self) -> None:
-        """Forget any partial frame."""
-        self._buf.clear()
+        if len(buf) < h + 1:
+            return None
+        n = buf[h]
+        if n > self.max_payload:
+            return 0
+        return h + 1 + n + self.trailer_len
 
 
 class LineParser:
