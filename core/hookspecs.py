@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any
 import pluggy
 
 if TYPE_CHECKING:
+    from .errors import ConfigError
+    from .profile import Profile
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
 
@@ -100,6 +102,36 @@ def armtree_commands() -> dict[str, Any]:
         ``command.configure(parser)`` adds arguments to an
         :class:`argparse.ArgumentParser` and ``command.run(args)`` returns the
         exit code (0 ok, 1 failed, 2 bad input, 3 hardware fault).
+    """
+
+
+# ---------------------------------------------------------------------------
+# Validation: called while a profile loads, before anything is built.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_validate_profile(profile: Profile) -> list[ConfigError] | None:
+    """Check the parts of a hardware profile this plugin owns, so ``armtree check`` finds them.
+
+    :func:`armtree.load_profile` calls every implementation after its own checks
+    (known sections, components against their ``PARAMS``, tags, places,
+    obstacles, the planning scene) and raises one :class:`armtree.ConfigError`
+    holding its own errors and the plugins' together, ordered by position. So a
+    problem the plugin would otherwise only find when the rig is built (the
+    built-in simulation's ``world:``) is reported before anything moves.
+
+    :param profile: the :class:`armtree.profile.Profile` as loaded (overrides
+        applied). ``profile.error("world.objects.box", "...")`` makes an error at
+        that entry's file, line and column. ``profile.invalid`` names the
+        top-level sections that already failed armtree's own checks: skip the
+        checks that read them, so one mistake is not reported twice.
+    :return: the problems found (``None`` or ``[]`` when there are none). Raising
+        a ``ConfigError`` reports it the same way. Any other exception is
+        reported as an error of the plugin, unless the profile already has errors
+        (then it is taken to follow from them and dropped).
+
+    Must not open ports or devices and must not change the profile.
     """
 
 

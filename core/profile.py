@@ -12,8 +12,13 @@ the whole file before returning, collecting every problem into one
 * ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0}``, no id used twice;
 * ``places``: ``name: [x, y, z]`` in mm; ``obstacles``: a list of shapes
   (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
-* ``world`` (simulation only, checked by the sim plugin) is a mapping;
-  ``plugins`` is a list of modules or ``.py`` files loaded before validation.
+  ``table: {z: MM}`` (or ``table: MM``): the table top in the arm's base frame;
+* then the planning scene these make (:meth:`armtree.scene.Scene.from_profile`):
+  meshes that fail to load, places inside an obstacle or under the table;
+* ``world`` (simulation only) is a mapping; ``plugins`` is a list of modules or
+  ``.py`` files loaded before validation;
+* last, every plugin's ``armtree_validate_profile`` hook (the built-in
+  simulation checks ``world:`` there), its errors reported with the others.
 
 Overrides use dotted keys and YAML-typed values: ``arm.type=vicra``,
 ``camera.width=800``, ``places.home=[200, 0, 80]``.
@@ -35,6 +40,7 @@ from .params import check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .resolve import available, resolve
 from .rig import TagSpec
+from .scene import Scene
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 
 #: Profile section -> component kind in the plugin registry.
@@ -51,6 +57,7 @@ PROFILE_KEYS = (
     *COMPONENT_SECTIONS,
     "tags",
     "places",
+    "table",
     "obstacles",
     "world",
     "plugins",
@@ -59,6 +66,8 @@ PROFILE_KEYS = (
 REQUIRED_SECTIONS = ("arm",)
 #: Sections a ``--set`` key may start with to address the profile rather than the blackboard.
 OVERRIDE_SECTIONS = frozenset(PROFILE_KEYS) - {"profile", "description"}
+#: Sections the planning scene is built from (checked together at load time).
+SCENE_SECTIONS = frozenset({"table", "obstacles", "places"})
 #: Obstacle shapes and the keys each must have.
 OBSTACLE_SHAPES: dict[str, tuple[str, ...]] = {
     "box": ("center", "size"),
@@ -154,7 +163,9 @@ class Profile:
     ``data`` is the file's content after overrides (plain mappings and lists);
     ``marks`` maps dotted paths (``"arm.port"``, ``"tags.ducky.id"``) to where
     each value was written, so a component can report a bad value precisely
-    with :meth:`error`. Lengths are mm.
+    with :meth:`error`. Lengths are mm. ``invalid`` names the top-level
+    sections that failed armtree's own checks; it is only non-empty while the
+    ``armtree_validate_profile`` hooks run (a loaded profile has none).
     """
 
     name: str
@@ -163,6 +174,7 @@ class Profile:
     marks: dict[str, Mark] = field(default_factory=dict)
     plugins: list[str] = field(default_factory=list)
     manager: Any = None
+    invalid: frozenset[str] = frozenset()
 
     @property
     def description(self) -> str:
@@ -288,20 +300,78 @@ def _finish(
             manager = manager.extended([p for p, _ in plugins], dict(plugins))
         except ConfigError as exc:
             errors.append(exc)
-    _validate(data, manager, errors)
-    if errors:
-        raise ConfigError(
-            errors[0].message, errors[0].file, errors[0].line, errors[0].column, errors
-        )
+    invalid = _validate(data, manager, errors)
     name = data.get("profile") or default_name or "profile"
-    return Profile(
+    profile = Profile(
         name=str(name),
         source=source,
         data=_plain(data),
         marks=_flatten_marks(data),
         plugins=[p for p, _ in plugins],
         manager=manager,
+        invalid=frozenset(invalid),
     )
+    if not invalid & SCENE_SECTIONS:
+        errors.extend(_check_scene(profile))
+    errors.extend(_plugin_checks(profile, manager, clean=not errors))
+    if errors:
+        order = {file: i for i, file in enumerate(dict.fromkeys(e.file for e in errors))}
+        errors.sort(key=lambda e: (order[e.file], e.line or 0, e.column or 0))
+        raise ConfigError(
+            errors[0].message, errors[0].file, errors[0].line, errors[0].column, errors
+        )
+    profile.invalid = frozenset()
+    return profile
+
+
+def _check_scene(profile: Profile) -> list[ConfigError]:
+    """The planning scene's own load-time errors (mesh files, places inside obstacles)."""
+    try:
+        Scene.from_profile(profile)
+    except ConfigError as exc:
+        return list(exc.errors)
+    return []
+
+
+def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> list[ConfigError]:
+    """Every ``armtree_validate_profile`` implementation's errors, one plugin after another.
+
+    Each implementation is called on its own so one plugin's failure does not hide
+    another's findings. An exception other than ConfigError is a plugin bug when
+    the profile is otherwise valid (``clean``); else it follows from errors already
+    reported and is dropped.
+    """
+    file = str(profile.source or profile.name)
+    out: list[ConfigError] = []
+    for impl in reversed(manager.hook.armtree_validate_profile.get_hookimpls()):
+        plugin = manager.pm.get_name(impl.plugin) or repr(impl.plugin)
+        try:
+            found = impl.function(profile=profile)
+            found = list(found or ())
+        except ConfigError as exc:
+            found = list(exc.errors)
+        except Exception as exc:  # noqa: BLE001 - a plugin's bug is reported, not raised
+            if clean:
+                out.append(
+                    ConfigError(
+                        f"plugin {plugin!r} failed to check the profile: "
+                        f"{type(exc).__name__}: {exc}",
+                        file=file,
+                    )
+                )
+            continue
+        for item in found:
+            if isinstance(item, ConfigError):
+                out.extend(item.errors)
+            else:
+                out.append(
+                    ConfigError(
+                        f"plugin {plugin!r}: armtree_validate_profile must return ConfigErrors, "
+                        f"got {type(item).__name__}",
+                        file=file,
+                    )
+                )
+    return out
 
 
 def _plugins(
@@ -325,7 +395,16 @@ def _plugins(
     return out
 
 
-def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError]) -> None:
+def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError]) -> set[str]:
+    """Check every section, appending to ``errors``; return the sections that had errors."""
+    invalid: set[str] = set()
+
+    def check(section: str, fn: Any, *args: Any) -> None:
+        before = len(errors)
+        fn(*args)
+        if len(errors) > before:
+            invalid.add(section)
+
     for key in data:
         if key not in PROFILE_KEYS:
             errors.append(
@@ -344,15 +423,18 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
         registry = manager.registry
     except ConfigError as exc:
         errors.append(exc)
-        return
+        return set(COMPONENT_SECTIONS)
     for section, kind in COMPONENT_SECTIONS.items():
         if data.get(section) is not None:
-            _check_component(data, section, kind, registry, errors)
-    _check_tags(data, errors)
-    _check_places(data, errors)
-    _check_obstacles(data, errors)
+            check(section, _check_component, data, section, kind, registry, errors)
+    check("tags", _check_tags, data, errors)
+    check("places", _check_places, data, errors)
+    check("table", _check_table, data, errors)
+    check("obstacles", _check_obstacles, data, errors)
     if data.get("world") is not None and not isinstance(data["world"], dict):
         errors.append(error_at("world: expected a mapping", data.value_mark("world")))
+        invalid.add("world")
+    return invalid
 
 
 def _check_component(
@@ -519,6 +601,36 @@ def _check_places(data: MarkedDict, errors: list[ConfigError]) -> None:
                     f"places.{name}: expected [x, y, z] in mm, got {xyz!r}", places.value_mark(name)
                 )
             )
+
+
+def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
+    """``table: {z: MM}`` or ``table: MM``, as :meth:`armtree.scene.Scene.from_profile` reads it."""
+    table = data.get("table")
+    if table is None or _is_number(table):
+        return
+    if not isinstance(table, MarkedDict):
+        errors.append(
+            error_at(
+                f"table: expected {{z: MM}} (the table top's height, mm), got {table!r}",
+                data.value_mark("table"),
+            )
+        )
+        return
+    for key in table:
+        if key != "z":
+            errors.append(
+                error_at(
+                    f"table: unknown key {key!r}; the table takes only z "
+                    "(its top's height, mm in the arm's base frame)",
+                    table.key_mark(key),
+                )
+            )
+    if "z" not in table:
+        errors.append(error_at("table: needs z (the table top's height, mm)", table.mark))
+    elif not _is_number(table["z"]):
+        errors.append(
+            error_at(f"table.z: expected a number (mm), got {table['z']!r}", table.value_mark("z"))
+        )
 
 
 def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:

@@ -12,10 +12,11 @@ Built from a hardware profile (:meth:`Scene.from_profile`)::
     places: {garbage_bin: [60, 230, 40], ...}
 
 The table plane is a half-space (everything below ``z`` is solid). A hardware
-profile checked by :mod:`armtree.profile` accepts only the listed obstacle shapes,
-so there a table is written as a flat box under the arm's base, e.g.
-``box: {center: [0, 0, -105], size: [800, 800, 10], name: table}``; the
-``table`` keys serve scenes given as plain mappings.
+profile checked by :mod:`armtree.profile` declares it with the top-level
+``table: {z: MM}``; the ``- table:`` obstacle entry serves scenes given as plain
+mappings. :func:`armtree.load_profile` builds this scene once while it validates,
+so its errors (a mesh that fails to load, a place inside an obstacle) are found
+by ``armtree check``, at the entry's file, line and column.
 
 Units: mm and degrees. Mesh paths are relative to the profile's folder.
 Cylinders and spheres are checked as closed polyhedra that contain them (a
@@ -157,7 +158,10 @@ class Scene:
         for name, value in (data.get("places") or {}).items():
             places[str(name)] = _vector(value, fail, f"places.{name}", min_len=3)[:3]
         scene = cls(table_z, tuple(boxes), tuple(meshes), places, source)
-        scene.check_places()
+        for name, p in places.items():
+            blocker = scene.blocker_of(p)
+            if blocker is not None:
+                raise fail(f"places.{name}", _place_blocked(name, p, blocker))
         return scene
 
     def check_places(self) -> None:
@@ -165,11 +169,7 @@ class Scene:
         for name, p in self.places.items():
             blocker = self.blocker_of(p)
             if blocker is not None:
-                raise ConfigError(
-                    f"place {name!r} at {np.round(p, 1).tolist()} mm is inside {blocker}: "
-                    "places must be kept clear of obstacles",
-                    file=self.source,
-                )
+                raise ConfigError(_place_blocked(name, p, blocker), file=self.source)
 
     def blocker_of(self, point: np.ndarray) -> str | None:
         """The name of the obstacle containing ``point`` (mm), ``"the table"``, or None."""
@@ -200,6 +200,13 @@ class Scene:
         parts = [box_triangles(b.pose(), b.size) for b in self.boxes]
         parts += [m.triangles for m in self.meshes]
         return np.concatenate(parts) if parts else np.zeros((0, 3, 3))
+
+
+def _place_blocked(name: str, point: np.ndarray, blocker: str) -> str:
+    return (
+        f"place {name!r} at {np.round(point, 1).tolist()} mm is inside {blocker}: "
+        "places must be kept clear of obstacles"
+    )
 
 
 def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
@@ -360,13 +367,18 @@ def _mesh(spec: Any, fail: _Fail, where: str, base_dir: Path, default_name: str)
     scale = _number(spec.get("scale", 1.0), fail, f"{where}.scale", positive=True)
     position = _vector(spec.get("position", [0, 0, 0]), fail, f"{where}.position", exact=True)
     rotation = from_rpy_deg(_vector(spec.get("rpy", [0, 0, 0]), fail, f"{where}.rpy", exact=True))
-    tris = load_mesh(path) * scale @ rotation.T + position
+    try:
+        tris = load_mesh(path) * scale @ rotation.T + position
+    except ConfigError as exc:
+        # Point at the profile's entry; the message keeps the mesh file's path.
+        shown = str(path)
+        raise fail(
+            f"{where}.file", exc.message if shown in exc.message else f"{shown}: {exc.message}"
+        ) from None
     area2 = np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
     extent = float(np.ptp(tris.reshape(-1, 3), axis=0).max())
     # Zero-area slivers carry no surface of their own; drop them, but refuse a mesh of nothing.
     tris = tris[area2 > 1e-12 * max(extent, 1.0) ** 2]
     if len(tris) == 0:
-        raise ConfigError(
-            f"{where}: every triangle of the mesh is degenerate (zero area)", file=str(path)
-        )
+        raise fail(f"{where}.file", f"every triangle of {path} is degenerate (zero area)")
     return MeshObstacle(str(spec.get("name", default_name)), tris, str(path))

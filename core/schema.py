@@ -199,6 +199,18 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
         },
         "tags": {"type": "object", "additionalProperties": tag},
         "places": {"type": "object", "additionalProperties": xyz, "description": "[x, y, z] mm"},
+        "table": {
+            "description": "the table top: {z: MM}, its height in the arm's base frame",
+            "anyOf": [
+                {"type": "number"},
+                {
+                    "type": "object",
+                    "properties": {"z": {"type": "number", "description": "mm"}},
+                    "required": ["z"],
+                    "additionalProperties": False,
+                },
+            ],
+        },
         "obstacles": {"type": "array", "items": {"anyOf": shapes}},
         "world": {"type": "object", "description": "the simulated world (sim only)"},
         "plugins": {"type": "array", "items": {"type": "string"}},

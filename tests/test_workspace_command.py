@@ -42,7 +42,7 @@ def test_profile_with_obstacles_and_vicra(tmp_path, capsys):
         "profile: rig\n"
         "arm: {type: vicra, port: sim}\n"
         "places: {bin: [300, 100, 50], far: [2000, 0, 50]}\n"
-        "obstacles:\n  - box: {center: [0, 400, 50], size: [100, 20, 100]}\n"
+        "obstacles:\n  - box: {center: [0, 380, 50], size: [100, 20, 100]}\n"
     )
     assert WorkspaceCommand().run(_args(rig=rig, delta=40)) == 0
     out = capsys.readouterr().out

@@ -6,6 +6,8 @@ appends the world's stepper after the emulators'. ``armtree_run_started``
 starts the recordings when the run records to a directory, and
 ``armtree_run_finished`` writes the ground-truth score beside the run log.
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
+``armtree_validate_profile`` parses the ``world:`` section while the profile
+loads, so ``armtree check`` reports what building the world would refuse.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from armtree.emulation import SHARED_KEY as EMULATOR_KEY
 
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
-from .scene import body_error, profile_section
+from .scene import SceneSpec, body_error, parse_scene, profile_section
 from .world import SHARED_KEY, World, world_for
 
 
@@ -45,6 +47,25 @@ def _uses_sim(profile: Any) -> bool:
     )
 
 
+#: Profile sections the world is parsed from; when one is already invalid the world is not.
+_WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})
+
+
+def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+    """The planning ``table:`` must be the simulated table top (``world.table.height``)."""
+    table = profile_section(profile, "table")
+    z = table.get("z") if isinstance(table, dict) else table
+    if z is None or abs(float(z) - scene.table.height) <= 1e-6:
+        return []
+    return [
+        profile.error(
+            "table",
+            f"the table top z = {z:g} mm differs from the simulated table's height "
+            f"{scene.table.height:g} mm (world.table.height): give both the same height",
+        )
+    ]
+
+
 def _stepper(run: Any) -> WorldStepper | None:
     rig = getattr(run, "rig", None)
     for stepper in getattr(rig, "steppers", None) or ():
@@ -57,6 +78,23 @@ def _stepper(run: Any) -> WorldStepper | None:
 def armtree_cameras() -> dict[str, Any]:
     """The ``sim`` camera."""
     return {"sim": sim_camera}
+
+
+@armtree.hookimpl
+def armtree_validate_profile(profile: Any) -> list[armtree.ConfigError]:
+    """Check ``world:`` as building the rig would, before anything is built.
+
+    Reports objects off the table or inside each other, markers clashing with
+    ``tags:``, unknown keys, and a planning ``table:`` that is not the simulated
+    table top.
+    """
+    if not _uses_sim(profile) or getattr(profile, "invalid", frozenset()) & _WORLD_INPUTS:
+        return []
+    try:
+        scene = parse_scene(profile)
+    except armtree.ConfigError as exc:
+        return list(exc.errors)
+    return _table_disagrees(profile, scene)
 
 
 @armtree.hookimpl
