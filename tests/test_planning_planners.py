@@ -233,7 +233,8 @@ def test_prm_on_the_dobot_v1_model_from_a_profile(tmp_path):
     rig = tmp_path / "rig.yaml"
     rig.write_text(
         "profile: rig\n"
-        "arm: {type: dobot_v1, port: sim}\n"
+        # A real port (never opened here): the sim would refuse the 800 mm table box.
+        "arm: {type: dobot_v1, port: /dev/ttyUSB0}\n"
         "planner: {type: prm, milestones: 400, neighbours: 5, seed: 2}\n"
         "places: {home: [185, 0, 30]}\n"
         "obstacles:\n"
