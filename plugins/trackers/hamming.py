@@ -30,7 +30,7 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
-from .hamming_code import BITS, GRID, corrected_columns, decode_bits
+from .hamming_code import BITS, GRID, MAX_ID, corrected_columns, decode_bits
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
 
@@ -73,7 +73,36 @@ _WHITE_FIT = _plane_fit(_QUIET_UV)
 _CELL_DESIGN = np.column_stack([np.ones(GRID * GRID), _CELL_CENTRES])
 #: How far a cell is pushed away from its neighbours' mean before thresholding.
 _SHARPEN = 1.0
-_UNIT_SQUARE = np.array([[0, 0], [GRID, 0], [GRID, GRID], [0, GRID]], dtype=np.float32)
+#: Every point read per candidate, as fractions of the marker side: cell samples, then quiet zone.
+_SAMPLE_UV = np.concatenate([_CELL_UV, _QUIET_UV]) / GRID
+#: Corner order of a quad whose printed top-left corner is its corner k.
+_ROLLS = np.array([[(k + i) % 4 for i in range(4)] for k in range(4)])
+_NO_KEY = 1 << 20
+# Index of each data cell after turning a 7x7 grid k quarter turns (np.rot90's sense).
+_ROTATIONS = np.stack(
+    [np.rot90(np.arange(BITS * BITS).reshape(BITS, BITS), k).ravel() for k in range(4)]
+)
+
+
+def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Image points ``(N, P)`` x and y of unit-square points ``uv (P, 2)`` in quads ``(N, 4, 2)``.
+
+    The projective map of (0,0), (1,0), (1,1), (0,1) onto each quad's corners
+    in closed form (Heckbert's square-to-quad), for all quads at once.
+    """
+    x0, x1, x2, x3 = (quads[:, i, 0] for i in range(4))
+    y0, y1, y2, y3 = (quads[:, i, 1] for i in range(4))
+    sx, sy = x0 - x1 + x2 - x3, y0 - y1 + y2 - y3
+    dx1, dx2, dy1, dy2 = x1 - x2, x3 - x2, y1 - y2, y3 - y2
+    den = dx1 * dy2 - dx2 * dy1
+    den = np.where(np.abs(den) < 1e-12, 1e-12, den)
+    g, h = (sx * dy2 - dx2 * sy) / den, (dx1 * sy - sx * dy1) / den
+    a, b, d, e = x1 - x0 + g * x1, x3 - x0 + h * x3, y1 - y0 + g * y1, y3 - y0 + h * y3
+    u, v = uv[:, 0], uv[:, 1]
+    w = g[:, None] * u + h[:, None] * v + 1.0
+    map_x = (a[:, None] * u + b[:, None] * v + x0[:, None]) / w
+    map_y = (d[:, None] * u + e[:, None] * v + y0[:, None]) / w
+    return map_x, map_y
 
 
 @dataclass
@@ -159,27 +188,33 @@ class HammingTracker(Tracker):
             return np.zeros((0, 4, 2), np.float32)
         min_perimeter = 4.0 * self.min_side_px
         h, w = gray.shape
-        quads = []
-        for contour, link in zip(contours, hierarchy[0], strict=True):
-            # Holes (level two of RETR_CCOMP) are the inner edges of dark rings.
-            if link[3] != -1 or len(contour) < 4:
+        max_perimeter = 2.0 * (w + h)
+        found = []
+        # Holes (level two of RETR_CCOMP) are the inner edges of dark rings.
+        for i in np.flatnonzero(hierarchy[0][:, 3] == -1):
+            contour = contours[i]
+            if len(contour) < 4:
                 continue
             perimeter = cv2.arcLength(contour, True)
-            if perimeter < min_perimeter or perimeter > 2.0 * (w + h):
+            if perimeter < min_perimeter or perimeter > max_perimeter:
                 continue
             approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
             if len(approx) != 4 or not cv2.isContourConvex(approx):
                 continue
-            quad = approx.reshape(4, 2).astype(np.float32)
-            sides = np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)
-            if sides.min() < self.min_side_px:
-                continue
-            if _shoelace(quad) < 0:
-                quad = quad[::-1].copy()
-            quads.append(quad)
-        if not quads:
+            # a square's outline fills its quad; a blob's (an ellipse, a hand) does not
+            fill = cv2.contourArea(contour) / max(cv2.contourArea(approx), 1.0)
+            if 0.8 < fill < 1.2:
+                found.append(approx)
+        if not found:
             return np.zeros((0, 4, 2), np.float32)
-        return np.stack(quads)
+        quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
+        edges = quads[:, [1, 2, 3, 0]] - quads
+        quads = quads[np.hypot(edges[..., 0], edges[..., 1]).min(axis=1) >= self.min_side_px]
+        # clockwise on screen (y down): positive shoelace sum
+        x, y = quads[..., 0], quads[..., 1]
+        area2 = (x * y[:, [1, 2, 3, 0]] - x[:, [1, 2, 3, 0]] * y).sum(axis=1)
+        quads[area2 < 0] = quads[area2 < 0][:, ::-1]
+        return quads
 
     def sample_cells(self, gray: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Grey levels of every quad's 81 cells ``(N, 81)`` and of its quiet zone ``(N, 36)``.
@@ -188,14 +223,13 @@ class HammingTracker(Tracker):
         ``quad[0]`` to ``quad[1]``, column 0 from ``quad[0]`` to ``quad[3]``.
         """
         n = len(quads)
-        homographies = np.stack([cv2.getPerspectiveTransform(_UNIT_SQUARE, q) for q in quads])
-        uv = np.concatenate([_CELL_UV, _QUIET_UV])
-        uv1 = np.concatenate([uv, np.ones((len(uv), 1))], axis=1)
-        xyw = homographies @ uv1.T  # (N, 3, P)
-        xy = (xyw[:, :2] / xyw[:, 2:3]).transpose(0, 2, 1).astype(np.float32)  # (N, P, 2)
-        flat = xy.reshape(-1, 1, 2)
+        map_x, map_y = square_to_quad(np.asarray(quads, dtype=np.float64), _SAMPLE_UV)
         values = cv2.remap(
-            gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+            gray,
+            map_x.astype(np.float32).reshape(-1, 1),
+            map_y.astype(np.float32).reshape(-1, 1),
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
         ).reshape(n, -1)
         n_cells = len(_CELL_UV)
         cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
@@ -248,8 +282,9 @@ class HammingTracker(Tracker):
         quads, grids = quads[keep], grids[keep]
         margins = np.abs(margin[keep]).reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
         # rot90(grid, k) is the marker as printed when its top-left corner is quads[k].
-        rotated = np.stack([np.rot90(grids, k, axes=(1, 2)) for k in range(4)], axis=1)
-        rotated_margins = np.stack([np.rot90(margins, k, axes=(1, 2)) for k in range(4)], axis=1)
+        m = len(grids)
+        rotated = grids.reshape(m, -1)[:, _ROTATIONS].reshape(m, 4, BITS, BITS)
+        rotated_margins = margins.reshape(m, -1)[:, _ROTATIONS].reshape(m, 4, BITS, BITS)
         ids, corrected = decode_bits(rotated)  # (M, 4)
         # A row with two misread (doubtful) cells decodes to a wrong nibble by flipping
         # a third, clearly read, cell: a correction that flips a clear cell while
@@ -260,52 +295,42 @@ class HammingTracker(Tracker):
         doubt_elsewhere = rotated_margins.min(axis=-1) < self.max_flip_margin
         refused = (flips >= 0) & (flipped[..., 0] > self.max_flip_margin) & doubt_elsewhere
         corrected = np.where(refused.any(axis=-1), BITS + 1, corrected)
-        readings = []
-        for quad, quad_ids, quad_corr in zip(quads, ids, corrected, strict=True):
-            reading = self._choose(quad, quad_ids, quad_corr)
-            if reading is not None:
-                readings.append(reading)
-        return _dedupe(readings)
+        # Ids 0 and 2**28 - 1 are an all-black and an all-white inside, which Hampy never reads.
+        corrected = np.where((ids == 0) | (ids == MAX_ID - 1), BITS + 1, corrected)
+        return _dedupe(self._choose(quads, ids, corrected))
 
-    def _choose(self, quad: np.ndarray, ids: np.ndarray, corrected: np.ndarray) -> _Reading | None:
-        registered = self.roles.ids
-        options = []
-        for k in range(4):
-            marker_id, corr = int(ids[k]), int(corrected[k])
-            if corr > self.max_corrected_bits:
-                continue
-            if self.only_registered and marker_id not in registered:
-                continue
-            options.append(((marker_id not in registered, corr), marker_id, k))
-        if not options:
-            return None
-        options.sort()
-        best_key, best_id, best_k = options[0]
-        ties = [o for o in options if o[0] == best_key]
-        corners = np.roll(quad, -best_k, axis=0).astype(np.float32)
-        return _Reading(corners, best_id, best_key[1], ambiguous=len(ties) > 1)
-
-
-def _shoelace(quad: np.ndarray) -> float:
-    """Twice the signed area; positive when the corners run clockwise on screen (y down)."""
-    x, y = quad[:, 0], quad[:, 1]
-    return float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    def _choose(self, quads: np.ndarray, ids: np.ndarray, corrected: np.ndarray) -> list[_Reading]:
+        """One reading per quad: registered ids first, then fewest corrections, then smallest id."""
+        registered = np.isin(ids, np.fromiter(self.roles.ids, dtype=np.int64))
+        valid = corrected <= self.max_corrected_bits
+        if self.only_registered:
+            valid &= registered
+        key = np.where(valid, (~registered) * (BITS + 2) + corrected, _NO_KEY)  # (M, 4)
+        best = key.min(axis=1)
+        ties = (key == best[:, None]).sum(axis=1)
+        k = np.where(key == best[:, None], ids, np.iinfo(np.int64).max).argmin(axis=1)
+        rows = np.flatnonzero(best < _NO_KEY)
+        corners = quads[rows[:, None], _ROLLS[k[rows]]]
+        return [
+            _Reading(corners[j], int(ids[r, k[r]]), int(corrected[r, k[r]]), bool(ties[r] > 1))
+            for j, r in enumerate(rows)
+        ]
 
 
 def _dedupe(readings: list[_Reading]) -> list[_Reading]:
     """Keep the larger of two readings whose centres are within half a side of each other."""
     if len(readings) < 2:
         return readings
-    sizes = [float(cv2.contourArea(r.corners)) for r in readings]
-    order = np.argsort(sizes)[::-1]
-    kept: list[_Reading] = []
-    for i in order:
-        r = readings[i]
-        centre = r.corners.mean(axis=0)
-        half_side = np.sqrt(sizes[i]) / 2.0
-        if all(np.linalg.norm(centre - o.corners.mean(axis=0)) > half_side for o in kept):
-            kept.append(r)
-    return kept
+    corners = np.stack([r.corners for r in readings])
+    x, y = corners[..., 0], corners[..., 1]
+    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1))
+    centres = corners.mean(axis=1)
+    kept: list[int] = []
+    for i in np.argsort(-area):
+        near = np.hypot(*(centres[kept] - centres[i]).T) <= np.sqrt(area[i]) / 2.0
+        if not near.any():
+            kept.append(int(i))
+    return [readings[i] for i in sorted(kept)]
 
 
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:

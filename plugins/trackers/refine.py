@@ -32,8 +32,8 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int 
 
     ``cells`` is the number of cells across a marker (border included), which
     bounds how far a profile may reach. A further pass (up to ``passes``) is
-    made only for markers whose corners moved by more than a third of the
-    profile's reach, where the first profiles may have been cut short.
+    made only for markers whose corners moved so far that the first profiles
+    ended within the blur of the edge.
     Corners whose edges cannot be measured (no contrast, off the image) are
     left as they were.
     """
@@ -47,7 +47,8 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int 
         after, reach = _refine_once(gray, before, cells)
         out[active] = after
         moved = np.sqrt(((after - before) ** 2).sum(axis=2)).max(axis=1)
-        still = moved > 0.35 * reach
+        # a profile cut short within ~1.5 px of the edge (blur tails) biases the fit
+        still = moved > np.maximum(reach - 1.5, 0.3 * reach)
         if not still.any():
             break
         active[np.flatnonzero(active)[~still]] = False
