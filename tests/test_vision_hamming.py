@@ -257,3 +257,19 @@ def test_profile_errors_point_at_the_value(tmp_path):
     assert "tracker.preprocess.blur" in err.value.message
     good = hamming_factory({"type": "hamming"}, context(profile))
     assert good.roles.describe(1) == ("ducky", 25.0)
+
+
+def test_dark_blobs_and_all_black_insides_are_not_markers():
+    import cv2
+
+    rng = np.random.default_rng(5)
+    img = np.clip(rng.normal(150, 5, (480, 640)), 0, 255).astype(np.uint8)
+    cv2.ellipse(img, (150, 250), (25, 60), 30, 0, 360, 50, -1)
+    grid = hc.marker_grid(1)
+    grid[1:-1, 1:-1] = 0  # an all-black inside would decode as id 0
+    grid[4, 4] = 1  # one stray white cell: still id 0 after correction
+    square = cv2.resize(grid * np.uint8(200) + 30, (90, 90), interpolation=cv2.INTER_NEAREST)
+    img[300:390, 400:490] = square
+    img[290:300, 390:500] = img[390:400, 390:500] = 230
+    img[290:400, 390:400] = img[290:400, 490:500] = 230
+    assert HammingTracker().detect(Frame(img, 0.0, K, np.zeros(5))) == []

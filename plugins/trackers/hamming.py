@@ -323,8 +323,12 @@ def _dedupe(readings: list[_Reading]) -> list[_Reading]:
         return readings
     corners = np.stack([r.corners for r in readings])
     x, y = corners[..., 0], corners[..., 1]
-    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1))
+    area = 0.5 * np.abs((x * y[:, [1, 2, 3, 0]] - x[:, [1, 2, 3, 0]] * y).sum(axis=1))
     centres = corners.mean(axis=1)
+    gaps = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+    np.fill_diagonal(gaps, np.inf)
+    if (gaps > np.sqrt(area.max()) / 2.0).all():
+        return readings
     kept: list[int] = []
     for i in np.argsort(-area):
         near = np.hypot(*(centres[kept] - centres[i]).T) <= np.sqrt(area[i]) / 2.0
