@@ -344,6 +344,9 @@ def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> lis
     file = str(profile.source or profile.name)
     out: list[ConfigError] = []
     for impl in reversed(manager.hook.armtree_validate_profile.get_hookimpls()):
+        if impl.hookwrapper or getattr(impl, "wrapper", False):
+            # A wrapper returns nothing of its own to report; only plain implementations check.
+            continue
         plugin = manager.pm.get_name(impl.plugin) or repr(impl.plugin)
         try:
             found = impl.function(profile=profile)
