@@ -229,3 +229,22 @@ def test_cli_exit_codes(frames_dir):
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert later.returncode == 2 and "not available yet" in later.stderr
+
+
+def test_detect_takes_tracker_and_tags_from_a_profile(frames_dir, capsys):
+    folder, _ = frames_dir
+    profile = folder / "rig.yaml"
+    profile.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        "tracker: {type: hamming, preprocess: {adaptive: true}}\n"
+        "tags: {ducky: {id: 1, size_mm: 25}, trash: {ids: [3], size_mm: 30}}\n"
+    )
+    argv = [str(folder / "three.png"), "--rig", str(profile), "--tracker", "hamming", "--json",
+            "--intrinsics", f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}"]  # fmt: skip
+    assert run(DetectCommand(), argv) == 0
+    dets = {d["id"]: d for d in json.loads(capsys.readouterr().out)["detections"]}
+    assert (dets[1]["role"], dets[1]["size_mm"]) == ("ducky", 25.0)
+    assert (dets[3]["role"], dets[3]["size_mm"]) == ("trash", 30.0)
+    assert dets[2]["role"] == "unknown" and dets[2]["tvec"] is None
+    assert dets[3]["tvec"][2] == pytest.approx(360.0, abs=6.0), "a 25 mm marker taken as 30 mm"
