@@ -158,20 +158,22 @@ def solve_marker_pose(
 ) -> MarkerPose | None:
     """Pose of a square marker from its four image corners (pixels, OpenCV's order).
 
-    Uses ``cv2.solvePnP`` with ``SOLVEPNP_IPPE_SQUARE`` (seed 004, "Marker
-    Location"); None when OpenCV finds no solution.
+    Uses OpenCV's PnP with ``SOLVEPNP_IPPE_SQUARE`` (seed 004, "Marker
+    Location"), keeping the better of IPPE's two solutions; ``reprojection_px``
+    is the RMS distance between the corners and their reprojections. None when
+    OpenCV finds no solution.
     """
     obj = object_points(size_mm)
     img = np.asarray(corners, dtype=np.float64).reshape(4, 1, 2)
     dist = np.zeros(5) if distortion is None else np.asarray(distortion, dtype=np.float64)
-    ok, rvec, tvec = cv2.solvePnP(obj, img, camera_matrix, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
-    if not ok:
-        return None
-    projected, _ = cv2.projectPoints(obj, rvec, tvec, camera_matrix, dist)
-    err = float(
-        np.sqrt(np.mean(np.sum((projected.reshape(4, 2) - img.reshape(4, 2)) ** 2, axis=1)))
+    n, rvecs, tvecs, errors = cv2.solvePnPGeneric(
+        obj, img, camera_matrix, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE
     )
-    return MarkerPose(rvec.reshape(3), tvec.reshape(3), err)
+    if not n:
+        return None
+    # OpenCV's error is per coordinate (norm / sqrt(2N)); ours is per point, as the docstring says.
+    err = float(np.ravel(errors)[0]) * np.sqrt(2.0)
+    return MarkerPose(np.ravel(rvecs[0]), np.ravel(tvecs[0]), err)
 
 
 class TagRoles:
