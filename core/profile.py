@@ -138,6 +138,15 @@ def apply_override(data: MarkedDict, override: Override) -> None:
             node[part] = child
         node = child
     last = override.keys[-1]
+    if (
+        len(override.keys) == 2
+        and override.keys[0] in COMPONENT_SECTIONS
+        and last == "type"
+        and node.get("type") != override.value
+    ):
+        # Swapping hardware with one key (--set arm.type=vicra): the keys the file
+        # wrote for the previous type may mean nothing to the new one.
+        node.swapped_from = node.get("type")
     node[last] = _marked_copy(override.value, mark)
     node.key_marks[last] = node.value_marks[last] = mark
 
@@ -471,10 +480,14 @@ def _check_component(
     params = {p.name: p for p in registry.get(kind, ctype).params}
     if not params:
         return
-    for key, value in config.items():
+    swapped_from = getattr(config, "swapped_from", None)
+    for key, value in list(config.items()):
         if key == "type":
             continue
         param = params.get(key)
+        if param is None and swapped_from and not _from_override(config.key_mark(key)):
+            del config[key]
+            continue
         if param is None:
             errors.append(
                 error_at(
@@ -492,6 +505,10 @@ def _check_component(
             errors.append(
                 error_at(f"{section}: {ctype} needs parameter {name!r} ({param.doc})", config.mark)
             )
+
+
+def _from_override(mark: Mark | None) -> bool:
+    return mark is not None and mark.file.startswith("--set ")
 
 
 def _is_number(v: Any) -> bool:
