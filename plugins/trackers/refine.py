@@ -47,8 +47,8 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int 
         after, reach = _refine_once(gray, before, cells)
         out[active] = after
         moved = np.sqrt(((after - before) ** 2).sum(axis=2)).max(axis=1)
-        # a profile cut short within ~1.5 px of the edge (blur tails) biases the fit
-        still = moved > np.maximum(reach - 1.5, 0.3 * reach)
+        # a profile that ended within the blur of the edge biases the fit
+        still = moved > 0.3 * reach
         if not still.any():
             break
         active[np.flatnonzero(active)[~still]] = False
