@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .duckybot import Duckybot
-from .geometry import point_in_polygon, pose, rot_z
+from .geometry import obb_penetration, point_in_polygon, pose, rot_z
 from .physics import CollisionMonitor, SolidBox
 from .renderer import Drawable
 from .scene import MarkerSpec, ObjectSpec, SceneSpec, parse_scene
@@ -351,8 +351,14 @@ class World:
         )
 
     def _support_below(self, body: Body) -> tuple[str, float]:
-        """The surface under the body's centre: (name, height mm); the table at least."""
+        """The surface under the body's centre: (name, height mm); the table at least.
+
+        A surface up to the collision tolerance above the body's bottom still
+        counts (it is raised onto it): contacts that shallow are not collisions,
+        so a body let go that shallowly inside another rests on it.
+        """
         centre = body.pose[:2, 3]
+        slack = self.physics.collision_tolerance_mm
         if not point_in_polygon(centre, self.table.polygon()):
             return "floor", self.table.height - FLOOR_DROP
         best_name, best_z = "table", self.table.height
@@ -368,7 +374,7 @@ class World:
                 z = other.top
             if (
                 z > best_z
-                and z <= body.bottom + 1e-6
+                and z <= body.bottom + slack + 1e-6
                 and point_in_polygon(centre, other.footprint())
             ):
                 best_name, best_z = other.name, z
@@ -422,13 +428,33 @@ class World:
         ]
         return links, others
 
+    def _held_contacts(self, checked: set[str]) -> dict[tuple[str, str], float]:
+        """Depths (mm) of the held body in the bodies :meth:`_solids` leaves out.
+
+        The tool centre's exemption is the end effector's: what it holds hangs
+        below it and is pressed into a body under the tool as any link would be.
+        """
+        if self.held is None:
+            return {}
+        held = self.bodies[self.held]
+        name = f"held {held.name}"
+        out: dict[tuple[str, str], float] = {}
+        for body in self.bodies.values():
+            if body.held or body.name in checked:
+                continue
+            for solid in body.solids():
+                depth = obb_penetration(held.center_pose(), held.size, solid.pose, solid.size)
+                out[(name, solid.name)] = max(out.get((name, solid.name), 0.0), float(depth))
+        return out
+
     def _check_collisions(self, now: float) -> None:
         arm = self.arm
         if arm is None:
             return
         links, others = self._solids()
-        below_table = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
-        fresh = self.collisions.update(now, links, others, below_table)
+        extra = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
+        extra.update(self._held_contacts({solid.name for solid in others}))
+        fresh = self.collisions.update(now, links, others, extra)
         for hit in fresh:
             self.events.append(WorldEvent(now, "collision", dataclasses.asdict(hit)))
             if self.physics.halt_on_collision and self.emulator is not None:
