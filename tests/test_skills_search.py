@@ -21,7 +21,16 @@ def test_sweep_goes_to_the_top_then_back_to_the_bottom_in_5_degree_steps():
     angles = sweep_angles(0.0, -100.0, 100.0, 5.0, 2)
     assert angles[:3] == [0.0, 5.0, 10.0]
     assert max(angles) == 100.0 and min(angles) == -100.0 and angles[-1] == -100.0
-    assert len(angles) == 21 + 40
+    assert len(angles) == 21 + 41  # back: 97.5, 92.5, ..., -97.5, -100
+
+
+def test_the_way_back_looks_from_between_the_poses_of_the_way_out():
+    angles = sweep_angles(0.0, -100.0, 100.0, 5.0, 3)
+    out, back, again = angles[:21], angles[21:62], angles[62:]
+    assert back[:2] == [97.5, 92.5] and back[-2:] == [-97.5, -100.0]
+    gaps = [min(abs(b - o) for o in out) for b in back if 0 < b < 100]
+    assert gaps and all(g == pytest.approx(2.5) for g in gaps)
+    assert again[:2] == [-95.0, -90.0], "the third leg is on the first leg's grid"
 
 
 @given(

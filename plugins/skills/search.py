@@ -25,17 +25,22 @@ def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -
     """Base angles (degrees) of a back-and-forth sweep from ``start`` within [lo, hi].
 
     First towards ``hi`` then back to ``lo`` and so on, ``sweeps`` legs in all
-    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees).
+    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees). Every
+    other leg begins with half a step, so its poses fall between those of the leg
+    before: a marker that no pose of one leg shows whole (cut by the image's edge)
+    is seen from new poses on the way back, not from the same ones again.
     """
     if step <= 0 or hi < lo:
         raise ValueError("a sweep needs step > 0 and range lo <= hi")
     angle = min(max(start, lo), hi)
     out = [angle]
     direction = 1.0
-    for _ in range(max(1, sweeps)):
+    for leg in range(max(1, sweeps)):
         end = hi if direction > 0 else lo
+        first = 0.5 * step if leg % 2 else step
         while (end - angle) * direction > 1e-9:
-            angle = angle + direction * min(step, abs(end - angle))
+            angle = angle + direction * min(first, abs(end - angle))
+            first = step
             out.append(angle)
         direction = -direction
     return out
