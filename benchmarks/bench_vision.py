@@ -20,9 +20,10 @@ C270 (fx 810 px), so ground truth is exact. Figures printed:
    as the seed used it (its figures: 18.91 / 9.79 markers/s raw, 19.99 /
    14.10 preprocessed, with hampy on a real C270).
 
-Timings alternate the contenders frame by frame and keep, for each frame, the
-best of several rounds (other work on a shared machine only ever adds time);
-the ratios are what count.
+Timings are the process's CPU time (OpenCV's worker threads included), so
+other work on a shared machine disturbs them little; they alternate the
+contenders frame by frame and keep, for each frame, the best of several
+rounds. The ratios are what count.
 """
 
 from __future__ import annotations
@@ -139,22 +140,22 @@ def bench_speed(n_frames: int, rounds: int, clutter: bool) -> None:
     found = dict.fromkeys(names, 0)
     for _ in track(range(rounds), "timing", console=console, transient=True):
         for i, (a_img, h_img) in enumerate(zip(aruco_frames, hamming_frames, strict=True)):
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             corners, ids, _ = bare.detectMarkers(a_img)
-            t1 = time.perf_counter()
+            t1 = time.process_time()
             dets = aruco.detect(frame_of(a_img))
-            t2 = time.perf_counter()
+            t2 = time.process_time()
             hdets = hamming.detect(frame_of(h_img))
-            t3 = time.perf_counter()
+            t3 = time.process_time()
             for k, dt in (("bare", t1 - t0), ("aruco", t2 - t1), ("hamming", t3 - t2)):
                 best[k][i] = min(best[k][i], dt)
             found["bare"] += 0 if ids is None else len(ids)
             found["aruco"] += len(dets)
             found["hamming"] += len(hdets)
             if hampy is not None:
-                t4 = time.perf_counter()
+                t4 = time.process_time()
                 found["hampy"] += len(hampy.detect_markers(h_img))
-                best["hampy"][i] = min(best["hampy"][i], time.perf_counter() - t4)
+                best["hampy"][i] = min(best["hampy"][i], time.process_time() - t4)
     ms = {k: 1000 * float(np.mean(v)) for k, v in best.items()}
     total = rounds * n_frames * 3
     where = "a cluttered desk" if clutter else "a plain background"

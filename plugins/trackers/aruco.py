@@ -171,7 +171,7 @@ class ArucoTracker(Tracker):
         registered = self.roles.ids
         quads = np.asarray(corners, dtype=np.float32).reshape(-1, 4, 2)
         if self._edges:
-            quads = refine_corners(gray, quads, self._cells)
+            quads = refine_corners(gray, quads, self._cells, contour_inset=0.5)
         for c, marker_id in zip(quads, ids.reshape(-1), strict=True):
             if self.only_registered and int(marker_id) not in registered:
                 continue

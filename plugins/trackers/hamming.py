@@ -160,7 +160,7 @@ class HammingTracker(Tracker):
         quads = self.candidates(gray)
         if self.refine and len(quads):
             # refined corners put the cell samples on the cells, which matters at 2-3 px per cell
-            quads = refine_corners(gray, quads, GRID)
+            quads = refine_corners(gray, quads, GRID, contour_inset=0.5)
         readings = self.decode(gray, quads)
         detections = []
         for r in readings:

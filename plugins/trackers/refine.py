@@ -27,7 +27,9 @@ _DS = _S[1] - _S[0]
 _MIN_CONTRAST = 8.0
 
 
-def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int = 2) -> np.ndarray:
+def refine_corners(
+    gray: np.ndarray, quads: np.ndarray, cells: int, passes: int = 2, contour_inset: float = 0.0
+) -> np.ndarray:
     """Refined corners ``(N, 4, 2)`` of quads ``(N, 4, 2)`` running clockwise on screen.
 
     ``cells`` is the number of cells across a marker (border included), which
@@ -35,12 +37,19 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, cells: int, passes: int 
     made only for markers whose corners moved so far that the first profiles
     ended within the blur of the edge.
     Corners whose edges cannot be measured (no contrast, off the image) are
-    left as they were.
+    left as they were. ``contour_inset`` (px) says how far inside both edges the
+    given corners sit: corners taken from a dark region's contour run through
+    its outermost pixel centres, half a pixel inside the edge; they are pushed
+    out first, which usually saves the second pass.
     """
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     if len(quads) == 0:
         return quads.astype(np.float32)
     out = quads.copy()
+    if contour_inset:
+        away = out - out.mean(axis=1, keepdims=True)
+        away /= np.maximum(np.hypot(away[..., 0], away[..., 1]), 1e-6)[..., None]
+        out += contour_inset * np.sqrt(2.0) * away
     active = np.ones(len(out), dtype=bool)
     for _ in range(passes):
         before = out[active]
