@@ -55,6 +55,7 @@ console = Console(stderr=True)
 
 
 def frame_of(image: np.ndarray) -> Frame:
+    """A frame of ``image`` through the benchmark camera (no distortion)."""
     return Frame(image, 0.0, K, np.zeros(5))
 
 
@@ -124,6 +125,7 @@ def speed_frames(
 
 
 def bench_speed(n_frames: int, rounds: int, clutter: bool) -> None:
+    """Figure 1: CPU ms per frame, trackers against bare ArUco and hampy."""
     rng = np.random.default_rng(1)
     aruco_frames = speed_frames("aruco", n_frames, clutter, rng)
     hamming_frames = speed_frames("hamming", n_frames, clutter, rng)
@@ -188,6 +190,7 @@ def bench_speed(n_frames: int, rounds: int, clutter: bool) -> None:
 
 
 def bench_detection(sides: list[int], n_frames: int) -> None:
+    """Figure 2: detection rate, false ids and corner error by marker side."""
     trackers = {
         "aruco 4x4_50": ("aruco", ArucoTracker()),
         "hamming, seed 004 threshold 0.4": ("hamming", HammingTracker()),
@@ -244,6 +247,7 @@ def bench_detection(sides: list[int], n_frames: int) -> None:
 
 
 def bench_pose(n_frames: int) -> None:
+    """Figure 3: pose error of 25 mm markers at 300 mm."""
     print(
         "3. pose error, 25 mm markers at 300 mm (about 67 px), tilt <= 40 deg, noise sd 2, blur sd 0.7"
     )
@@ -316,6 +320,7 @@ def mdr_frames(moving: bool, n: int, seed: int) -> list[Frame]:
 
 
 def bench_mdr(n: int) -> None:
+    """Figure 4: seed 004 eq. 15 marker detection rates."""
     print(
         f"4. seed 004 eq. 15, marker detection rate of marker 1 over {n} frames at 20 fps (markers/s)"
     )
@@ -368,6 +373,7 @@ def _hampy_mdr(frames: list[Frame], seed_prep: Preprocessing) -> dict[str, float
 
 
 def main() -> int:
+    """Run every figure (fewer frames with --quick)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer frames")
     args = parser.parse_args()

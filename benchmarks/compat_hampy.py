@@ -90,6 +90,7 @@ def frames(
 
 
 def main() -> int:
+    """Run the five checks; exit status 0 when all hold."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ids", type=int, default=160, help="random 28-bit ids (plus ids 1-59)")
     parser.add_argument("--seed", type=int, default=0)

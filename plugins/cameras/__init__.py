@@ -1,0 +1,1 @@
+"""Built-in cameras: an OpenCV device, and video / image-folder replay."""
