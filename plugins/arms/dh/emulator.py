@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from armtree.clock import Clock
-from armtree.plugins.arms.common.request_reply import RequestReplyEmulator
+from armtree.plugins.arms.common.pty_emulator import PtyEmulator
 from armtree.rig import ToolState
 
 from . import ssc32 as S
@@ -30,7 +30,7 @@ CHANNELS = 32
 SERVO_SPEED_DEG = 60.0 / 0.17
 
 
-class SSC32Emulator(RequestReplyEmulator):
+class SSC32Emulator(PtyEmulator):
     """The SSC-32 board and the servos of a DH arm (one servo per joint).
 
     ``servos`` maps each joint to its channel and pulse-to-angle line;

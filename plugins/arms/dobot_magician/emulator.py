@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armtree.clock import Clock
-from armtree.plugins.arms.common.request_reply import RequestReplyEmulator
+from armtree.plugins.arms.common.pty_emulator import PtyEmulator
 from armtree.rig import ToolState
 
 from . import protocol as P
@@ -43,7 +43,7 @@ class _Queued:
     frame: P.Frame
 
 
-class MagicianEmulator(RequestReplyEmulator):
+class MagicianEmulator(PtyEmulator):
     """The Magician's controller: frame parser, command queue and motion on the run clock."""
 
     def __init__(

@@ -31,7 +31,7 @@ import numpy as np
 
 from armtree.clock import Clock
 from armtree.plugins.arms.common.framing import LineParser
-from armtree.plugins.arms.common.request_reply import RequestReplyEmulator
+from armtree.plugins.arms.common.pty_emulator import PtyEmulator
 from armtree.rig import ToolState
 
 from . import gcode as G
@@ -61,7 +61,7 @@ KEEPALIVE = 2.0
 HOMING_SPEED = 0.8
 
 
-class MarlinEmulator(RequestReplyEmulator):
+class MarlinEmulator(PtyEmulator):
     """Marlin 2.1 on a Mega + RAMPS driving the VICRA SCARA's three steppers and two servos."""
 
     def __init__(
