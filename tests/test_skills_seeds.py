@@ -61,3 +61,11 @@ def test_search_without_clean_up_carries_nothing():
     for seed, result, score in run_seeds("sim_dobot", range(1, 2), "clean_up=false"):
         check_loaded(seed, result, score)
         assert score["in_bin"] == [] and score["objects"]["trash_b"]["on"] == "table"
+
+
+@pytest.mark.slow
+def test_load_ducky_with_dropped_frames_succeeds_for_every_seed():
+    # the seed also picks which frames the camera drops (none by default)
+    for seed, result, score in run_seeds("sim_dobot", range(3), "camera.drop_rate=0.2"):
+        check_loaded(seed, result, score)
+        assert score["in_bin"] == ["trash_b"], f"seed {seed}: {score['in_bin']}"
