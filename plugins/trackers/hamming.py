@@ -30,7 +30,7 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
-from .hamming_code import BITS, GRID, MAX_ID, corrected_columns, decode_bits
+from .hamming_code import BITS, GRID, MAX_ID, ROW_WEIGHTS, decode_words
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
 
@@ -78,10 +78,13 @@ _SAMPLE_UV = np.concatenate([_CELL_UV, _QUIET_UV]) / GRID
 #: Corner order of a quad whose printed top-left corner is its corner k.
 _ROLLS = np.array([[(k + i) % 4 for i in range(4)] for k in range(4)])
 _NO_KEY = 1 << 20
-# Index of each data cell after turning a 7x7 grid k quarter turns (np.rot90's sense).
-_ROTATIONS = np.stack(
-    [np.rot90(np.arange(BITS * BITS).reshape(BITS, BITS), k).ravel() for k in range(4)]
-)
+_NEXT = np.array([1, 2, 3, 0])
+# Index in the 81 cells of each data cell after turning the inner 7x7 grid k
+# quarter turns (np.rot90's sense): (4, 7, 7).
+_INNER = np.arange(GRID * GRID).reshape(GRID, GRID)[1:-1, 1:-1]
+_INNER_FLAT = _INNER.ravel()
+_ROTATED_INNER = np.stack([np.rot90(_INNER, k) for k in range(4)])
+_COLUMNS = np.arange(BITS)
 
 
 def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -272,69 +275,83 @@ class HammingTracker(Tracker):
             return []
         white, margin, contrast = self.classify(*self.sample_cells(gray, quads))
         border_white = white[:, _BORDER_FLAT].sum(axis=1)
-        keep = (contrast >= self.min_contrast) & (border_white <= self.max_border_errors)
-        grids = white.reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
-        inner = grids.reshape(len(grids), -1).sum(axis=1)
+        inner = white[:, _INNER_FLAT].sum(axis=1)
         # Hampy rejects all-black and all-white insides; so do we.
-        keep &= (inner > 0) & (inner < BITS * BITS)
+        keep = (
+            (contrast >= self.min_contrast)
+            & (border_white <= self.max_border_errors)
+            & (inner > 0)
+            & (inner < BITS * BITS)
+        )
         if not keep.any():
             return []
-        quads, grids = quads[keep], grids[keep]
-        margins = np.abs(margin[keep]).reshape(-1, GRID, GRID)[:, 1:-1, 1:-1]
-        # rot90(grid, k) is the marker as printed when its top-left corner is quads[k].
-        m = len(grids)
-        rotated = grids.reshape(m, -1)[:, _ROTATIONS].reshape(m, 4, BITS, BITS)
-        rotated_margins = margins.reshape(m, -1)[:, _ROTATIONS].reshape(m, 4, BITS, BITS)
-        ids, corrected = decode_bits(rotated)  # (M, 4)
+        quads = quads[keep]
+        # rotated[:, k] is the marker as printed when its top-left corner is quads[k]
+        # (np.rot90(grid, k) of the inner 7x7 cells), row by row.
+        rotated = white[keep][:, _ROTATED_INNER]  # (M, 4, 7, 7)
+        rotated_margins = np.abs(margin[keep])[:, _ROTATED_INNER]
+        ids, corrected, flips = decode_words(rotated @ ROW_WEIGHTS)  # (M, 4), (M, 4), (M, 4, 7)
         # A row with two misread (doubtful) cells decodes to a wrong nibble by flipping
         # a third, clearly read, cell: a correction that flips a clear cell while
         # another cell of its row is in doubt is refused. A clear single error (a
         # damaged print) is still corrected.
-        flips = corrected_columns(rotated)  # (M, 4, 7)
-        flipped = np.take_along_axis(rotated_margins, np.maximum(flips, 0)[..., None], axis=-1)
+        flipped = (rotated_margins * (flips[..., None] == _COLUMNS)).sum(axis=-1)
         doubt_elsewhere = rotated_margins.min(axis=-1) < self.max_flip_margin
-        refused = (flips >= 0) & (flipped[..., 0] > self.max_flip_margin) & doubt_elsewhere
-        corrected = np.where(refused.any(axis=-1), BITS + 1, corrected)
+        refused = (flips >= 0) & (flipped > self.max_flip_margin) & doubt_elsewhere
         # Ids 0 and 2**28 - 1 are an all-black and an all-white inside, which Hampy never reads.
-        corrected = np.where((ids == 0) | (ids == MAX_ID - 1), BITS + 1, corrected)
-        return _dedupe(self._choose(quads, ids, corrected))
+        rejected = refused.any(axis=-1) | (ids == 0) | (ids == MAX_ID - 1)
+        corrected = np.where(rejected, BITS + 1, corrected)
+        return self._choose(quads, ids, corrected)
 
     def _choose(self, quads: np.ndarray, ids: np.ndarray, corrected: np.ndarray) -> list[_Reading]:
-        """One reading per quad: registered ids first, then fewest corrections, then smallest id."""
-        registered = np.isin(ids, np.fromiter(self.roles.ids, dtype=np.int64))
+        """One reading per marker: registered ids first, then fewest corrections, then smallest id."""
+        table = self.roles.table
         valid = corrected <= self.max_corrected_bits
-        if self.only_registered:
-            valid &= registered
-        key = np.where(valid, (~registered) * (BITS + 2) + corrected, _NO_KEY)  # (M, 4)
+        if table:
+            registered = np.isin(ids, np.fromiter(table, dtype=np.int64, count=len(table)))
+            if self.only_registered:
+                valid &= registered
+            key = np.where(valid, (~registered) * (BITS + 2) + corrected, _NO_KEY)  # (M, 4)
+        elif self.only_registered:
+            return []
+        else:
+            key = np.where(valid, BITS + 2 + corrected, _NO_KEY)
         best = key.min(axis=1)
-        ties = (key == best[:, None]).sum(axis=1)
-        k = np.where(key == best[:, None], ids, np.iinfo(np.int64).max).argmin(axis=1)
         rows = np.flatnonzero(best < _NO_KEY)
-        corners = quads[rows[:, None], _ROLLS[k[rows]]]
+        if len(rows) == 0:
+            return []
+        key, ids, corrected, best = key[rows], ids[rows], corrected[rows], best[rows]
+        is_best = key == best[:, None]
+        ties = is_best.sum(axis=1)
+        k = np.where(is_best, ids, np.iinfo(np.int64).max).argmin(axis=1)
+        kept = _dedupe(quads[rows[:, None], _ROLLS[k]])
+        corners = quads[rows[kept, None], _ROLLS[k[kept]]]
+        chosen = (np.arange(len(rows))[kept], k[kept])
         return [
-            _Reading(corners[j], int(ids[r, k[r]]), int(corrected[r, k[r]]), bool(ties[r] > 1))
-            for j, r in enumerate(rows)
+            _Reading(c, int(i), int(n), bool(t > 1))
+            for c, i, n, t in zip(corners, ids[chosen], corrected[chosen], ties[kept], strict=True)
         ]
 
 
-def _dedupe(readings: list[_Reading]) -> list[_Reading]:
-    """Keep the larger of two readings whose centres are within half a side of each other."""
-    if len(readings) < 2:
-        return readings
-    corners = np.stack([r.corners for r in readings])
+def _dedupe(corners: np.ndarray) -> np.ndarray:
+    """Indices (ascending) of the quads ``(N, 4, 2)`` to keep: of two whose centres
+    are within half a side of each other, the larger."""
+    if len(corners) < 2:
+        return np.arange(len(corners))
     x, y = corners[..., 0], corners[..., 1]
-    area = 0.5 * np.abs((x * y[:, [1, 2, 3, 0]] - x[:, [1, 2, 3, 0]] * y).sum(axis=1))
-    centres = corners.mean(axis=1)
-    gaps = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
-    np.fill_diagonal(gaps, np.inf)
-    if (gaps > np.sqrt(area.max()) / 2.0).all():
-        return readings
+    area = 0.5 * np.abs((x * y[:, _NEXT] - x[:, _NEXT] * y).sum(axis=1))
+    centres = 0.25 * corners.sum(axis=1)
+    gap2 = ((centres[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2)
+    close = gap2 <= area.max() / 4.0
+    np.fill_diagonal(close, False)
+    if not close.any():
+        return np.arange(len(corners))
     kept: list[int] = []
     for i in np.argsort(-area):
-        near = np.hypot(*(centres[kept] - centres[i]).T) <= np.sqrt(area[i]) / 2.0
+        near = ((centres[kept] - centres[i]) ** 2).sum(axis=1) <= area[i] / 4.0
         if not near.any():
             kept.append(int(i))
-    return [readings[i] for i in sorted(kept)]
+    return np.array(sorted(kept), dtype=np.intp)
 
 
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
