@@ -50,15 +50,32 @@ class DobotV1Model(KinematicModel):
     55 mm for the suction cup); ``tool_drop_mm`` lowers the tool centre below
     the wrist joint (0 in the report's model). Joint limits are the report's
     conservative eqs. 1-3 with the coupled limit eq. 4 as a :class:`Constraint`.
+
+    ``l1_mm``, ``l2_mm``, ``joint_offsets_deg`` and ``joint_scales`` are what the
+    report's least-squares calibration fits (seed 004, "Model Validation"): the
+    kinematics use ``scale * q + offset`` for each reported angle ``q``, while
+    joints, limits and IK solutions stay in the arm's reported angles.
     """
 
     name = "dobot_v1"
 
-    def __init__(self, tool_offset_mm: float = DEFAULT_TOOL_OFFSET, tool_drop_mm: float = 0.0):
+    def __init__(
+        self,
+        tool_offset_mm: float = DEFAULT_TOOL_OFFSET,
+        tool_drop_mm: float = 0.0,
+        l1_mm: float = L1,
+        l2_mm: float = L2,
+        joint_offsets_deg: tuple[float, float, float] | np.ndarray = (0.0, 0.0, 0.0),
+        joint_scales: tuple[float, float, float] | np.ndarray = (1.0, 1.0, 1.0),
+    ):
         self.d = float(tool_offset_mm)
         self.drop = float(tool_drop_mm)
-        self.l1 = L1
-        self.l2 = L2
+        self.l1 = float(l1_mm)
+        self.l2 = float(l2_mm)
+        self.joint_offsets = np.asarray(joint_offsets_deg, dtype=float).reshape(3)
+        self.joint_scales = np.asarray(joint_scales, dtype=float).reshape(3)
+        if np.any(self.joint_scales == 0.0):
+            raise ValueError("DobotV1Model: a joint scale of 0 cannot be inverted")
         # seed 004, eqs. 1-3 (speeds and accelerations: assumed, the report gives none)
         self.joints = (
             Joint("base", "revolute", -135.0, 135.0, max_speed=90.0, max_accel=180.0),
@@ -72,8 +89,8 @@ class DobotV1Model(KinematicModel):
         self._upper = np.array([j.upper for j in self.joints])
         # seed 004, eqs. 11-13: rear arm, forearm, end effector and camera boxes
         self.boxes = (
-            LinkBox("rear_arm", 0, (30.0, 40.0, L1 + 20.0), _offset(0.0, 0.0, L1 / 2)),
-            LinkBox("forearm", 1, (L2 + 20.0, 30.0, 30.0), _offset(L2 / 2, 0.0, 0.0)),
+            LinkBox("rear_arm", 0, (30.0, 40.0, self.l1 + 20.0), _offset(0.0, 0.0, self.l1 / 2)),
+            LinkBox("forearm", 1, (self.l2 + 20.0, 30.0, 30.0), _offset(self.l2 / 2, 0.0, 0.0)),
             LinkBox(
                 "tool",
                 2,
@@ -94,11 +111,15 @@ class DobotV1Model(KinematicModel):
         """Upper joint limits, degrees."""
         return self._upper
 
+    def _radians(self, q: np.ndarray) -> np.ndarray:
+        """Model angles in radians for reported joints ``q`` in degrees (scale, then offset)."""
+        return np.radians(np.asarray(q, dtype=float) * self.joint_scales + self.joint_offsets)
+
     # ------------------------------------------------------------------ forward
 
     def position(self, q: np.ndarray) -> np.ndarray:
         """Tool centre position ``(..., 3)`` in mm for joints ``(..., 3)`` in degrees."""
-        q = np.radians(np.asarray(q, dtype=float))
+        q = self._radians(q)
         t0, t1, t2 = q[..., 0], q[..., 1], q[..., 2]
         # seed 004, eqs. 5-7
         r = self.l1 * np.sin(t1) + self.l2 * np.cos(t2) + self.d
@@ -112,7 +133,7 @@ class DobotV1Model(KinematicModel):
         """Tool pose ``(..., 4, 4)``: at :meth:`position`, level, x pointing radially out."""
         q = np.asarray(q, dtype=float)
         p = self.position(q)
-        t0 = np.radians(q[..., 0])
+        t0 = self._radians(q)[..., 0]
         out = _translation(p)
         c, s = np.cos(t0), np.sin(t0)
         out[..., 0, 0] = c
@@ -128,7 +149,7 @@ class DobotV1Model(KinematicModel):
         Rz(q0) Ry(q2) at the elbow (the link along its x), as seed 004 eqs. 11-13
         rotate the meshes; wrist and tool frames are level, Rz(q0).
         """
-        q = np.radians(np.asarray(q, dtype=float))
+        q = self._radians(q)
         t0, t1, t2 = q[..., 0], q[..., 1], q[..., 2]
         c0, s0 = np.cos(t0), np.sin(t0)
         c1, s1 = np.cos(t1), np.sin(t1)
@@ -167,7 +188,7 @@ class DobotV1Model(KinematicModel):
 
     def jacobian(self, q: np.ndarray, eps: float = 1e-4) -> np.ndarray:
         """Positional Jacobian ``(..., 3, 3)`` in mm per degree, analytic (``eps`` unused)."""
-        q = np.radians(np.asarray(q, dtype=float))
+        q = self._radians(q)
         t0, t1, t2 = q[..., 0], q[..., 1], q[..., 2]
         c0, s0 = np.cos(t0), np.sin(t0)
         r = self.l1 * np.sin(t1) + self.l2 * np.cos(t2) + self.d
@@ -180,7 +201,8 @@ class DobotV1Model(KinematicModel):
         j[..., 0, 2] = -c0 * self.l2 * np.sin(t2)
         j[..., 1, 2] = -s0 * self.l2 * np.sin(t2)
         j[..., 2, 2] = -self.l2 * np.cos(t2)
-        return j * (np.pi / 180.0)
+        # chain rule through the reading correction: d(model angle)/dq = scale
+        return j * (np.pi / 180.0) * self.joint_scales
 
     # ------------------------------------------------------------------ inverse
 
@@ -219,7 +241,7 @@ class DobotV1Model(KinematicModel):
         out[..., 1, 0] = t0
         out[..., 1, 1] = half_pi - phi + alpha
         out[..., 1, 2] = gamma - np.pi - phi + alpha
-        out = np.degrees(out)
+        out = (np.degrees(out) - self.joint_offsets) / self.joint_scales
         ok = np.all((out >= self._lower - 1e-9) & (out <= self._upper + 1e-9), axis=-1)
         ok &= (out[..., 2] - out[..., 1]) >= ELBOW_MIN - 1e-9
         out[~ok] = np.nan

@@ -21,7 +21,7 @@ from armtree.rig import ArmDriver, RigContext
 from ..common import PtyEmulator, serve_in_run, sim_driver_options
 from .driver import DobotV1Driver
 from .emulator import DobotV1Emulator
-from .kinematics import DEFAULT_TOOL_OFFSET, DobotV1Model
+from .kinematics import DEFAULT_TOOL_OFFSET, L1, L2, DobotV1Model
 
 FIRMWARES = ("original", "open-dobot")
 DEFAULT_BAUD = {"original": 9600, "open-dobot": 115200}
@@ -39,7 +39,22 @@ def dobot_v1_model(config: dict[str, Any]) -> DobotV1Model:
     return DobotV1Model(
         tool_offset_mm=float(config.get("tool_offset_mm", DEFAULT_TOOL_OFFSET)),
         tool_drop_mm=float(config.get("tool_drop_mm", 0.0)),
+        l1_mm=float(config.get("l1_mm", L1)),
+        l2_mm=float(config.get("l2_mm", L2)),
+        joint_offsets_deg=_triple(config, "joint_offsets_deg", 0.0),
+        joint_scales=_triple(config, "joint_scales", 1.0),
     )
+
+
+def _triple(config: dict[str, Any], key: str, default: float) -> tuple[float, float, float]:
+    value = config.get(key)
+    if value is None:
+        return (default, default, default)
+    values = tuple(float(v) for v in value)
+    if len(values) != 3 or (key == "joint_scales" and 0.0 in values):
+        raise ConfigError(f"arm.{key}: three numbers (base, rear arm, forearm) are required"
+                          + (", none of them 0" if key == "joint_scales" else ""))  # fmt: skip
+    return values  # type: ignore[return-value]
 
 
 def dobot_v1_emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> PtyEmulator:
@@ -106,6 +121,21 @@ dobot_v1_factory.PARAMS = (
         doc="wrist-to-tool, horizontal (report's d)",
     ),
     Param("tool_drop_mm", "float", 0.0, unit="mm", doc="tool centre below the wrist joint"),
+    Param("l1_mm", "float", L1, unit="mm", doc="rear arm length (seed 004: 135; calibrated)"),
+    Param("l2_mm", "float", L2, unit="mm", doc="forearm length (seed 004: 160; calibrated)"),
+    Param(
+        "joint_offsets_deg",
+        "vector",
+        None,
+        unit="deg",
+        doc="added to the scaled reported angles (armtree calibrate kinematics; default 0)",
+    ),
+    Param(
+        "joint_scales",
+        "vector",
+        None,
+        doc="factors on the reported angles (armtree calibrate kinematics; default 1)",
+    ),
     Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
     Param(
         "connect_timeout",
