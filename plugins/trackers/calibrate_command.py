@@ -9,7 +9,8 @@ file a profile's ``camera: {calibration: FILE}`` reads.
 images of a marker on the tool, at tool positions 0, 1 (moved along the base
 x axis) and 2 (then moved along base y at the same height).
 
-``kinematics`` is reported as not available yet (exit 2).
+``kinematics``: the least-squares kinematic calibration of seed 004 ("Model
+Validation", Fig. 6), in :mod:`.kinematics_command`.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from armtree.rig import Frame, RigContext
 from .calibration import BOARDS, Board, calibrate, plot_calibration
 from .commands import registry_of
 from .inputs import add_intrinsics_options, intrinsics_from_args, numbers, read_image
+from .kinematics_command import configure_kinematics, run_kinematics
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp")
 
@@ -51,9 +53,9 @@ def image_files(specs: list[str]) -> list[str]:
 
 
 class CalibrateCommand:
-    """``armtree calibrate``: camera intrinsics, eye-to-hand pose, (arm kinematics: not yet)."""
+    """``armtree calibrate``: camera intrinsics, eye-to-hand pose, arm kinematics (seed 004)."""
 
-    help = "calibrate a camera (chessboard/ChArUco) or an eye-to-hand camera pose (seed 000)"
+    help = "calibrate a camera, an eye-to-hand camera pose (seed 000) or arm kinematics (seed 004)"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``camera``, ``hand-eye`` and ``kinematics`` sub-commands."""
@@ -96,7 +98,7 @@ class CalibrateCommand:
         he.add_argument("-o", "--output", metavar="FILE.yaml", help="write the camera pose here")
         add_intrinsics_options(he)
 
-        kinds.add_parser("kinematics", help="arm kinematic calibration (not available yet)")
+        configure_kinematics(kinds)
 
     def run(self, args: argparse.Namespace) -> int:
         """Run the chosen calibration; 0, or ConfigError for bad input."""
@@ -104,10 +106,7 @@ class CalibrateCommand:
             return self._camera(args)
         if args.kind == "hand-eye":
             return self._hand_eye(args)
-        raise ConfigError(
-            f"armtree calibrate {args.kind} is not available yet; "
-            "available: armtree calibrate camera, armtree calibrate hand-eye"
-        )
+        return run_kinematics(args)
 
     # -- camera --------------------------------------------------------------
 
