@@ -24,6 +24,10 @@ import numpy as np
 _T = np.linspace(0.15, 0.85, 10)
 _S = np.linspace(-1.0, 1.0, 13)
 _DS = _S[1] - _S[0]
+#: Trapezoid-rule weights over a profile's samples.
+_TRAPEZOID = np.full(len(_S), _DS)
+_TRAPEZOID[[0, -1]] *= 0.5
+_HALVES = np.array([0.5, 0.5])
 _MIN_CONTRAST = 8.0
 
 
@@ -80,23 +84,26 @@ def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.nd
     length = np.maximum(np.hypot(dx, dy), 1e-9)
     ux, uy = dx / length, dy / length
     nx, ny = uy, -ux  # outward normal of a clockwise quad
-    side = length.mean(axis=1)  # (N,)
+    side = 0.25 * length.sum(axis=1)  # (N,)
     reach = np.minimum(np.maximum(0.8 * side / cells, 0.8), 4.0)  # (N,) pixels
     # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
     bx = qx[..., None] + _T * dx[..., None]
     by = qy[..., None] + _T * dy[..., None]
     sx = (reach[:, None] * nx)[..., None, None] * _S
     sy = (reach[:, None] * ny)[..., None, None] * _S
-    map_x = (bx[..., None] + sx).astype(np.float32).reshape(-1, 1)
-    map_y = (by[..., None] + sy).astype(np.float32).reshape(-1, 1)
-    values = cv2.remap(gray, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    maps = np.empty((n, 4, len(_T), len(_S), 2), dtype=np.float32)
+    np.add(bx[..., None], sx, out=maps[..., 0], casting="unsafe")
+    np.add(by[..., None], sy, out=maps[..., 1], casting="unsafe")
+    values = cv2.remap(
+        gray, maps.reshape(-1, 1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+    )
     v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
-    inside = 0.5 * (v[..., 0] + v[..., 1])
-    contrast = 0.5 * (v[..., -1] + v[..., -2]) - inside
+    inside = v[..., :2] @ _HALVES
+    contrast = v[..., -2:] @ _HALVES - inside
     valid = contrast > _MIN_CONTRAST
     frac = np.clip((v - inside[..., None]) / np.where(valid, contrast, 1.0)[..., None], 0.0, 1.0)
     # e = w - integral of the light fraction over [-w, w] (trapezoid), in units of reach
-    integral = _DS * (frac.sum(axis=-1) - 0.5 * (frac[..., 0] + frac[..., -1]))
+    integral = frac @ _TRAPEZOID
     e = (1.0 - integral) * reach[:, None, None]  # (N, 4, T) px along the normal
     ex, ey = bx + e * nx[..., None], by + e * ny[..., None]
     # weighted total-least-squares line through each edge's points (closed form in 2-D)
