@@ -228,7 +228,7 @@ def test_cli_exit_codes(frames_dir):
         [sys.executable, "-m", "armtree.cli", "calibrate", "kinematics"],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
-    assert later.returncode == 2 and "not available yet" in later.stderr
+    assert later.returncode == 2 and "--points FILE or --simulate N" in later.stderr
 
 
 def test_detect_takes_tracker_and_tags_from_a_profile(frames_dir, capsys):
