@@ -11,7 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from armtree.errors import ConfigError
-from armtree.kinematic_calibration import CalibrationPoints, fit_kinematics, read_points
+from armtree.kinematic_calibration import (
+    CalibrationPoints,
+    fit_kinematics,
+    read_points,
+    write_points,
+)
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_model
 from armtree.plugins.arms.vicra.kinematics import VicraModel
@@ -285,3 +290,17 @@ def test_cli_exit_codes(tmp_path):
     )
     assert run.returncode == 0, run.stderr
     assert "RMS error before" in run.stdout and (tmp_path / "r.png").exists()
+
+
+finite = st.floats(-1000.0, 1000.0, allow_nan=False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(rows=st.lists(st.tuples(*(finite for _ in range(6))), min_size=1, max_size=12))
+def test_written_points_read_back(tmp_path_factory, rows):
+    data = np.array(rows)
+    path = tmp_path_factory.mktemp("pts") / "p.csv"
+    write_points(path, CalibrationPoints(data[:, :3], data[:, 3:]))
+    back = read_points(path, 3)
+    np.testing.assert_allclose(back.joints_deg, data[:, :3], atol=5e-5)
+    np.testing.assert_allclose(back.measured_mm, data[:, 3:], atol=5e-5)
