@@ -16,7 +16,9 @@ from __future__ import annotations
 import json
 import re
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from itertools import compress
+from operator import is_not
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -92,6 +94,42 @@ class RunLog:
             return
         get, make = self._tails.get, self._tail
         parts = [get(change) or make(change) for change in changes]
+        if parts:
+            head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '.encode()
+            self._file.write(head + head.join(parts))
+
+    def status_diff(
+        self, tick: int, t: float, paths: Sequence[str], old: Sequence[Any], new: Sequence[Any]
+    ) -> None:
+        """Append a ``status`` record for every node whose status differs from ``old`` to ``new``.
+
+        ``paths``, ``old`` and ``new`` run in parallel (node path, py_trees
+        Status before and after a tick). The same records as
+        :meth:`status_changes` with ``(path, old.value, new.value)``, in node order.
+        """
+        if self._file is None:
+            return
+        # The runtime's hot path: statuses are singletons, so the changed nodes are
+        # picked in C (compress, is_not) and each needs one cache subscript; ``_value_``
+        # is a plain attribute (Enum.value is a slow descriptor), and its str hash is cached.
+        tails = self._tails
+        try:
+            parts = [
+                tails[path, o._value_, n._value_]
+                for path, o, n in compress(zip(paths, old, new, strict=True), map(is_not, old, new))
+            ]
+        except KeyError:
+            # A transition not seen before: the general path builds and caches its line.
+            self.status_changes(
+                tick,
+                t,
+                [
+                    (path, o._value_, n._value_)
+                    for path, o, n in zip(paths, old, new, strict=True)
+                    if o is not n
+                ],
+            )
+            return
         if parts:
             head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '.encode()
             self._file.write(head + head.join(parts))

@@ -27,6 +27,7 @@ import contextlib
 import sys
 import time
 import traceback as tb_module
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -154,6 +155,9 @@ class Run:
         self.interrupts = Interrupts(force_exit=self._force_exit)
         self.resources = Resources(halt=self._halt_owner)
         self.view = view if view is not None else (NullView() if quiet else make_view(False))
+        # A view that ignores updates (quiet) is not handed the tick's status changes,
+        # so they are not built for it.
+        self._view_changes = type(self.view).update is not NullView.update
         self._handle_signals = handle_signals
         self._stop_key = stop_key
         self._record = record
@@ -388,18 +392,17 @@ class Run:
     def _track(self, now: float, logging: bool) -> None:
         last = self._last
         current = [n.status for n in self._nodes]
-        changes: list[tuple[str, str, str]] = []
+        changes: Sequence[tuple[str, str, str]] = ()
         if current != last:
-            # ``_value_`` is a plain attribute (Enum.value is a slow descriptor) and its
-            # string hash is cached, so the log's per-change cache lookup stays cheap.
-            changes = [
-                (path, old._value_, new._value_)
-                for path, old, new in zip(self._paths, last, current, strict=True)
-                if old is not new
-            ]
             self._last = current
             if logging:
-                self.log.status_changes(self.tick_count, now, changes)
+                self.log.status_diff(self.tick_count, now, self._paths, last, current)
+            if self._view_changes:
+                changes = [
+                    (path, old._value_, new._value_)
+                    for path, old, new in zip(self._paths, last, current, strict=True)
+                    if old is not new
+                ]
         # Every tick, so a live view can show time passing; views throttle themselves.
         self.view.update(self, changes)
         if logging:

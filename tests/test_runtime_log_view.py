@@ -79,6 +79,39 @@ def test_status_lines_are_valid_json_even_with_odd_names(tmp_path):
     assert rec["node"] == 'a "quoted"\\ name' and rec["to"] == "SUCCESS" and rec["t"] == 0.15
 
 
+def test_status_diff_logs_the_changed_nodes_like_status_changes(tmp_path):
+    paths = ["r", "r/a", 'r/"b"', "r/c"]
+    ticks = [
+        [Status.INVALID] * 4,
+        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],
+        [Status.RUNNING, Status.RUNNING, Status.SUCCESS, Status.INVALID],
+        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],  # all seen before
+        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],  # nothing changed
+        [Status.FAILURE, Status.INVALID, Status.INVALID, Status.INVALID],
+    ]
+    diff, plain = RunLog(tmp_path / "diff.jsonl"), RunLog(tmp_path / "plain.jsonl")
+    for tick, (old, new) in enumerate(itertools.pairwise(ticks), start=1):
+        diff.status_diff(tick, tick * 0.05, paths, old, new)
+        changes = [(p, o.value, n.value) for p, o, n in zip(paths, old, new, strict=True) if o != n]
+        plain.status_changes(tick, tick * 0.05, changes)
+    diff.close()
+    plain.close()
+    assert (tmp_path / "diff.jsonl").read_bytes() == (tmp_path / "plain.jsonl").read_bytes()
+    records = read_log(tmp_path / "diff.jsonl")
+    assert [(r["tick"], r["node"], r["from"], r["to"]) for r in records] == [
+        (1, "r", "INVALID", "RUNNING"),
+        (1, "r/a", "INVALID", "SUCCESS"),
+        (1, 'r/"b"', "INVALID", "RUNNING"),
+        (2, "r/a", "SUCCESS", "RUNNING"),
+        (2, 'r/"b"', "RUNNING", "SUCCESS"),
+        (3, "r/a", "RUNNING", "SUCCESS"),
+        (3, 'r/"b"', "SUCCESS", "RUNNING"),
+        (5, "r", "RUNNING", "FAILURE"),
+        (5, "r/a", "SUCCESS", "INVALID"),
+        (5, 'r/"b"', "RUNNING", "INVALID"),
+    ]
+
+
 def test_plain_view_prints_status_changes():
     out = io.StringIO()
     node = py_trees.behaviours.TickCounter(name="c", duration=1, completion_status=Status.SUCCESS)
