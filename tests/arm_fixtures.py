@@ -9,9 +9,10 @@ test module subclasses :class:`ArmSim` with its factory and its defaults.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
-from armtree.clock import VirtualClock
+from armtree.clock import VirtualClock, WallClock
 from armtree.emulation import SHARED_KEY
 from armtree.rig import MotionHandle, RigContext
 
@@ -51,6 +52,14 @@ class ArmSim:
             self.tick()
         raise AssertionError(f"{handle} did not finish")
 
+    def progress_until_done(self, handle: MotionHandle) -> list[float]:
+        """Tick until ``handle`` is done; its progress after each tick."""
+        progress = []
+        while not handle.done:
+            self.tick()
+            progress.append(handle.progress)
+        return progress
+
     def received_bytes(self) -> bytes:
         """Every byte the emulator has read from the driver, in order."""
         return b"".join(b for _, d, b in self.emu.transcript if d == "rx")
@@ -66,6 +75,20 @@ class ArmSim:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+@contextmanager
+def served(factory: Any, config: dict | None = None) -> Iterator[str]:
+    """The device path of ``factory``'s emulator served on the wall clock, closed after.
+
+    As ``armtree emulate`` serves it: a driver opens the path like hardware.
+    """
+    emulator = factory.emulator({} if config is None else config, WallClock())
+    path = emulator.start()
+    try:
+        yield path
+    finally:
+        emulator.close()
 
 
 def connected(sim: ArmSim) -> Iterator[ArmSim]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import serial
-from arm_fixtures import ArmSim, connected
+from arm_fixtures import ArmSim, connected, served
 
 from armtree.clock import WallClock
 from armtree.errors import ConfigError, HardwareFault, Unreachable
@@ -160,15 +160,11 @@ def test_link_cut_fails_the_move_and_interrupts(sim):
 
 
 def test_a_marlin_board_is_recognised_as_the_wrong_protocol():
-    emulator = vicra_factory.emulator({}, WallClock())
-    path = emulator.start()
-    try:
+    with served(vicra_factory) as path:
         arm = dh_factory({**puma_config(), "port": path}, RigContext(None, WallClock()))
         arm.connect_timeout = 1.0
         with pytest.raises(HardwareFault, match="wrong protocol.*Marlin"):
             arm.connect()
-    finally:
-        emulator.close()
 
 
 def test_bad_servo_config_is_a_config_error():
@@ -189,13 +185,8 @@ def test_two_runs_exchange_identical_bytes():
 
 
 def test_busy_port_is_a_clear_hardware_fault():
-    emulator = dh_factory.emulator(puma_config(), WallClock())
-    path = emulator.start()
-    try:
-        with serial.Serial(path, 115200, exclusive=True):
-            arm = dh_factory({**puma_config(), "port": path}, RigContext(None, WallClock()))
-            with pytest.raises(HardwareFault, match="busy") as err:
-                arm.connect()
-            assert err.value.device == path
-    finally:
-        emulator.close()
+    with served(dh_factory, puma_config()) as path, serial.Serial(path, 115200, exclusive=True):
+        arm = dh_factory({**puma_config(), "port": path}, RigContext(None, WallClock()))
+        with pytest.raises(HardwareFault, match="busy") as err:
+            arm.connect()
+        assert err.value.device == path

@@ -42,10 +42,7 @@ def test_move_completes_from_the_arms_reports(sim):
     second = sim.arm.move_joints([0.0, 5.0, 45.0])
     assert second.status is MotionStatus.PENDING and sim.arm.commands_written == written + 1
     sim.tick()
-    progress = []
-    while not handle.done:
-        sim.tick()
-        progress.append(handle.progress)
+    progress = sim.progress_until_done(handle)
     assert handle.status is MotionStatus.DONE
     assert np.all(np.diff(progress) >= -1e-9)
     assert np.allclose(sim.arm.joints(), target, atol=1e-4)

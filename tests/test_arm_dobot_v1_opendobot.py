@@ -101,10 +101,7 @@ def test_start_up_pose_comes_from_the_accelerometers(sim):
 def test_move_streams_slots_and_completes_from_counters(sim):
     target = np.array([30.0, 8.0, 50.0])
     handle = sim.arm.move_joints(target)
-    progress = []
-    while not handle.done:
-        sim.tick()
-        progress.append(handle.progress)
+    progress = sim.progress_until_done(handle)
     assert handle.status is MotionStatus.DONE
     assert np.all(np.diff(progress) >= -1e-9)
     assert np.allclose(sim.arm.joints(), target, atol=1 / od.STEPS_PER_DEG)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from arm_fixtures import ArmSim, connected
+from arm_fixtures import ArmSim, connected, served
 
 from armtree.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault, Unreachable
@@ -40,10 +40,7 @@ def test_move_done_when_the_queue_index_reaches_it(sim):
     handle = sim.arm.move_joints(target)
     sim.tick()
     assert handle.status is MotionStatus.RUNNING
-    progress = []
-    while not handle.done:
-        sim.tick()
-        progress.append(handle.progress)
+    progress = sim.progress_until_done(handle)
     assert handle.status is MotionStatus.DONE
     assert np.all(np.diff(progress) >= -1e-9)
     assert np.allclose(sim.arm.joints(), target, atol=1e-3)
@@ -217,16 +214,12 @@ def test_missing_port_is_a_clear_hardware_fault():
 
 def test_a_marlin_board_is_recognised_as_the_wrong_protocol():
     # the VICRA's Marlin emulator (serving itself on the wall clock) where a Magician was expected
-    emu = vicra_factory.emulator({}, WallClock())
-    path = emu.start()
-    try:
+    with served(vicra_factory) as path:
         arm = magician_factory({"port": path}, RigContext(profile=None, clock=WallClock()))
         arm.connect_timeout = 1.0
         with pytest.raises(HardwareFault, match="wrong protocol.*Marlin") as err:
             arm.connect()
         assert err.value.device == path
-    finally:
-        emu.close()
 
 
 def test_two_runs_exchange_identical_bytes():

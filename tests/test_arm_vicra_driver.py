@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import serial
-from arm_fixtures import ArmSim
+from arm_fixtures import ArmSim, served
 
 from armtree.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault, Unreachable
@@ -88,10 +88,7 @@ def test_move_to_takes_the_nearer_elbow_and_completes_from_m114(sim):
     target = np.array([400.0, 100.0, 50.0])
     right, left = sim.arm.model.ik_all(target)
     handle = sim.arm.move_to(target)
-    progress = []
-    while not handle.done:
-        sim.tick()
-        progress.append(handle.progress)
+    progress = sim.progress_until_done(handle)
     assert handle.status is MotionStatus.DONE
     assert np.all(np.diff(progress) >= -1e-9)
     q = sim.emu.true_joints()
@@ -241,16 +238,12 @@ def test_link_cut_fails_the_move_and_interrupts(sim):
 
 def test_a_dobot_is_recognised_as_the_wrong_protocol():
     # a Dobot V1.0 streaming its binary status frames where Marlin was expected
-    emulator = dobot_v1_factory.emulator({}, WallClock())
-    path = emulator.start()
-    try:
+    with served(dobot_v1_factory) as path:
         arm = vicra_factory({"port": path}, RigContext(profile=None, clock=WallClock()))
         arm.connect_timeout = 1.0
         with pytest.raises(HardwareFault, match="wrong protocol.*Dobot") as err:
             arm.connect()
         assert err.value.device == path
-    finally:
-        emulator.close()
 
 
 def test_missing_port():
