@@ -49,23 +49,23 @@ def refine_corners(
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     if len(quads) == 0:
         return quads.astype(np.float32)
-    out = quads.copy()
+    # points as complex numbers x + iy: half the numpy calls of separate x and y
+    out = quads[..., 0] + 1j * quads[..., 1]  # (N, 4)
     if contour_inset:
         away = out - out.mean(axis=1, keepdims=True)
-        away /= np.maximum(np.hypot(away[..., 0], away[..., 1]), 1e-6)[..., None]
-        out += contour_inset * np.sqrt(2.0) * away
+        out = out + (contour_inset * np.sqrt(2.0)) * away / np.maximum(np.abs(away), 1e-6)
     active = np.ones(len(out), dtype=bool)
     for _ in range(passes):
         before = out[active]
         after, reach = _refine_once(gray, before, cells)
         out[active] = after
-        moved = np.sqrt(((after - before) ** 2).sum(axis=2)).max(axis=1)
+        moved = np.abs(after - before).max(axis=1)
         # a profile that ended within the blur of the edge biases the fit
         still = moved > 0.3 * reach
         if not still.any():
             break
         active[np.flatnonzero(active)[~still]] = False
-    return out.astype(np.float32)
+    return np.stack([out.real, out.imag], axis=-1).astype(np.float32)
 
 
 _NEXT = np.array([1, 2, 3, 0])
@@ -73,59 +73,52 @@ _PREV = np.array([3, 0, 1, 2])
 
 
 def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
-    """One pass over every quad: refined corners and each quad's profile reach (px).
+    """One pass over quads given as complex corners ``x + iy (N, 4)``: refined corners, reach (px).
 
-    x and y are kept as separate arrays: this runs on a handful of markers per
-    frame, where the count of numpy calls, not their size, sets the time.
+    This runs on a handful of markers per frame, where the count of numpy
+    calls, not their size, sets the time: hence complex points, not x and y.
     """
     n = len(quads)
-    qx, qy = quads[..., 0], quads[..., 1]  # (N, 4)
-    dx, dy = qx[:, _NEXT] - qx, qy[:, _NEXT] - qy  # edge k runs from corner k to corner k+1
-    length = np.maximum(np.hypot(dx, dy), 1e-9)
-    ux, uy = dx / length, dy / length
-    nx, ny = uy, -ux  # outward normal of a clockwise quad
+    d = quads[:, _NEXT] - quads  # edge k runs from corner k to corner k+1
+    length = np.maximum(np.abs(d), 1e-9)
+    u = d / length
+    normal = -1j * u  # outward normal of a clockwise quad (y down)
     side = 0.25 * length.sum(axis=1)  # (N,)
     reach = np.minimum(np.maximum(0.8 * side / cells, 0.8), 4.0)  # (N,) pixels
     # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
-    bx = qx[..., None] + _T * dx[..., None]
-    by = qy[..., None] + _T * dy[..., None]
-    sx = (reach[:, None] * nx)[..., None, None] * _S
-    sy = (reach[:, None] * ny)[..., None, None] * _S
-    maps = np.empty((n, 4, len(_T), len(_S), 2), dtype=np.float32)
-    np.add(bx[..., None], sx, out=maps[..., 0], casting="unsafe")
-    np.add(by[..., None], sy, out=maps[..., 1], casting="unsafe")
-    values = cv2.remap(
-        gray, maps.reshape(-1, 1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
-    )
+    base = quads[..., None] + _T * d[..., None]
+    points = base[..., None] + (reach[:, None] * normal)[..., None, None] * _S
+    maps = points.view(np.float64).astype(np.float32).reshape(-1, 1, 2)
+    values = cv2.remap(gray, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
     inside = v[..., :2] @ _HALVES
     contrast = v[..., -2:] @ _HALVES - inside
     valid = contrast > _MIN_CONTRAST
     frac = np.clip((v - inside[..., None]) / np.where(valid, contrast, 1.0)[..., None], 0.0, 1.0)
     # e = w - integral of the light fraction over [-w, w] (trapezoid), in units of reach
-    integral = frac @ _TRAPEZOID
-    e = (1.0 - integral) * reach[:, None, None]  # (N, 4, T) px along the normal
-    ex, ey = bx + e * nx[..., None], by + e * ny[..., None]
-    # weighted total-least-squares line through each edge's points (closed form in 2-D)
+    e = (1.0 - frac @ _TRAPEZOID) * reach[:, None, None]  # (N, 4, T) px along the normal
+    edge = base + e * normal[..., None]
+    # weighted total-least-squares line through each edge's points: with r = z - centroid,
+    # the line's direction is the square root of sum(w r^2) (closed form in 2-D)
     w = valid.astype(np.float64)
     count = w.sum(axis=2)  # (N, 4)
     ok_edge = count >= 4
-    wsum = np.maximum(count, 1.0)
-    cx, cy = (w * ex).sum(axis=2) / wsum, (w * ey).sum(axis=2) / wsum
-    rx, ry = ex - cx[..., None], ey - cy[..., None]
-    sxx, syy, sxy = (w * rx * rx).sum(axis=2), (w * ry * ry).sum(axis=2), (w * rx * ry).sum(axis=2)
-    angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
-    vx = np.where(ok_edge, np.cos(angle), ux)
-    vy = np.where(ok_edge, np.sin(angle), uy)
-    cx = np.where(ok_edge, cx, qx + 0.5 * dx)
-    cy = np.where(ok_edge, cy, qy + 0.5 * dy)
+    centre = (w * edge).sum(axis=2) / np.maximum(count, 1.0)
+    r = edge - centre[..., None]
+    direction = np.exp(0.5j * np.angle((w * r * r).sum(axis=2)))
+    direction = np.where(ok_edge, direction, u)
+    centre = np.where(ok_edge, centre, quads + 0.5 * d)
     # corner k is where edge k-1 (ending at k) meets edge k (starting at k)
-    px, py, wx, wy = cx[:, _PREV], cy[:, _PREV], vx[:, _PREV], vy[:, _PREV]
-    denom = wx * vy - wy * vx
+    p, pw = centre[:, _PREV], direction[:, _PREV]
+    denom = (pw.conj() * direction).imag
     parallel = np.abs(denom) < 1e-6
-    t = ((cx - px) * vy - (cy - py) * vx) / np.where(parallel, 1.0, denom)
-    corners = np.stack([px + t * wx, py + t * wy], axis=-1)
-    moved = np.hypot(corners[..., 0] - qx, corners[..., 1] - qy)
+    t = ((centre - p).conj() * direction).imag / np.where(parallel, 1.0, denom)
+    corners = p + t * pw
     # a corner that jumps more than two cells is a failed fit, not a refinement
-    keep = ok_edge & ok_edge[:, _PREV] & ~parallel & (moved < (2.0 * side / cells)[:, None])
-    return np.where(keep[..., None], corners, quads), reach
+    keep = (
+        ok_edge
+        & ok_edge[:, _PREV]
+        & ~parallel
+        & (np.abs(corners - quads) < (2.0 * side / cells)[:, None])
+    )
+    return np.where(keep, corners, quads), reach
