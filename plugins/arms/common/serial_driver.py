@@ -238,6 +238,20 @@ class SerialArmDriver(ArmDriver):
         """``q`` checked against limits and constraints; raises :class:`Unreachable`."""
         return check_joint_target(self.model, q)
 
+    def checked_move(self, q: np.ndarray, speed: float) -> np.ndarray:
+        """``q`` (degrees) for a move at ``speed`` in (0, 1], connecting first if need be.
+
+        Raises the :class:`HardwareFault` that prevents connecting, or
+        :class:`Unreachable` for a target or speed the arm cannot take.
+        """
+        fault = self.ensure_connected()
+        if fault is not None:
+            raise fault
+        q = self.checked_joints(q)
+        if not 0.0 < speed <= 1.0:
+            raise Unreachable(f"speed {speed} is not in (0, 1]")
+        return q
+
     def checked_position(self, xyz: np.ndarray) -> np.ndarray:
         """Joint solution for ``xyz`` nearest the reported joints; raises :class:`Unreachable`."""
         near = self.joints() if self.connected else None

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.errors import Unreachable
+from armtree.errors import HardwareFault, Unreachable
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from ..common import SerialArmDriver
@@ -180,15 +180,10 @@ class DobotV1Driver(SerialArmDriver):
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
         """Queue a state-6 MOVJ to ``q`` (degrees); refused targets send nothing."""
         description = f"move_joints {np.round(np.asarray(q, dtype=float), 3).tolist()}"
-        fault = self.ensure_connected()
-        if fault is not None:
-            return self.refused(description, fault)
         try:
-            q = self.checked_joints(q)
-        except Unreachable as exc:
+            q = self.checked_move(q, speed)
+        except (HardwareFault, Unreachable) as exc:
             return self.refused(description, exc)
-        if not 0.0 < speed <= 1.0:
-            return self.refused(description, Unreachable(f"speed {speed} is not in (0, 1]"))
         target = np.asarray(np.float32(q), dtype=float)
         handle = self.track(MotionHandle(description, target))
         with self._lock:

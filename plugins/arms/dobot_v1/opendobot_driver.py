@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.errors import Unreachable
+from armtree.errors import HardwareFault, Unreachable
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from ..common import JointMove, SerialArmDriver
@@ -299,15 +299,10 @@ class OpenDobotDriver(SerialArmDriver):
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
         """Plan a synchronised move to ``q`` (degrees) and stream it slot by slot."""
         description = f"move_joints {np.round(np.asarray(q, dtype=float), 3).tolist()}"
-        fault = self.ensure_connected()
-        if fault is not None:
-            return self.refused(description, fault)
         try:
-            q = self.checked_joints(q)
-        except Unreachable as exc:
+            q = self.checked_move(q, speed)
+        except (HardwareFault, Unreachable) as exc:
             return self.refused(description, exc)
-        if not 0.0 < speed <= 1.0:
-            return self.refused(description, Unreachable(f"speed {speed} is not in (0, 1]"))
         handle = self.track(MotionHandle(description, q))
         with self._lock:
             start = self._planned.copy()
