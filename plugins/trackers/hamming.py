@@ -211,11 +211,11 @@ class HammingTracker(Tracker):
         if not found:
             return np.zeros((0, 4, 2), np.float32)
         quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
-        edges = quads[:, [1, 2, 3, 0]] - quads
+        edges = quads[:, _NEXT] - quads
         quads = quads[np.hypot(edges[..., 0], edges[..., 1]).min(axis=1) >= self.min_side_px]
         # clockwise on screen (y down): positive shoelace sum
         x, y = quads[..., 0], quads[..., 1]
-        area2 = (x * y[:, [1, 2, 3, 0]] - x[:, [1, 2, 3, 0]] * y).sum(axis=1)
+        area2 = (x * y[:, _NEXT] - x[:, _NEXT] * y).sum(axis=1)
         quads[area2 < 0] = quads[area2 < 0][:, ::-1]
         return quads
 
@@ -235,7 +235,9 @@ class HammingTracker(Tracker):
             borderMode=cv2.BORDER_REPLICATE,
         ).reshape(n, -1)
         n_cells = len(_CELL_UV)
-        cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).mean(axis=2)
+        cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).sum(axis=2) / len(
+            _OFFSETS
+        )
         return cells, values[:, n_cells:]
 
     def classify(
@@ -324,8 +326,9 @@ class HammingTracker(Tracker):
         is_best = key == best[:, None]
         ties = is_best.sum(axis=1)
         k = np.where(is_best, ids, np.iinfo(np.int64).max).argmin(axis=1)
-        kept = _dedupe(quads[rows[:, None], _ROLLS[k]])
-        corners = quads[rows[kept, None], _ROLLS[k[kept]]]
+        corners = quads[rows[:, None], _ROLLS[k]]
+        kept = _dedupe(corners)
+        corners = corners[kept]
         chosen = (np.arange(len(rows))[kept], k[kept])
         return [
             _Reading(c, int(i), int(n), bool(t > 1))
