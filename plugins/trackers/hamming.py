@@ -79,6 +79,7 @@ _SAMPLE_UV = np.concatenate([_CELL_UV, _QUIET_UV]) / GRID
 _ROLLS = np.array([[(k + i) % 4 for i in range(4)] for k in range(4)])
 _NO_KEY = 1 << 20
 _NEXT = np.array([1, 2, 3, 0])
+_UNIT_SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
 # Index in the 81 cells of each data cell after turning the inner 7x7 grid k
 # quarter turns (np.rot90's sense): (4, 7, 7).
 _INNER = np.arange(GRID * GRID).reshape(GRID, GRID)[1:-1, 1:-1]
@@ -91,21 +92,15 @@ def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.nd
     """Image points ``(N, P)`` x and y of unit-square points ``uv (P, 2)`` in quads ``(N, 4, 2)``.
 
     The projective map of (0,0), (1,0), (1,1), (0,1) onto each quad's corners
-    in closed form (Heckbert's square-to-quad), for all quads at once.
+    (OpenCV's ``getPerspectiveTransform``, one small call per quad), applied
+    to all points of all quads in one matrix product.
     """
-    x0, x1, x2, x3 = (quads[:, i, 0] for i in range(4))
-    y0, y1, y2, y3 = (quads[:, i, 1] for i in range(4))
-    sx, sy = x0 - x1 + x2 - x3, y0 - y1 + y2 - y3
-    dx1, dx2, dy1, dy2 = x1 - x2, x3 - x2, y1 - y2, y3 - y2
-    den = dx1 * dy2 - dx2 * dy1
-    den = np.where(np.abs(den) < 1e-12, 1e-12, den)
-    g, h = (sx * dy2 - dx2 * sy) / den, (dx1 * sy - sx * dy1) / den
-    a, b, d, e = x1 - x0 + g * x1, x3 - x0 + h * x3, y1 - y0 + g * y1, y3 - y0 + h * y3
-    u, v = uv[:, 0], uv[:, 1]
-    w = g[:, None] * u + h[:, None] * v + 1.0
-    map_x = (a[:, None] * u + b[:, None] * v + x0[:, None]) / w
-    map_y = (d[:, None] * u + e[:, None] * v + y0[:, None]) / w
-    return map_x, map_y
+    quads = np.asarray(quads, dtype=np.float32)
+    maps = np.stack([cv2.getPerspectiveTransform(_UNIT_SQUARE, q) for q in quads])
+    points = maps @ np.vstack([np.asarray(uv, dtype=np.float64).T, np.ones(len(uv))])
+    w = points[:, 2]
+    w = np.where(np.abs(w) < 1e-12, 1e-12, w)  # a degenerate quad reads as nothing, not a crash
+    return points[:, 0] / w, points[:, 1] / w
 
 
 @dataclass
@@ -226,7 +221,7 @@ class HammingTracker(Tracker):
         ``quad[0]`` to ``quad[1]``, column 0 from ``quad[0]`` to ``quad[3]``.
         """
         n = len(quads)
-        map_x, map_y = square_to_quad(np.asarray(quads, dtype=np.float64), _SAMPLE_UV)
+        map_x, map_y = square_to_quad(quads, _SAMPLE_UV)
         values = cv2.remap(
             gray,
             map_x.astype(np.float32).reshape(-1, 1),
