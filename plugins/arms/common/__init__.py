@@ -39,11 +39,13 @@ Conventions for an arm plugin's factory (``armtree_arms`` returns ``{type: facto
   and serves it until interrupted.
 * With ``port: sim`` the factory builds the emulator on ``context.clock`` and
   calls :func:`serve_in_run` (start, stepper, closer, ``context.shared``), then
-  points its real driver at the pty with :func:`sim_driver_options`.
+  points its real driver at the pty with :func:`sim_driver_options`;
+  :func:`driver_port` does both and adds the run's clock and interrupt.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from armtree.emulation import SHARED_KEY
@@ -83,6 +85,25 @@ def sim_driver_options(emulator: PtyEmulator) -> dict[str, Any]:
     return {}
 
 
+def driver_port(
+    config: dict[str, Any], context: RigContext, make_emulator: Callable[[], PtyEmulator]
+) -> tuple[str, dict[str, Any]]:
+    """The device path a factory's driver opens, and the keyword arguments the run gives it.
+
+    ``port: sim`` (the default) builds ``make_emulator()``, serves it in the run
+    (:func:`serve_in_run`) and adds :func:`sim_driver_options`; any other port is
+    the device itself. The arguments always carry the run's ``clock`` and
+    ``interrupt``.
+    """
+    port = config.get("port", "sim")
+    options: dict[str, Any] = {"clock": context.clock, "interrupt": context.interrupt}
+    if port == "sim":
+        emulator = make_emulator()
+        port = serve_in_run(emulator, context)
+        options.update(sim_driver_options(emulator))
+    return port, options
+
+
 __all__ = [
     "FAULTS",
     "FixedFrameParser",
@@ -96,6 +117,7 @@ __all__ = [
     "StepBarrier",
     "check_joint_target",
     "check_position_target",
+    "driver_port",
     "identify_foreign_protocol",
     "open_serial_port",
     "serve_in_run",

@@ -10,7 +10,7 @@ import armtree
 from armtree.clock import Clock
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.plugins.arms.common import driver_port
 from armtree.rig import RigContext
 
 from .driver import SSC32Driver
@@ -76,19 +76,18 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
     """Any serial arm from a DH table, its joints on an SSC-32 servo board (``port: sim``)."""
     model = _model(config)
     servos = _servos(config, model.dof)
-    port = config.get("port", "sim")
-    options: dict[str, Any] = {}
-    if port == "sim":
-        emulator = SSC32Emulator(
+    port, options = driver_port(
+        config,
+        context,
+        lambda: SSC32Emulator(
             model,
             context.clock,
             servos,
             gripper=_gripper(config),
             suction_channel=config.get("suction_channel"),
             seed=context.seed,
-        )
-        port = serve_in_run(emulator, context)
-        options = sim_driver_options(emulator)
+        ),
+    )
     return SSC32Driver(
         model,
         port,
@@ -96,8 +95,6 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
         gripper=_gripper(config),
         suction_channel=config.get("suction_channel"),
         baud=int(config.get("baud", 115200)),
-        clock=context.clock,
-        interrupt=context.interrupt,
         link_timeout=float(config.get("link_timeout", 1.0)),
         **options,
     )

@@ -8,7 +8,7 @@ import armtree
 from armtree.clock import Clock
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.plugins.arms.common import driver_port
 from armtree.rig import RigContext
 
 from .driver import MagicianDriver
@@ -35,18 +35,13 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MagicianEm
 def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDriver:
     """Dobot Magician over its 0xAA 0xAA serial protocol (``port: sim`` for the emulator)."""
     model = _model(config)
-    port = config.get("port", "sim")
-    options: dict[str, Any] = {}
-    if port == "sim":
-        emulator = MagicianEmulator(model, context.clock, seed=context.seed)
-        port = serve_in_run(emulator, context)
-        options = sim_driver_options(emulator)
+    port, options = driver_port(
+        config, context, lambda: MagicianEmulator(model, context.clock, seed=context.seed)
+    )
     return MagicianDriver(
         model,
         port,
         baud=int(config.get("baud", 115200)),
-        clock=context.clock,
-        interrupt=context.interrupt,
         link_timeout=float(config.get("link_timeout", 1.0)),
         **options,
     )

@@ -18,7 +18,7 @@ from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.rig import ArmDriver, RigContext
 
-from ..common import PtyEmulator, serve_in_run, sim_driver_options
+from ..common import PtyEmulator, driver_port
 from .driver import DobotV1Driver
 from .emulator import DobotV1Emulator
 from .kinematics import DEFAULT_TOOL_OFFSET, L1, L2, DobotV1Model
@@ -79,18 +79,13 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
     """Dobot V1.0 (original or open-dobot firmware) over pyserial; ``port: sim`` emulates it."""
     firmware = _firmware(config)
     model = dobot_v1_model(config)
-    port = config.get("port", "sim")
-    simulated = port == "sim"
-    options: dict[str, Any] = {}
-    if simulated:
-        emulator = dobot_v1_emulator(config, context.clock, seed=context.seed)
-        port = serve_in_run(emulator, context)
-        options = sim_driver_options(emulator)
+    simulated = config.get("port", "sim") == "sim"
+    port, options = driver_port(
+        config, context, lambda: dobot_v1_emulator(config, context.clock, seed=context.seed)
+    )
     baud = int(config.get("baud") or DEFAULT_BAUD[firmware])
     common = {
         "baud": baud,
-        "clock": context.clock,
-        "interrupt": context.interrupt,
         "link_timeout": float(config.get("link_timeout", 1.0)),
         # A real Arduino resets when the port opens and boots for about 2 s (reference §1.1).
         "connect_timeout": 3.0 if simulated else float(config.get("connect_timeout", 8.0)),

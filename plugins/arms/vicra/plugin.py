@@ -8,7 +8,7 @@ import armtree
 from armtree.clock import Clock
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.arms.common import serve_in_run, sim_driver_options
+from armtree.plugins.arms.common import driver_port
 from armtree.rig import RigContext
 
 from .driver import VicraDriver
@@ -33,21 +33,16 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MarlinEmul
 def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
     """VICRA SCARA arm on Marlin G-code (Mega + RAMPS); ``port: sim`` for the emulator."""
     model = _model(config)
-    port = config.get("port", "sim")
     tool = config.get("tool", "gripper")
     if tool not in ("gripper", "suction"):
         raise ConfigError(f"arm.tool must be gripper or suction, got {tool!r}")
-    options: dict[str, Any] = {}
-    if port == "sim":
-        emulator = MarlinEmulator(model, context.clock, seed=context.seed)
-        port = serve_in_run(emulator, context)
-        options = sim_driver_options(emulator)
+    port, options = driver_port(
+        config, context, lambda: MarlinEmulator(model, context.clock, seed=context.seed)
+    )
     return VicraDriver(
         model,
         port,
         baud=int(config.get("baud", 115200)),
-        clock=context.clock,
-        interrupt=context.interrupt,
         link_timeout=float(config.get("link_timeout", 5.0)),
         home_on_connect=bool(config.get("home_on_connect", True)),
         tool=tool,
