@@ -103,6 +103,58 @@ def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.nd
     return points[:, 0] / w, points[:, 1] / w
 
 
+def _samples(gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Grey levels ``(N, P)`` at every quad's ``_SAMPLE_UV`` points: cell samples, then quiet zone."""
+    map_x, map_y = square_to_quad(quads, _SAMPLE_UV)
+    values = cv2.remap(
+        gray,
+        map_x.astype(np.float32).reshape(-1, 1),
+        map_y.astype(np.float32).reshape(-1, 1),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
+    )
+    return values.reshape(len(quads), -1).astype(np.float64)
+
+
+def _linear_reading(cells: np.ndarray, quiet: np.ndarray) -> np.ndarray:
+    """The linear part of :meth:`HammingTracker.classify`, ``(N, 3 * 81 + 1)``.
+
+    Each cell sharpened against its four neighbours, the threshold plane
+    under it (the midpoint of the black and white planes), the black-white
+    difference there, and the marker's contrast at its centre.
+    """
+    n = len(cells)
+    padded = np.empty((n, GRID + 2, GRID + 2))
+    padded[:, 1:-1, 1:-1] = cells.reshape(n, GRID, GRID)
+    padded[:, 0, 1:-1] = quiet[:, 0:GRID]
+    padded[:, 1:-1, -1] = quiet[:, GRID : 2 * GRID]
+    padded[:, -1, 1:-1] = quiet[:, 2 * GRID : 3 * GRID]
+    padded[:, 1:-1, 0] = quiet[:, 3 * GRID :]
+    neighbours = 0.25 * (
+        padded[:, :-2, 1:-1] + padded[:, 2:, 1:-1] + padded[:, 1:-1, :-2] + padded[:, 1:-1, 2:]
+    )
+    sharp = cells + _SHARPEN * (cells - neighbours.reshape(n, -1))
+    black = cells[:, _BORDER_FLAT] @ _BLACK_FIT.T  # (N, 3)
+    white = quiet @ _WHITE_FIT.T
+    threshold = 0.5 * (black + white) @ _CELL_DESIGN.T  # (N, 81)
+    difference = (white - black) @ _CELL_DESIGN.T
+    contrast = (white - black) @ np.array([1.0, GRID / 2, GRID / 2])
+    return np.concatenate([sharp, threshold, difference, contrast[:, None]], axis=1)
+
+
+def _split_reading(linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """White cells, margins and contrast from :func:`_linear_reading`'s output."""
+    k = GRID * GRID
+    sharp, threshold = linear[:, :k], linear[:, k : 2 * k]
+    local = np.maximum(linear[:, 2 * k : 3 * k], 1.0)
+    return sharp > threshold, (sharp - threshold) / local, linear[:, 3 * k]
+
+
+# classify() is linear up to its last step: one matrix, built by applying it to unit vectors.
+_N_READ = GRID * GRID + len(_QUIET_UV)
+_CLASSIFY_OP = _linear_reading(np.eye(_N_READ)[:, : GRID * GRID], np.eye(_N_READ)[:, GRID * GRID :])
+
+
 @dataclass
 class _Reading:
     """One decoded candidate: printed-order corners, id, bits corrected, ambiguity."""
@@ -220,20 +272,10 @@ class HammingTracker(Tracker):
         The cells are read in the quad's corner order: row 0 runs from
         ``quad[0]`` to ``quad[1]``, column 0 from ``quad[0]`` to ``quad[3]``.
         """
-        n = len(quads)
-        map_x, map_y = square_to_quad(quads, _SAMPLE_UV)
-        values = cv2.remap(
-            gray,
-            map_x.astype(np.float32).reshape(-1, 1),
-            map_y.astype(np.float32).reshape(-1, 1),
-            cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_REPLICATE,
-        ).reshape(n, -1)
+        values = _samples(gray, quads)
         n_cells = len(_CELL_UV)
-        cells = values[:, :n_cells].reshape(n, GRID * GRID, len(_OFFSETS)).sum(axis=2) / len(
-            _OFFSETS
-        )
-        return cells, values[:, n_cells:]
+        cells = values[:, :n_cells].reshape(len(values), GRID * GRID, len(_OFFSETS)).sum(axis=2)
+        return cells / len(_OFFSETS), values[:, n_cells:]
 
     def classify(
         self, cells: np.ndarray, quiet: np.ndarray
@@ -248,23 +290,7 @@ class HammingTracker(Tracker):
         A margin is the distance from that midpoint as a fraction of the local
         black-white difference: about 0.5 for a clear cell, near 0 for a doubtful one.
         """
-        n = len(cells)
-        padded = np.empty((n, GRID + 2, GRID + 2))
-        padded[:, 1:-1, 1:-1] = cells.reshape(n, GRID, GRID)
-        padded[:, 0, 1:-1] = quiet[:, 0:GRID]
-        padded[:, 1:-1, -1] = quiet[:, GRID : 2 * GRID]
-        padded[:, -1, 1:-1] = quiet[:, 2 * GRID : 3 * GRID]
-        padded[:, 1:-1, 0] = quiet[:, 3 * GRID :]
-        neighbours = 0.25 * (
-            padded[:, :-2, 1:-1] + padded[:, 2:, 1:-1] + padded[:, 1:-1, :-2] + padded[:, 1:-1, 2:]
-        )
-        sharp = cells + _SHARPEN * (cells - neighbours.reshape(n, -1))
-        black = cells[:, _BORDER_FLAT] @ _BLACK_FIT.T  # (N, 3)
-        white = quiet @ _WHITE_FIT.T
-        threshold = 0.5 * (black + white) @ _CELL_DESIGN.T  # (N, 81)
-        local = np.maximum((white - black) @ _CELL_DESIGN.T, 1.0)
-        contrast = (white - black) @ np.array([1.0, GRID / 2, GRID / 2])
-        return sharp > threshold, (sharp - threshold) / local, contrast
+        return _split_reading(np.concatenate([cells, quiet], axis=1) @ _CLASSIFY_OP)
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
