@@ -18,7 +18,7 @@ import re
 import time
 from collections.abc import Iterable, Sequence
 from itertools import compress
-from operator import is_not
+from operator import ne
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -99,35 +99,30 @@ class RunLog:
             self._file.write(head + head.join(parts))
 
     def status_diff(
-        self, tick: int, t: float, paths: Sequence[str], old: Sequence[Any], new: Sequence[Any]
+        self, tick: int, t: float, paths: Sequence[str], old: Sequence[str], new: Sequence[str]
     ) -> None:
-        """Append a ``status`` record for every node whose status differs from ``old`` to ``new``.
+        """Append a ``status`` record for every node whose status name differs in ``old`` and ``new``.
 
-        ``paths``, ``old`` and ``new`` run in parallel (node path, py_trees
-        Status before and after a tick). The same records as
-        :meth:`status_changes` with ``(path, old.value, new.value)``, in node order.
+        ``paths``, ``old`` and ``new`` run in parallel: node path, status name
+        (``"RUNNING"``...) before and after a tick. The same records as
+        :meth:`status_changes` with the changed ``(path, old, new)``, in node order.
         """
         if self._file is None:
             return
-        # The runtime's hot path: statuses are singletons, so the changed nodes are
-        # picked in C (compress, is_not) and each needs one cache subscript; ``_value_``
-        # is a plain attribute (Enum.value is a slow descriptor), and its str hash is cached.
-        tails = self._tails
+        # The runtime's hot path, run entirely in C (no bytecode per node): the changed
+        # nodes are picked with compress/ne (names of the same status are one object, so
+        # ``ne`` is an identity check) and zip's (path, from, to) is the cache key itself.
         try:
-            parts = [
-                tails[path, o._value_, n._value_]
-                for path, o, n in compress(zip(paths, old, new, strict=True), map(is_not, old, new))
-            ]
+            parts = list(
+                map(
+                    self._tails.__getitem__,
+                    compress(zip(paths, old, new, strict=True), map(ne, old, new)),
+                )
+            )
         except KeyError:
             # A transition not seen before: the general path builds and caches its line.
             self.status_changes(
-                tick,
-                t,
-                [
-                    (path, o._value_, n._value_)
-                    for path, o, n in zip(paths, old, new, strict=True)
-                    if o is not n
-                ],
+                tick, t, list(compress(zip(paths, old, new, strict=True), map(ne, old, new)))
             )
             return
         if parts:

@@ -166,7 +166,7 @@ class Run:
         self.record_dir: Path | None = None
         self._nodes: list[py_trees.behaviour.Behaviour] = []
         self._paths: list[str] = []
-        self._last: list[Status] = []
+        self._last: list[str] = []
         self._hook_impls: dict[str, list[Any]] = {}
         self._hook_errors_reported: set[tuple[str, str]] = set()
         self._executed = False
@@ -325,7 +325,7 @@ class Run:
     def _index_nodes(self) -> None:
         self._nodes = list(self.root.iterate())
         self._paths = [self.path_of(n) for n in self._nodes]
-        self._last = [n.status for n in self._nodes]
+        self._last = [n.status._value_ for n in self._nodes]
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -391,7 +391,10 @@ class Run:
 
     def _track(self, now: float, logging: bool) -> None:
         last = self._last
-        current = [n.status for n in self._nodes]
+        # Status names, not members: ``_value_`` is a plain attribute (Enum.value is a
+        # slow descriptor), a member's name is always the same str object, and str
+        # hashes are cached, so the run log diffs and looks up lines without bytecode.
+        current = [n.status._value_ for n in self._nodes]
         changes: Sequence[tuple[str, str, str]] = ()
         if current != last:
             self._last = current
@@ -399,9 +402,9 @@ class Run:
                 self.log.status_diff(self.tick_count, now, self._paths, last, current)
             if self._view_changes:
                 changes = [
-                    (path, old._value_, new._value_)
+                    (path, old, new)
                     for path, old, new in zip(self._paths, last, current, strict=True)
-                    if old is not new
+                    if old != new
                 ]
         # Every tick, so a live view can show time passing; views throttle themselves.
         self.view.update(self, changes)
@@ -514,13 +517,12 @@ class Run:
         for n in behaviour.iterate():
             with contextlib.suppress(ValueError):
                 i = self._nodes.index(n)
-                if self._last[i] is not n.status:
+                name = n.status.value
+                if self._last[i] != name:
                     self.log.status_changes(
-                        self.tick_count,
-                        self.clock.now(),
-                        [(self._paths[i], self._last[i].value, n.status.value)],
+                        self.tick_count, self.clock.now(), [(self._paths[i], self._last[i], name)]
                     )
-                    self._last[i] = n.status
+                    self._last[i] = name
 
     def halt_tree(self) -> list[str]:
         """Stop every RUNNING node with INVALID (calling its terminate); return errors raised.

@@ -91,7 +91,14 @@ def test_status_diff_logs_the_changed_nodes_like_status_changes(tmp_path):
     ]
     diff, plain = RunLog(tmp_path / "diff.jsonl"), RunLog(tmp_path / "plain.jsonl")
     for tick, (old, new) in enumerate(itertools.pairwise(ticks), start=1):
-        diff.status_diff(tick, tick * 0.05, paths, old, new)
+        # Names as the runtime reads them, and equal names that are different objects.
+        diff.status_diff(
+            tick,
+            tick * 0.05,
+            paths,
+            [s._value_ for s in old],
+            ["".join(list(s.value)) for s in new],
+        )
         changes = [(p, o.value, n.value) for p, o, n in zip(paths, old, new, strict=True) if o != n]
         plain.status_changes(tick, tick * 0.05, changes)
     diff.close()
