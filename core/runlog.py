@@ -23,6 +23,10 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+#: Whole-tick status transitions remembered by :meth:`RunLog.status_diff`; when that
+#: many are held they are forgotten, and no more are kept if fewer ticks than that
+#: were served from them meanwhile (the tree does not repeat itself).
+_TICK_PATTERNS = 256
 
 
 def default_run_dir(tree_name: str, base: Path | str = "runs") -> Path:
@@ -74,6 +78,13 @@ class RunLog:
         # Hot path: the end of a status line, per (path, from, to), built once.
         # Bytes, so a tick's lines are joined and written without a text-encoding pass.
         self._tails: dict[tuple[str, Any, Any], bytes] = {}
+        # Trees that repeat (loops, polling, periodic skills) go through the same
+        # whole-tree transitions again and again: a tick's line ends, per (old, new)
+        # of the paths last given.
+        self._ticks: dict[tuple[Sequence[str], Sequence[str]], list[bytes]] = {}
+        self._tick_paths: Sequence[str] | None = None
+        self._tick_hits = 0
+        self._remember = True
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             self._file = path.open("wb", buffering=1 << 16)
@@ -105,29 +116,58 @@ class RunLog:
 
         ``paths``, ``old`` and ``new`` run in parallel: node path, status name
         (``"RUNNING"``...) before and after a tick. The same records as
-        :meth:`status_changes` with the changed ``(path, old, new)``, in node order.
+        :meth:`status_changes` with the changed ``(path, old, new)``, in node
+        order. Given as tuples, a tick's lines are remembered for the next time
+        the tree makes the same changes (while that pays: see ``_TICK_PATTERNS``).
         """
         if self._file is None:
             return
-        # The runtime's hot path, run entirely in C (no bytecode per node): the changed
-        # nodes are picked with compress/ne (names of the same status are one object, so
-        # ``ne`` is an identity check) and zip's (path, from, to) is the cache key itself.
-        try:
-            parts = list(
-                map(
-                    self._tails.__getitem__,
-                    compress(zip(paths, old, new, strict=True), map(ne, old, new)),
-                )
-            )
-        except KeyError:
-            # A transition not seen before: the general path builds and caches its line.
-            self.status_changes(
-                tick, t, list(compress(zip(paths, old, new, strict=True), map(ne, old, new)))
-            )
-            return
+        ticks = self._ticks
+        if paths is not self._tick_paths:
+            ticks.clear()
+            self._tick_paths, self._tick_hits = paths, 0
+            self._remember = isinstance(old, tuple) and isinstance(new, tuple)
+        if not self._remember:
+            parts = self._diff_tails(paths, old, new)
+        else:
+            key = (old, new)
+            try:
+                parts = ticks.get(key)
+            except TypeError:  # lists after tuples: nothing to remember them by
+                parts = self._diff_tails(paths, old, new)
+                key = None
+            if key is None:
+                pass
+            elif parts is None:
+                parts = self._diff_tails(paths, old, new)
+                if len(ticks) >= _TICK_PATTERNS:
+                    # Full: a tree that hardly repeats itself stops paying for the look-ups.
+                    self._remember = self._tick_hits >= len(ticks)
+                    ticks.clear()
+                    self._tick_hits = 0
+                ticks[key] = parts
+            else:
+                self._tick_hits += 1
         if parts:
             head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '.encode()
             self._file.write(head + head.join(parts))
+
+    def _diff_tails(
+        self, paths: Sequence[str], old: Sequence[str], new: Sequence[str]
+    ) -> list[bytes]:
+        # Run entirely in C (no bytecode per node): the changed nodes are picked with
+        # compress/ne (names of the same status are one object, so ``ne`` is an identity
+        # check) and zip's (path, from, to) is the line cache's key itself.
+        changed = compress(zip(paths, old, new, strict=True), map(ne, old, new))
+        try:
+            return list(map(self._tails.__getitem__, changed))
+        except KeyError:
+            # A transition not seen before: build and cache its line.
+            get, make = self._tails.get, self._tail
+            return [
+                get(change) or make(change)
+                for change in compress(zip(paths, old, new, strict=True), map(ne, old, new))
+            ]
 
     def _tail(self, change: tuple[str, Any, Any]) -> bytes:
         path, old, new = change

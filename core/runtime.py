@@ -165,8 +165,8 @@ class Run:
         self.log = RunLog(None)
         self.record_dir: Path | None = None
         self._nodes: list[py_trees.behaviour.Behaviour] = []
-        self._paths: list[str] = []
-        self._last: list[str] = []
+        self._paths: tuple[str, ...] = ()
+        self._last: tuple[str, ...] = ()
         self._hook_impls: dict[str, list[Any]] = {}
         self._hook_errors_reported: set[tuple[str, str]] = set()
         self._executed = False
@@ -324,8 +324,8 @@ class Run:
 
     def _index_nodes(self) -> None:
         self._nodes = list(self.root.iterate())
-        self._paths = [self.path_of(n) for n in self._nodes]
-        self._last = [n.status._value_ for n in self._nodes]
+        self._paths = tuple(self.path_of(n) for n in self._nodes)
+        self._last = tuple([n.status._value_ for n in self._nodes])
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -394,7 +394,7 @@ class Run:
         # Status names, not members: ``_value_`` is a plain attribute (Enum.value is a
         # slow descriptor), a member's name is always the same str object, and str
         # hashes are cached, so the run log diffs and looks up lines without bytecode.
-        current = [n.status._value_ for n in self._nodes]
+        current = tuple([n.status._value_ for n in self._nodes])
         changes: Sequence[tuple[str, str, str]] = ()
         if current != last:
             self._last = current
@@ -514,15 +514,17 @@ class Run:
         # A node halted between ticks must show up as a status change in the log.
         if not self._nodes:
             return
+        last = list(self._last)
         for n in behaviour.iterate():
             with contextlib.suppress(ValueError):
                 i = self._nodes.index(n)
                 name = n.status.value
-                if self._last[i] != name:
+                if last[i] != name:
                     self.log.status_changes(
-                        self.tick_count, self.clock.now(), [(self._paths[i], self._last[i], name)]
+                        self.tick_count, self.clock.now(), [(self._paths[i], last[i], name)]
                     )
-                    self._last[i] = name
+                    last[i] = name
+        self._last = tuple(last)
 
     def halt_tree(self) -> list[str]:
         """Stop every RUNNING node with INVALID (calling its terminate); return errors raised.

@@ -7,7 +7,7 @@ import py_trees
 from py_trees.common import Status
 from rich.console import Console
 
-from armtree import display
+from armtree import display, runlog
 from armtree.display import LiveView, NullView, PlainView, make_view, summary
 from armtree.runlog import RunLog, default_run_dir, jsonable, read_log
 from armtree.runtime import Run, RunResult, run
@@ -80,31 +80,32 @@ def test_status_lines_are_valid_json_even_with_odd_names(tmp_path):
 
 
 def test_status_diff_logs_the_changed_nodes_like_status_changes(tmp_path):
-    paths = ["r", "r/a", 'r/"b"', "r/c"]
+    paths = ("r", "r/a", 'r/"b"', "r/c")
+    run_, ok, inv = Status.RUNNING, Status.SUCCESS, Status.INVALID
     ticks = [
-        [Status.INVALID] * 4,
-        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],
-        [Status.RUNNING, Status.RUNNING, Status.SUCCESS, Status.INVALID],
-        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],  # all seen before
-        [Status.RUNNING, Status.SUCCESS, Status.RUNNING, Status.INVALID],  # nothing changed
-        [Status.FAILURE, Status.INVALID, Status.INVALID, Status.INVALID],
+        [inv] * 4,
+        [run_, ok, run_, inv],
+        [run_, run_, ok, inv],
+        [run_, ok, run_, inv],  # every transition seen before
+        [run_, ok, run_, inv],  # nothing changed
+        [run_, run_, ok, inv],  # the same whole-tree changes as tick 2
+        [Status.FAILURE, inv, inv, inv],
     ]
-    diff, plain = RunLog(tmp_path / "diff.jsonl"), RunLog(tmp_path / "plain.jsonl")
+    logs = {name: RunLog(tmp_path / f"{name}.jsonl") for name in ("tuples", "lists", "plain")}
     for tick, (old, new) in enumerate(itertools.pairwise(ticks), start=1):
+        t = tick * 0.05
         # Names as the runtime reads them, and equal names that are different objects.
-        diff.status_diff(
-            tick,
-            tick * 0.05,
-            paths,
-            [s._value_ for s in old],
-            ["".join(list(s.value)) for s in new],
-        )
+        names = tuple(s._value_ for s in old), tuple("".join(list(s.value)) for s in new)
+        logs["tuples"].status_diff(tick, t, paths, *names)
+        logs["lists"].status_diff(tick, t, list(paths), *map(list, names))
         changes = [(p, o.value, n.value) for p, o, n in zip(paths, old, new, strict=True) if o != n]
-        plain.status_changes(tick, tick * 0.05, changes)
-    diff.close()
-    plain.close()
-    assert (tmp_path / "diff.jsonl").read_bytes() == (tmp_path / "plain.jsonl").read_bytes()
-    records = read_log(tmp_path / "diff.jsonl")
+        logs["plain"].status_changes(tick, t, changes)
+    for log in logs.values():
+        log.close()
+    expected = (tmp_path / "plain.jsonl").read_bytes()
+    assert (tmp_path / "tuples.jsonl").read_bytes() == expected
+    assert (tmp_path / "lists.jsonl").read_bytes() == expected
+    records = read_log(tmp_path / "tuples.jsonl")
     assert [(r["tick"], r["node"], r["from"], r["to"]) for r in records] == [
         (1, "r", "INVALID", "RUNNING"),
         (1, "r/a", "INVALID", "SUCCESS"),
@@ -113,10 +114,48 @@ def test_status_diff_logs_the_changed_nodes_like_status_changes(tmp_path):
         (2, 'r/"b"', "RUNNING", "SUCCESS"),
         (3, "r/a", "RUNNING", "SUCCESS"),
         (3, 'r/"b"', "SUCCESS", "RUNNING"),
-        (5, "r", "RUNNING", "FAILURE"),
-        (5, "r/a", "SUCCESS", "INVALID"),
-        (5, 'r/"b"', "RUNNING", "INVALID"),
+        (5, "r/a", "SUCCESS", "RUNNING"),
+        (5, 'r/"b"', "RUNNING", "SUCCESS"),
+        (6, "r", "RUNNING", "FAILURE"),
+        (6, "r/a", "RUNNING", "INVALID"),
+        (6, 'r/"b"', "SUCCESS", "INVALID"),
     ]
+    assert records[3]["t"] == 0.1 and records[7]["t"] == 0.25
+
+
+def _diff_log(path, paths, sequence):
+    log = RunLog(path)
+    sizes = []
+    for tick, (old, new) in enumerate(sequence, start=1):
+        log.status_diff(tick, tick / 10, paths, old, new)
+        sizes.append(len(log._ticks))
+    log.close()
+    expected = [
+        (tick, p, o, n)
+        for tick, (old, new) in enumerate(sequence, start=1)
+        for p, o, n in zip(paths, old, new, strict=True)
+        if o != n
+    ]
+    got = [(r["tick"], r["node"], r["from"], r["to"]) for r in read_log(path)]
+    assert got == expected
+    return log, sizes
+
+
+def test_status_diff_remembers_tick_patterns_only_while_they_repeat(tmp_path):
+    paths = ("a", "b", "c")
+    names = ["RUNNING", "SUCCESS", "FAILURE", "INVALID"]
+    # 4,096 different whole-tree transitions, more than the log remembers.
+    pairs = list(itertools.product(itertools.product(names, repeat=3), repeat=2))
+    never = [pairs[(tick * 7) % len(pairs)] for tick in range(600)]
+    log, sizes = _diff_log(tmp_path / "never.jsonl", paths, never)
+    assert max(sizes) == runlog._TICK_PATTERNS and not log._remember and sizes[-1] == 1
+    cycle = [pairs[(tick % 200) * 7] for tick in range(1500)]  # 200 patterns, again and again
+    log, sizes = _diff_log(tmp_path / "cycle.jsonl", paths, cycle)
+    assert log._remember and max(sizes) == 200 and log._tick_hits == 1300
+    # Lists are diffed alike, never remembered; tuples after lists neither.
+    mixed = [tuple(map(list, pair)) for pair in pairs[:50]] + pairs[50:100]
+    log, sizes = _diff_log(tmp_path / "mixed.jsonl", list(paths), mixed)
+    assert max(sizes) == 0
 
 
 def test_plain_view_prints_status_changes():
