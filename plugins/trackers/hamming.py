@@ -109,10 +109,12 @@ def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.nd
 def _samples(gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Grey levels ``(N, P)`` at every quad's ``_SAMPLE_UV`` points: cell samples, then quiet zone."""
     map_x, map_y = square_to_quad(quads, _SAMPLE_UV)
+    # one row of points: OpenCV splits a remap by rows between its threads, and waking
+    # them costs more CPU time than these few hundred points per marker take
     values = cv2.remap(
         gray,
-        map_x.astype(np.float32).reshape(-1, 1),
-        map_y.astype(np.float32).reshape(-1, 1),
+        map_x.astype(np.float32).reshape(1, -1),
+        map_y.astype(np.float32).reshape(1, -1),
         cv2.INTER_LINEAR,
         borderMode=cv2.BORDER_REPLICATE,
     )

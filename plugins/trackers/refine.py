@@ -88,7 +88,9 @@ def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.nd
     # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
     base = quads[..., None] + _T * d[..., None]
     points = base[..., None] + (reach[:, None] * normal)[..., None, None] * _S
-    maps = points.view(np.float64).astype(np.float32).reshape(-1, 1, 2)
+    # one row of points: OpenCV splits a remap by rows between its threads, and waking
+    # them costs more CPU time than these few thousand points take
+    maps = points.view(np.float64).astype(np.float32).reshape(1, -1, 2)
     values = cv2.remap(gray, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
     inside = v[..., :2] @ _HALVES
