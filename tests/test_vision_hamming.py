@@ -273,3 +273,24 @@ def test_dark_blobs_and_all_black_insides_are_not_markers():
     img[290:300, 390:500] = img[390:400, 390:500] = 230
     img[290:400, 390:400] = img[290:400, 490:500] = 230
     assert HammingTracker().detect(Frame(img, 0.0, K, np.zeros(5))) == []
+
+
+def test_a_frame_full_of_dark_squares_is_read_without_error():
+    # 130 candidate squares (a chessboard, a printed sheet) need more sample points than
+    # OpenCV's remap takes in one row or column; none of them is a marker.
+    image = np.full((480, 640), 230, np.uint8)
+    for i in range(13):
+        for j in range(10):
+            image[10 + j * 46 : 40 + j * 46, 10 + i * 48 : 40 + i * 48] = 20
+    tracker = HammingTracker()
+    assert len(tracker.candidates(image)) == 130
+    assert tracker.detect(Frame(image, 0.0, None, None)) == []
+    # a marker among them is still read
+    marker, _ = syn.render_markers(
+        "hamming",
+        [syn.Placement(1234, 25.0, *syn.look_at_pose(300.0, 0.0, 0.0, (0.0, 0.0)))],
+        syn.nominal_camera(),
+        background=230.0,
+    )
+    image[200:280, 280:360] = marker[200:280, 280:360]
+    assert [d.id for d in tracker.detect(Frame(image, 0.0, None, None))] == [1234]

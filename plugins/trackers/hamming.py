@@ -32,7 +32,7 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
 from .hamming_code import BITS, GRID, MAX_ID, ROW_WEIGHTS, decode_words
 from .preprocess import Preprocessing, to_gray
-from .refine import refine_corners
+from .refine import refine_corners, remap_points
 
 FAMILY = "hamming"
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
@@ -109,15 +109,7 @@ def square_to_quad(quads: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.nd
 def _samples(gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Grey levels ``(N, P)`` at every quad's ``_SAMPLE_UV`` points: cell samples, then quiet zone."""
     map_x, map_y = square_to_quad(quads, _SAMPLE_UV)
-    # one row of points: OpenCV splits a remap by rows between its threads, and waking
-    # them costs more CPU time than these few hundred points per marker take
-    values = cv2.remap(
-        gray,
-        map_x.astype(np.float32).reshape(1, -1),
-        map_y.astype(np.float32).reshape(1, -1),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    )
+    values = remap_points(gray, np.stack([map_x.ravel(), map_y.ravel()], axis=1))
     return values.reshape(len(quads), -1).astype(np.float64)
 
 

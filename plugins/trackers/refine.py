@@ -68,6 +68,30 @@ def refine_corners(
     return out.view(np.float64).reshape(-1, 4, 2).astype(np.float32)
 
 
+#: Points per row handed to ``cv2.remap`` (it refuses rows of 32767 or more).
+_ROW_POINTS = 16384
+
+
+def remap_points(gray: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Bilinear grey levels ``(P,)`` uint8 of ``gray`` at pixel points ``(P, 2)`` (x, y).
+
+    Edge pixels repeat beyond the image (``BORDER_REPLICATE``). The points go
+    to ``cv2.remap`` as one row when they fit in one: OpenCV splits a remap by
+    rows between its threads, and for the few thousand points a frame needs,
+    waking them (and their spinning afterwards) costs more CPU time than the work.
+    """
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+    count = len(points)
+    if count == 0:
+        return np.zeros(0, np.uint8)
+    rows = -(-count // _ROW_POINTS)
+    if rows > 1:
+        points = np.concatenate([points, np.zeros((rows * _ROW_POINTS - count, 2), np.float32)])
+    maps = points.reshape(rows, -1, 2)
+    values = cv2.remap(gray, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return values.reshape(-1)[:count]
+
+
 _NEXT = np.array([1, 2, 3, 0])
 _PREV = np.array([3, 0, 1, 2])
 
@@ -88,10 +112,7 @@ def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.nd
     # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
     base = quads[..., None] + _T * d[..., None]
     points = base[..., None] + (reach[:, None] * normal)[..., None, None] * _S
-    # one row of points: OpenCV splits a remap by rows between its threads, and waking
-    # them costs more CPU time than these few thousand points take
-    maps = points.view(np.float64).astype(np.float32).reshape(1, -1, 2)
-    values = cv2.remap(gray, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    values = remap_points(gray, points.view(np.float64).reshape(-1, 2))
     v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
     inside = v[..., :2] @ _HALVES
     contrast = v[..., -2:] @ _HALVES - inside
