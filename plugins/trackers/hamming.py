@@ -31,7 +31,7 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
 from .hamming_code import BITS, GRID, MAX_ID, ROW_WEIGHTS, decode_words
-from .preprocess import Preprocessing, to_gray
+from .preprocess import Preprocessing, threshold_image, to_gray
 from .refine import refine_corners, remap_points
 
 FAMILY = "hamming"
@@ -227,9 +227,9 @@ class HammingTracker(Tracker):
         """Convex dark quadrilaterals ``(N, 4, 2)`` float32, clockwise on screen."""
         processed = self.preprocessing.apply(gray)
         if self.preprocessing.binarises:
-            _, dark = cv2.threshold(processed, 127, 255, cv2.THRESH_BINARY_INV)
+            dark = threshold_image(processed, 127, cv2.THRESH_BINARY_INV)
         else:
-            _, dark = cv2.threshold(processed, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+            dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
         if hierarchy is None:
             return np.zeros((0, 4, 2), np.float32)
