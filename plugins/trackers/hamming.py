@@ -225,10 +225,10 @@ class HammingTracker(Tracker):
 
     def candidates(self, gray: np.ndarray) -> np.ndarray:
         """Convex dark quadrilaterals ``(N, 4, 2)`` float32, clockwise on screen."""
-        processed = self.preprocessing.apply(gray)
         if self.preprocessing.binarises:
-            dark = threshold_image(processed, 127, cv2.THRESH_BINARY_INV)
+            dark = self.preprocessing.dark(gray)
         else:
+            processed = self.preprocessing.apply(gray)
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         contours, hierarchy = cv2.findContours(dark, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
         if hierarchy is None:
