@@ -164,10 +164,6 @@ def threshold_image(gray: np.ndarray, level: float, kind: int) -> np.ndarray:
     return out.reshape(gray.shape)
 
 
-def _row(image: np.ndarray) -> np.ndarray:
-    return image.reshape(1, -1)
-
-
 def dark_after_blur3(binary: np.ndarray) -> np.ndarray:
     """255 where a 0/255 image is dark after OpenCV's 3x3 Gaussian blur (at most 127), else 0.
 
@@ -175,30 +171,30 @@ def dark_after_blur3(binary: np.ndarray) -> np.ndarray:
     for images of at least 3x3: the blur's kernel is (1 2 1) x (1 2 1) / 16, so a
     pixel ends up dark when the weighted count of white pixels around it is at
     most 7 of 16 (8 rounds to 128), borders mirrored without repeating the edge
-    (OpenCV's default). The sums are per-pixel additions of the image shifted by
-    one pixel and by one row, done on the frame as one row (see
-    :func:`threshold_image`): no worker threads, a third of the CPU time.
+    (OpenCV's default). The sums are in-place additions of the image shifted by
+    one pixel and by one row: no worker threads and two frame buffers, where
+    the blur costs more CPU time in its threads than in its arithmetic.
     """
     h, w = binary.shape
-    _, ones = cv2.threshold(_row(binary), 127, 1, cv2.THRESH_BINARY)
+    _, ones = cv2.threshold(binary.reshape(1, -1), 127, 1, cv2.THRESH_BINARY)
     flat = ones.reshape(-1)
+    grid = flat.reshape(h, w)
     across = np.empty(h * w, np.uint8)  # 1 2 1 along each row
-    cv2.add(
-        cv2.add(_row(flat[:-2]), _row(flat[2:])),
-        cv2.add(_row(flat[1:-1]), _row(flat[1:-1])),
-        dst=_row(across[1:-1]),
-    )
-    grid, across2 = flat.reshape(h, w), across.reshape(h, w)
+    inner = across[1:-1]
+    np.add(flat[:-2], flat[2:], out=inner)
+    inner += flat[1:-1]
+    inner += flat[1:-1]
+    across2 = across.reshape(h, w)
     # the first and last columns (also where the shifted rows ran into each other)
     across2[:, 0] = 2 * (grid[:, 0] + grid[:, 1])
     across2[:, -1] = 2 * (grid[:, -1] + grid[:, -2])
-    total = np.empty(h * w, np.uint8)  # then 1 2 1 down each column
-    cv2.add(
-        cv2.add(_row(across[: -2 * w]), _row(across[2 * w :])),
-        cv2.add(_row(across[w:-w]), _row(across[w:-w])),
-        dst=_row(total[w:-w]),
-    )
+    total = flat  # then 1 2 1 down each column, over the no longer needed ones
+    inner = total[w:-w]
+    np.add(across[: -2 * w], across[2 * w :], out=inner)
+    inner += across[w:-w]
+    inner += across[w:-w]
     total2 = total.reshape(h, w)
     total2[0] = 2 * (across2[0] + across2[1])
     total2[-1] = 2 * (across2[-1] + across2[-2])
-    return threshold_image(total2, 7, cv2.THRESH_BINARY_INV)
+    cv2.threshold(ones, 7, 255, cv2.THRESH_BINARY_INV, dst=ones)
+    return total2
