@@ -86,8 +86,9 @@ def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) 
     pixels read per cell a 20 px marker under noise and blur is read in every
     frame of the vision benchmark (all 180, against 174 of 180 at 4), no false
     ids, for 1-5 % more detection time (two runs). Keys are OpenCV's attribute
-    names (``adaptiveThreshWinSizeMin``, ...); ``cornerRefinementMethod`` also takes ``none``, ``subpix``, ``contour`` or
-    ``apriltag``. An unknown key or a value of the wrong type is a ConfigError.
+    names (``adaptiveThreshWinSizeMin``, ...); ``cornerRefinementMethod`` also
+    takes ``none``, ``subpix``, ``contour`` or ``apriltag``. An unknown key or a
+    value of the wrong type is a ConfigError.
     """
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
