@@ -32,7 +32,7 @@ def _marks_inside(value, lines: list[str]) -> None:
     if isinstance(value, MarkedDict):
         for key in value:
             for mark in (value.key_marks[key], value.value_marks[key]):
-                assert 1 <= mark.line <= len(lines) + 1 and mark.column >= 1
+                assert mark.line >= 1 and mark.line <= len(lines) + 1 and mark.column >= 1
             _marks_inside(value[key], lines)
     elif isinstance(value, MarkedList):
         assert len(value.item_marks) == len(value)

@@ -39,7 +39,8 @@ def test_default_resets_on_the_first_missed_frame_and_ignores_poseless():
     f = PoseFilter()
     f.update_frame([det(1, [0, 0, 100])])
     f.update_frame([Detection(1, np.zeros((4, 2)))])
-    assert 1 not in f
+    marker_id = 1
+    assert marker_id not in f
 
 
 def test_rotations_are_smoothed_on_the_short_way():
