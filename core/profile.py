@@ -253,6 +253,20 @@ class Profile:
         return _finish(marked, self.source, list(overrides), manager or self.manager, None)
 
 
+def profile_section(profile: Any, key: str, default: Any = None) -> Any:
+    """Top-level section ``key`` of a :class:`Profile` or of a plain profile mapping.
+
+    Components receive the Profile; tests and embedding code may pass a mapping
+    (or an object with the section as an attribute). ``default`` when absent.
+    """
+    if profile is None:
+        return default
+    data = getattr(profile, "data", profile)
+    if isinstance(data, Mapping):
+        return data.get(key, default)
+    return getattr(profile, key, default)
+
+
 def load_profile(
     path_or_name: str | Path,
     overrides: Iterable[str] = (),

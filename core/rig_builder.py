@@ -19,31 +19,13 @@ from typing import Any
 
 from .clock import Clock
 from .errors import ConfigError, HardwareFault
+from .profile import profile_section
 from .rig import Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
 #: Sections that stand for a physical device (the rest is software).
 DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera", "head", "tool")
-
-
-def profile_section(profile: Any, key: str) -> Any:
-    """One top-level section of a profile given as a mapping or a Profile object.
-
-    A Profile object may hold its data in ``.data`` (a mapping), offer ``.get``,
-    or carry sections as attributes; ``None`` when the section is absent.
-    """
-    if profile is None:
-        return None
-    if isinstance(profile, Mapping):
-        return profile.get(key)
-    data = getattr(profile, "data", None)
-    if isinstance(data, Mapping):
-        return data.get(key)
-    getter = getattr(profile, "get", None)
-    if callable(getter):
-        return getter(key)
-    return getattr(profile, key, None)
 
 
 def component_config(profile: Any, key: str) -> Any:

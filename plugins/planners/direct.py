@@ -16,8 +16,8 @@ from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError
 from armtree.kinematics import KinematicModel
 from armtree.params import Param
+from armtree.profile import profile_section
 from armtree.rig import Planner
-from armtree.rig_builder import profile_section
 from armtree.scene import Scene
 from armtree.validation import check_config, validate_samples
 from armtree.workspace import ArmWorkspace

@@ -16,10 +16,11 @@ from typing import Any
 
 import armtree
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.profile import profile_section
 
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
-from .scene import SceneSpec, body_error, parse_scene, profile_section
+from .scene import SceneSpec, body_error, parse_scene
 from .world import SHARED_KEY, World, world_for
 
 

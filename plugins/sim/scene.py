@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
+from armtree.profile import profile_section
 
 from .duckybot import DuckybotParams, Leg, RouteSpec
 from .geometry import footprint_overlap, point_in_polygon, rot_z
@@ -162,23 +163,8 @@ class SceneSpec:
 
 
 # ---------------------------------------------------------------------------
-# Profile access (the Profile object may be a mapping or offer get / data)
+# Profile positions (for errors at the entry's file, line and column)
 # ---------------------------------------------------------------------------
-
-
-def profile_section(profile: Any, key: str, default: Any = None) -> Any:
-    """The profile's top-level ``key`` whatever form the profile object takes."""
-    if profile is None:
-        return default
-    if isinstance(profile, Mapping):
-        return profile.get(key, default)
-    data = getattr(profile, "data", None)
-    if isinstance(data, Mapping):
-        return data.get(key, default)
-    getter = getattr(profile, "get", None)
-    if callable(getter):
-        return getter(key, default)
-    return getattr(profile, key, default)
 
 
 def _locate(profile: Any, path: tuple[Any, ...]) -> tuple[str | None, int | None, int | None]:

@@ -20,6 +20,7 @@ import numpy as np
 
 from armtree.errors import ConfigError
 from armtree.params import Param, check_value
+from armtree.profile import profile_section
 from armtree.rig import Detection, Frame, TagSpec
 
 
@@ -40,21 +41,6 @@ def config_error(where: Any, path: str, message: str) -> ConfigError:
         return error(path, message)
     file = str(where) if isinstance(where, (str, Path)) else profile_file(where)
     return ConfigError(f"{path}: {message}", file=file)
-
-
-def profile_section(profile: Any, key: str) -> Any:
-    """One top-level section of a profile given as a mapping or a Profile object."""
-    if profile is None:
-        return None
-    if isinstance(profile, Mapping):
-        return profile.get(key)
-    data = getattr(profile, "data", None)
-    if isinstance(data, Mapping):
-        return data.get(key)
-    getter = getattr(profile, "get", None)
-    if callable(getter):
-        return getter(key)
-    return getattr(profile, key, None)
 
 
 def check_config(
