@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TextIO
 
 import py_trees
@@ -34,6 +34,9 @@ STYLES: dict[Status, tuple[str, str]] = {
 
 #: A status change: (node path, old status name, new status name).
 Change = tuple[str, str, str]
+
+#: Each node's final status for the last frame: ``{node.id: (status name, halted)}``.
+FinalStatuses = Mapping[Any, tuple[str, bool]]
 
 
 class NullView:
@@ -112,9 +115,15 @@ class LiveView(NullView):
         self._messages = (self._messages + [text])[-5:]
 
     def stop(self, run: Run) -> None:
-        """Draw the final state and stop the live display."""
+        """Draw the final state and stop the live display.
+
+        The final frame shows each node's last status of the run, marked
+        ``halted`` where the halt stopped it RUNNING, not the INVALID py_trees
+        leaves behind (py_trees issue #132).
+        """
         if self._live is not None:
-            self._live.update(self._render(run), refresh=True)
+            final = getattr(run, "final_statuses", None)
+            self._live.update(self._render(run, final() if final else None), refresh=True)
             self._live.stop()
             self._live = None
 
@@ -124,13 +133,13 @@ class LiveView(NullView):
             self._live.stop()
             self._live = None
 
-    def _render(self, run: Run) -> Any:
+    def _render(self, run: Run, statuses: FinalStatuses | None = None) -> Any:
         header = Text(
             f"{run.tree.name}  tick {run.tick_count}  t={run.clock.now():.2f}s"
             f"  overruns {run.overruns}   (q or Ctrl-C to stop)",
             style="bold",
         )
-        tree = render_tree(run.tree.root, header)
+        tree = render_tree(run.tree.root, header, statuses)
         if self._messages:
             from rich.console import Group
 
@@ -138,26 +147,42 @@ class LiveView(NullView):
         return tree
 
 
-def render_tree(root: py_trees.behaviour.Behaviour, label: Any = None) -> RichTree:
-    """A rich tree of ``root`` with each node's status symbol, name and type."""
-    top = RichTree(label if label is not None else _label(root))
+def render_tree(
+    root: py_trees.behaviour.Behaviour,
+    label: Any = None,
+    statuses: FinalStatuses | None = None,
+) -> RichTree:
+    """A rich tree of ``root`` with each node's status symbol, name and type.
+
+    ``statuses`` (``{node.id: (status name, halted)}``, as from
+    :meth:`armtree.runtime.Run.final_statuses`) stands in for INVALID, for
+    the final frame after a halt; a halted node is marked ``halted``. Nodes
+    with any other current status, or missing from it, show their current status.
+    """
+    top = RichTree(label if label is not None else _label(root, statuses))
     stack: list[tuple[py_trees.behaviour.Behaviour, RichTree]] = []
     if label is not None:
-        stack.append((root, top.add(_label(root))))
+        stack.append((root, top.add(_label(root, statuses))))
     else:
         stack.append((root, top))
     while stack:
         node, branch = stack.pop()
         for child in node.children:
-            stack.append((child, branch.add(_label(child))))
+            stack.append((child, branch.add(_label(child, statuses))))
     return top
 
 
-def _label(node: py_trees.behaviour.Behaviour) -> Text:
-    symbol, style = STYLES.get(node.status, ("?", ""))
+def _label(node: py_trees.behaviour.Behaviour, statuses: FinalStatuses | None = None) -> Text:
+    status, halted = node.status, False
+    if status == Status.INVALID and statuses is not None and node.id in statuses:
+        name, halted = statuses[node.id]
+        status = Status(name)
+    symbol, style = STYLES.get(status, ("?", ""))
     text = Text(f"{symbol} ", style=style)
-    text.append(node.name, style=style if node.status != Status.INVALID else "")
+    text.append(node.name, style=style if status != Status.INVALID else "")
     text.append(f"  [{type(node).__name__}]", style="dim")
+    if halted:
+        text.append("  halted", style="magenta")
     return text
 
 
@@ -172,7 +197,11 @@ def make_view(quiet: bool, stream: TextIO | None = None) -> NullView:
 
 
 def summary(result: RunResult) -> str:
-    """The end-of-run summary: result, ticks, virtual and wall time, overruns, why it failed."""
+    """The end-of-run summary: result, ticks, virtual and wall time, overruns, why it failed.
+
+    Then one ``label: text`` line per entry of ``result.details``, in order
+    (what plugins added in ``armtree_run_finished``, e.g. the simulation's score).
+    """
     lines = [
         f"result: {result.status}  (exit {result.exit_code})",
         f"ticks: {result.ticks}  run time: {result.seconds:.3f} s  wall time: "
@@ -184,6 +213,8 @@ def summary(result: RunResult) -> str:
         lines.append(f"why: {result.message}")
     if result.log_path is not None:
         lines.append(f"log: {result.log_path}")
+    for label, text in (getattr(result, "details", None) or {}).items():
+        lines.append(f"{label}: {text}")
     return "\n".join(lines)
 
 

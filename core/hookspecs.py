@@ -184,4 +184,8 @@ def armtree_run_finished(run: Run, result: RunResult) -> None:
     """The run has ended and its behaviours are halted; the log is still open.
 
     :param result: the :class:`armtree.runtime.RunResult` about to be returned.
+        A plugin may add lines to the end-of-run summary by setting entries of
+        ``result.details`` (``{label: text}``, one short line each, printed as
+        ``label: text`` after the summary's own lines, in insertion order); use
+        a label of your own, as other plugins add theirs to the same dict.
     """

@@ -70,7 +70,10 @@ class RunResult:
     when it was not a plain success; ``failed_node`` is the path of the node
     that raised, or of the deepest failing node; ``running`` the leaves that
     were RUNNING when the run was halted; ``exit_code`` follows the CLI's
-    convention (0, 1, 3 hardware fault, 130 interrupted).
+    convention (0, 1, 3 hardware fault, 130 interrupted). ``details`` are
+    extra ``label: text`` lines for the end-of-run summary, filled by plugins
+    in ``armtree_run_finished`` (e.g. the simulation's score); they are not
+    written to the run log.
     """
 
     status: str
@@ -85,6 +88,7 @@ class RunResult:
     running: list[str] = field(default_factory=list)
     reason: str | None = None
     traceback: str | None = None
+    details: dict[str, str] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -167,6 +171,10 @@ class Run:
         self._nodes: list[py_trees.behaviour.Behaviour] = []
         self._paths: tuple[str, ...] = ()
         self._last: tuple[str, ...] = ()
+        # Per node, for the final frame of a view: its last status other than INVALID
+        # (py_trees' halt resets nodes to INVALID) and whether it was halted from RUNNING.
+        self._shown: list[str] = []
+        self._halted: list[bool] = []
         self._hook_impls: dict[str, list[Any]] = {}
         self._hook_errors_reported: set[tuple[str, str]] = set()
         self._executed = False
@@ -326,6 +334,8 @@ class Run:
         self._nodes = list(self.root.iterate())
         self._paths = tuple(self.path_of(n) for n in self._nodes)
         self._last = tuple([n.status._value_ for n in self._nodes])
+        self._shown = list(self._last)
+        self._halted = [False] * len(self._nodes)
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -401,6 +411,7 @@ class Run:
             if logging:
                 self.log.status_diff(self.tick_count, now, self._paths, last, current)
             if self._view_changes:
+                self._remember(last, current)
                 changes = [
                     (path, old, new)
                     for path, old, new in zip(self._paths, last, current, strict=True)
@@ -524,7 +535,31 @@ class Run:
                         self.tick_count, self.clock.now(), [(self._paths[i], last[i], name)]
                     )
                     last[i] = name
+        self._remember(self._last, last)
         self._last = tuple(last)
+
+    def _remember(self, last: Sequence[str], current: Sequence[str]) -> None:
+        shown, halted = self._shown, self._halted
+        for i, (old, new) in enumerate(zip(last, current, strict=True)):
+            if old == new:
+                continue
+            if new != "INVALID":
+                shown[i], halted[i] = new, False
+            elif old == "RUNNING":
+                halted[i] = True
+
+    def final_statuses(self) -> dict[Any, tuple[str, bool]]:
+        """``{node.id: (status name, halted)}``: each node's last status other than INVALID.
+
+        py_trees leaves halted nodes INVALID, which hides how a run ended; this
+        keeps, for every node, the last SUCCESS, FAILURE or RUNNING it had in
+        this run (``"INVALID"`` if it never ran) and whether it was then halted
+        from RUNNING. Kept only while the run's view takes updates (not quiet).
+        """
+        return {
+            n.id: (shown, halted)
+            for n, shown, halted in zip(self._nodes, self._shown, self._halted, strict=True)
+        }
 
     def halt_tree(self) -> list[str]:
         """Stop every RUNNING node with INVALID (calling its terminate); return errors raised.

@@ -4,7 +4,8 @@
 (when the profile uses any sim part), puts the arm emulator into it and
 appends the world's stepper after the emulators'. ``armtree_run_started``
 starts the recordings when the run records to a directory, and
-``armtree_run_finished`` writes the ground-truth score beside the run log.
+``armtree_run_finished`` writes the ground-truth score beside the run log
+and adds a one-line score to the run summary (``result.details``).
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
 ``armtree_validate_profile`` parses the ``world:`` section while the profile
 loads, so ``armtree check`` reports what building the world would refuse.
@@ -146,10 +147,30 @@ def armtree_run_finished(run: Any, result: Any) -> None:
         "wall_seconds": getattr(result, "wall_seconds", None),
     }
     log_path = getattr(result, "log_path", None)
-    if log_path is not None:
-        write_score(score, log_path.parent / "score.json")
+    score_path = None if log_path is None else log_path.parent / "score.json"
+    if score_path is not None:
+        write_score(score, score_path)
     if stepper.recorder is not None:
         stepper.recorder.finish(score)
+    details = getattr(result, "details", None)
+    if isinstance(details, dict):
+        details["score"] = score_line(score)
+        if score_path is not None:
+            details["score file"] = str(score_path)
 
 
-__all__ = ["SHARED_KEY", "WorldStepper"]
+def score_line(score: dict[str, Any]) -> str:
+    """One line of a world's score for the run summary: ducky on a Duckybot, bins,
+    collisions and what the gripper holds."""
+    in_bin = ", ".join(score.get("in_bin") or ()) or "none"
+    return " · ".join(
+        (
+            f"ducky on duckybot: {'yes' if score.get('ducky_on_duckybot') else 'no'}",
+            f"in bin: {in_bin}",
+            f"collisions: {score.get('collision_count', 0)}",
+            f"held: {score.get('held') or 'none'}",
+        )
+    )
+
+
+__all__ = ["SHARED_KEY", "WorldStepper", "score_line"]
