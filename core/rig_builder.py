@@ -19,7 +19,7 @@ from typing import Any
 
 from .clock import Clock
 from .errors import ConfigError, HardwareFault
-from .profile import profile_section
+from .profile import profile_section, profile_source
 from .rig import Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
@@ -34,11 +34,6 @@ def component_config(profile: Any, key: str) -> Any:
     if callable(component):
         return component(key)
     return profile_section(profile, key)
-
-
-def _profile_file(profile: Any) -> str | None:
-    source = getattr(profile, "source", None) or getattr(profile, "path", None)
-    return str(source) if source is not None else None
 
 
 def uses_real_hardware(profile: Any) -> bool:
@@ -97,7 +92,7 @@ def build_rig(
     Raises :class:`ConfigError` for an unknown component type and lets a
     factory's :class:`HardwareFault` through, after closing what was built.
     """
-    file = _profile_file(profile)
+    file = profile_source(profile)
     context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record_dir)
     if interrupt is not None:
         context.interrupt = interrupt

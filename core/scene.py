@@ -126,7 +126,7 @@ class Scene:
         boxes, meshes that fail to load and places inside an obstacle.
         """
         data, source = _profile_mapping(profile)
-        fail = _Fail(profile, source)
+        fail = _Fail(profile)
         if base_dir is None:
             base_dir = Path(source).parent if source else Path.cwd()
         base_dir = Path(base_dir)
@@ -210,18 +210,15 @@ def _place_blocked(name: str, point: np.ndarray, blocker: str) -> str:
 
 
 def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
-    source = None
-    for attr in ("source", "path", "file"):
-        value = getattr(profile, attr, None)
-        if isinstance(value, (str, Path)):
-            source = str(value)
-            break
+    # imported here: armtree.profile builds Scenes, so it imports this module first
+    from .profile import profile_source
+
+    source = profile_source(profile)
     if isinstance(profile, Mapping):
         return profile, source
-    for attr in ("data", "raw", "mapping"):
-        value = getattr(profile, attr, None)
-        if isinstance(value, Mapping):
-            return value, source
+    data = getattr(profile, "data", None)
+    if isinstance(data, Mapping):
+        return data, source
     keys = ("table", "obstacles", "places")
     return {key: getattr(profile, key) for key in keys if hasattr(profile, key)}, source
 
@@ -229,20 +226,16 @@ def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
 class _Fail:
     """Makes ConfigErrors at the position of a dotted profile path when the profile knows it."""
 
-    def __init__(self, profile: Any, source: str | None) -> None:
+    def __init__(self, profile: Any) -> None:
         self.profile = profile
-        self.source = source
 
     def __call__(self, path: str, message: str) -> ConfigError:
-        shown = re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", path)
-        make = getattr(self.profile, "error", None)
-        if callable(make):
-            err = make(path, message)
-            if isinstance(err, ConfigError):
-                err.message = f"{shown}: {message}"
-                err.errors = [err]
-                return err
-        return ConfigError(f"{shown}: {message}", file=self.source)
+        from .profile import profile_error
+
+        err = profile_error(self.profile, path, message)
+        # positioned by the dotted path; shown with list items as [i]
+        err.message = re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", path) + f": {message}"
+        return err
 
 
 def _vector(

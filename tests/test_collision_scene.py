@@ -149,7 +149,7 @@ def test_place_inside_an_obstacle_is_refused():
 
 def test_profile_objects_with_a_data_mapping_are_accepted():
     class FakeProfile:
-        path = "/somewhere/rig.yaml"
+        source = "/somewhere/rig.yaml"
         data = {"obstacles": [WALL], "places": {}}
 
     scene = Scene.from_profile(FakeProfile())

@@ -25,7 +25,8 @@ import yaml
 
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.trackers.common import config_error, profile_file
+from armtree.plugins.trackers.common import config_error
+from armtree.profile import profile_source
 
 #: The keys every camera type accepts for its intrinsics and mounting.
 INTRINSICS_PARAMS: tuple[Param, ...] = (
@@ -175,7 +176,7 @@ def save_calibration(path: str | Path, intrinsics: Intrinsics, **extra: Any) -> 
 def intrinsics_from_config(config: Mapping[str, Any], profile: Any) -> Intrinsics | None:
     """The intrinsics a camera section gives (a calibration file or inline values), or None."""
     calibration = config.get("calibration")
-    source = profile_file(profile)
+    source = profile_source(profile)
     if calibration:
         path = Path(calibration)
         if not path.is_absolute():

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
+from armtree.profile import profile_source
 from armtree.scene import Scene
 from armtree.workspace import ArmWorkspace, Covering
 
@@ -32,7 +33,7 @@ def arm_model(profile: Any, manager: Any = None) -> Any:
     if make is None:
         raise ConfigError(
             f"arm type {config['type']!r} offers no kinematic model (factory.model) to cover",
-            file=str(getattr(profile, "source", "") or "") or None,
+            file=profile_source(profile),
         )
     return make(config)
 

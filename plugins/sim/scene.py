@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.profile import profile_section
+from armtree.profile import profile_error, profile_section
 
 from .duckybot import DuckybotParams, Leg, RouteSpec
 from .geometry import footprint_overlap, point_in_polygon, rot_z
@@ -167,26 +167,6 @@ class SceneSpec:
 # ---------------------------------------------------------------------------
 
 
-def _locate(profile: Any, path: tuple[Any, ...]) -> tuple[str | None, int | None, int | None]:
-    """File, line and column of a profile entry when the profile records marks."""
-    file = getattr(profile, "path", None) or getattr(profile, "file", None)
-    file = str(file) if file is not None else None
-    finder = getattr(profile, "mark", None)
-    while callable(finder) and path:
-        try:
-            mark = finder(*path)
-        except (KeyError, TypeError, ValueError, IndexError):
-            mark = None
-        if mark is not None:
-            return (
-                getattr(mark, "file", file),
-                getattr(mark, "line", None),
-                getattr(mark, "column", None),
-            )
-        path = path[:-1]
-    return file, None, None
-
-
 class _Errors:
     """Builds ConfigErrors that name the entry and point into the profile."""
 
@@ -194,12 +174,7 @@ class _Errors:
         self.profile = profile
 
     def __call__(self, path: tuple[Any, ...], message: str) -> ConfigError:
-        where = ".".join(str(p) for p in path)
-        error = getattr(self.profile, "error", None)
-        if callable(error):
-            return error(where, message)
-        file, line, column = _locate(self.profile, path)
-        return ConfigError(f"{where}: {message}", file=file, line=line, column=column)
+        return profile_error(self.profile, ".".join(str(p) for p in path), message)
 
 
 # ---------------------------------------------------------------------------

@@ -19,6 +19,7 @@ from py_trees.common import Status
 
 import armtree
 from armtree.params import Binding
+from armtree.profile import Profile, profile_source
 from armtree.rig import MotionHandle
 
 from .actions import Action, SkillFailure, State
@@ -193,12 +194,10 @@ class Skill(armtree.Behaviour):
     def _profile_error(self, section: str, message: str) -> armtree.ConfigError:
         """A ConfigError at the profile's ``section`` (where the name should have been)."""
         profile = getattr(self.rig, "profile", None)
-        mark_of = getattr(profile, "mark", None)
-        mark = mark_of(section) if callable(mark_of) else None
+        mark = profile.mark(section) if isinstance(profile, Profile) else None
         if mark is not None:
             return armtree.ConfigError(message, mark.file, mark.line, mark.column)
-        source = getattr(profile, "source", None)
-        return armtree.ConfigError(message, str(source) if source else None)
+        return armtree.ConfigError(message, profile_source(profile))
 
     def bound(self, pname: str) -> bool:
         """True when parameter ``pname`` is a ``{key}`` blackboard binding."""

@@ -20,14 +20,8 @@ import numpy as np
 
 from armtree.errors import ConfigError
 from armtree.params import Param, check_value
-from armtree.profile import profile_section
+from armtree.profile import profile_error, profile_section
 from armtree.rig import Detection, Frame, TagSpec
-
-
-def profile_file(profile: Any) -> str | None:
-    """The file a profile was loaded from, for error messages (None when unknown)."""
-    source = getattr(profile, "source", None) or getattr(profile, "path", None)
-    return str(source) if source is not None else None
 
 
 def config_error(where: Any, path: str, message: str) -> ConfigError:
@@ -36,11 +30,9 @@ def config_error(where: Any, path: str, message: str) -> ConfigError:
     ``where`` is a loaded Profile (its ``error()`` gives the file, line and
     column the value was written at), a file name, or None.
     """
-    error = getattr(where, "error", None)
-    if callable(error):
-        return error(path, message)
-    file = str(where) if isinstance(where, (str, Path)) else profile_file(where)
-    return ConfigError(f"{path}: {message}", file=file)
+    if isinstance(where, (str, Path)):
+        return ConfigError(f"{path}: {message}", file=str(where))
+    return profile_error(where, path, message)
 
 
 def check_config(
