@@ -29,8 +29,6 @@ from .common import (
     check_config,
     config_error,
     finish_detection,
-    positive_size,
-    tag_table,
 )
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
@@ -195,9 +193,7 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
     where = context.profile
     values = check_config(config, aruco_factory.PARAMS, "tracker", where)
-    roles = TagRoles(
-        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", where)
-    )
+    roles = TagRoles.from_profile(context.profile, values["size_mm"])
     return ArucoTracker(
         values["dictionary"],
         detector_parameters(values["detector"], where),

@@ -161,6 +161,14 @@ class TagRoles:
         self.table = table
         self.default_size_mm = default_size_mm
 
+    @classmethod
+    def from_profile(cls, profile: Any, size_mm: float | None) -> TagRoles:
+        """The profile's ``tags:`` with ``size_mm`` (``tracker.size_mm``) for unlisted markers.
+
+        Raises :class:`ConfigError` for a bad ``tags:`` entry or a size that is not positive.
+        """
+        return cls(tag_table(profile), positive_size(size_mm, "tracker.size_mm", profile))
+
     @property
     def ids(self) -> frozenset[int]:
         """Every registered id."""

@@ -29,7 +29,7 @@ import numpy as np
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import TagRoles, check_config, finish_detection, positive_size, tag_table
+from .common import TagRoles, check_config, finish_detection
 from .hamming_code import BITS, GRID, MAX_ID, ROW_WEIGHTS, decode_words
 from .preprocess import Preprocessing, threshold_image, to_gray
 from .refine import refine_corners, remap_points
@@ -379,9 +379,7 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
     """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
     where = context.profile
     values = check_config(config, hamming_factory.PARAMS, "tracker", where)
-    roles = TagRoles(
-        tag_table(context.profile), positive_size(values["size_mm"], "tracker.size_mm", where)
-    )
+    roles = TagRoles.from_profile(context.profile, values["size_mm"])
     return HammingTracker(
         Preprocessing.from_config(values["preprocess"], where),
         roles,
