@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from planning_models import DobotLike, PlanarArm, wide_dobot
 
@@ -23,8 +23,9 @@ def _interval_and_points(a, b, fracs):
 
 
 def _encloses(result, values):
-    # Rounding of the last bit is allowed (the module does not round outward).
-    tol = 1e-9 * (1 + np.abs(values))
+    # Rounding of the last bit is allowed (the module does not round outward); a value
+    # that overflowed to infinity (4 / 2**-1022) must be met by an infinite bound.
+    tol = np.where(np.isfinite(values), 1e-9 * (1 + np.abs(values)), 0.0)
     return np.all(result.lo <= values + tol) and np.all(values <= result.hi + tol)
 
 
@@ -33,6 +34,7 @@ fracs = st.lists(st.floats(0, 1), min_size=1, max_size=20)
 
 @settings(max_examples=200, deadline=None)
 @given(finite, finite, finite, finite, fracs, fracs)
+@example(0.0, -4.0, 1.0, 2.2250738585072014e-308, [0.0], [0.0])  # -4 / 2**-1022 overflows
 def test_property_arithmetic_encloses_point_values(a, b, c, d, f1, f2):
     x, xs = _interval_and_points(a, b, f1)
     y, ys = _interval_and_points(c, d, f2)
