@@ -122,3 +122,42 @@ def test_only_registered_and_empty_frames():
     assert [d.id for d in ArucoTracker(roles=roles, only_registered=True).detect(frame)] == [5]
     empty = Frame(np.full((480, 640), 128, np.uint8), 0.0, K, np.zeros(5))
     assert ArucoTracker().detect(empty) == []
+
+
+def test_colour_frames_give_the_corners_of_their_grey_image():
+    import cv2
+
+    frame, truth, _ = scene([0, 5, 7], effects=syn.Effects(noise=2.0, blur=0.8, seed=3))
+    bgr = Frame(cv2.cvtColor(frame.image, cv2.COLOR_GRAY2BGR), 0.0, K, np.zeros(5))
+    tracker = ArucoTracker(roles=TagRoles({}, 25.0))
+    from_grey = {d.id: d for d in tracker.detect(frame)}
+    from_colour = {d.id: d for d in tracker.detect(bgr)}
+    assert set(from_colour) == set(from_grey) == {0, 5, 7}
+    for marker_id, det in from_colour.items():
+        # the edges are sampled from the BGR frame as grey: the same to within rounding
+        assert np.abs(det.corners - from_grey[marker_id].corners).max() < 0.02
+        assert np.abs(det.corners - truth[marker_id]).max() < 0.5
+
+
+def test_min_side_px_sets_the_detectors_perimeter_limit_per_frame_size():
+    tracker = ArucoTracker(min_side_px=12.0)
+    frame, _, _ = scene([4])
+    assert [d.id for d in tracker.detect(frame)] == [4]
+    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 12.0 / 640)
+    small, _, _ = scene([4], distance=1000.0)  # a 20 px marker
+    assert [d.id for d in ArucoTracker(min_side_px=30.0).detect(small)] == []
+    assert [d.id for d in ArucoTracker(min_side_px=12.0).detect(small)] == [4]
+    half = Frame(frame.image[::2, ::2].copy(), 0.0, K, np.zeros(5))
+    tracker.detect(half)
+    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 12.0 / 320)
+
+
+def test_an_explicit_perimeter_rate_wins_and_a_bad_min_side_is_refused():
+    ctx = RigContext(profile=None, clock=VirtualClock())
+    tracker = aruco_factory({"detector": {"minMarkerPerimeterRate": 0.5}}, ctx)
+    frame, _, _ = scene([4])
+    # a 67 px marker's perimeter is below half of 640 px (an 80 px side)
+    assert tracker.detect(frame) == []
+    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(0.5)
+    with pytest.raises(ConfigError, match="tracker.min_side_px"):
+        aruco_factory({"min_side_px": 0}, ctx)

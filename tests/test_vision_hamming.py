@@ -294,3 +294,28 @@ def test_a_frame_full_of_dark_squares_is_read_without_error():
     )
     image[200:280, 280:360] = marker[200:280, 280:360]
     assert [d.id for d in tracker.detect(Frame(image, 0.0, None, None))] == [1234]
+
+
+def test_a_marker_on_a_dark_sheet_is_found_and_a_dark_rings_hole_is_not_a_candidate():
+    import cv2
+
+    marker, _ = syn.render_markers(
+        "hamming",
+        [syn.Placement(4321, 25.0, *syn.look_at_pose(300.0, 0.0, 0.0, (0.0, 0.0)))],
+        syn.nominal_camera(),
+        background=230.0,
+    )
+    image = np.full((480, 640), 230, np.uint8)
+    # a dark sheet with a white window, the marker inside the window: the marker's
+    # outline is nested inside the sheet's hole
+    image[150:330, 220:420] = 30
+    image[185:295, 265:375] = marker[185:295, 265:375]
+    # a dark ring: its square hole must not be taken for a dark square
+    cv2.rectangle(image, (40, 40), (140, 140), 30, 12)
+    tracker = HammingTracker()
+    quads = tracker.candidates(image)
+    at_ring = quads[np.hypot(*(quads.mean(axis=1) - [90, 90]).T) < 5]
+    sides = np.hypot(*(at_ring - np.roll(at_ring, 1, axis=1)).transpose(2, 0, 1))
+    # the ring's outline (112 px) is a dark square; its hole (88 px) is not
+    assert len(at_ring) == 1 and sides.min() > 100
+    assert [d.id for d in tracker.detect(Frame(image, 0.0, None, None))] == [4321]

@@ -122,7 +122,14 @@ def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) 
 
 
 class ArucoTracker(Tracker):
-    """ArUco (and AprilTag) markers through ``cv2.aruco.ArucoDetector``."""
+    """ArUco (and AprilTag) markers through ``cv2.aruco.ArucoDetector``.
+
+    ``min_side_px`` is the smallest marker side looked for, in pixels (as the
+    hamming tracker's): OpenCV's ``minMarkerPerimeterRate`` is a fraction of
+    the image's larger side, so it is set from this for each frame size.
+    OpenCV's default (0.03, a 5 px side at 640x480) spends time on specks of
+    noise too small to read; None keeps the rate in ``parameters``.
+    """
 
     family = FAMILY
 
@@ -135,6 +142,7 @@ class ArucoTracker(Tracker):
         *,
         only_registered: bool = False,
         refine: str = "edges",
+        min_side_px: float | None = 12.0,
         where: Any = None,
     ) -> None:
         self.dictionary_name = dictionary
@@ -163,13 +171,39 @@ class ArucoTracker(Tracker):
             )
             params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
         self.parameters = params
+        if min_side_px is not None and not min_side_px > 0:
+            raise config_error(
+                where, "tracker.min_side_px", f"a positive number of pixels, got {min_side_px}"
+            )
+        self.min_side_px = min_side_px
+        self._sized_for: tuple[int, ...] = ()
         self.detector = cv2.aruco.ArucoDetector(self.dictionary, params)
+
+    def _size_for(self, shape: tuple[int, ...]) -> None:
+        """Set the detector's perimeter limit from ``min_side_px`` for frames of ``shape``."""
+        if self.min_side_px is None or shape[:2] == self._sized_for:
+            return
+        self._sized_for = shape[:2]
+        self.parameters.minMarkerPerimeterRate = 4.0 * self.min_side_px / max(shape[:2])
+        self.detector.setDetectorParameters(self.parameters)
 
     def detect(self, frame: Frame) -> list[Detection]:
         """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known."""
-        gray = to_gray(frame.image)
-        image = gray if self.preprocessing.identity else self.preprocessing.apply(gray)
-        corners, ids, _ = self.detector.detectMarkers(image)
+        image = frame.image
+        colour = (
+            self.preprocessing.identity
+            and not self._refine_on_gray
+            and isinstance(image, np.ndarray)
+            and image.dtype == np.uint8
+            and image.ndim == 3
+            and image.shape[2] == 3
+        )
+        # A BGR frame goes to the detector as it is (OpenCV converts it on its worker
+        # threads) and the edges are sampled from it as grey: no grey copy of the frame.
+        gray = image if colour else to_gray(image)
+        found_in = gray if self.preprocessing.identity else self.preprocessing.apply(gray)
+        self._size_for(found_in.shape)
+        corners, ids, _ = self.detector.detectMarkers(found_in)
         if ids is None or len(ids) == 0:
             return []
         detections = []
@@ -201,6 +235,10 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
         roles,
         only_registered=values["only_registered"],
         refine=values["refine"],
+        # an explicit detector.minMarkerPerimeterRate wins over min_side_px
+        min_side_px=None
+        if "minMarkerPerimeterRate" in (values["detector"] or {})
+        else values["min_side_px"],
         where=where,
     )
 
@@ -213,6 +251,7 @@ aruco_factory.PARAMS = (
     Param("preprocess", "dict", {}, doc="threshold, adaptive, block_px, offset, blur"),
     Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
+    Param("min_side_px", "float", 12.0, unit="px", doc="smallest marker side looked for"),
     Param(
         "refine",
         "str",

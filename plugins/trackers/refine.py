@@ -32,9 +32,11 @@ _MIN_CONTRAST = 8.0
 
 
 def refine_corners(
-    gray: np.ndarray, quads: np.ndarray, cells: int, passes: int = 2, contour_inset: float = 0.0
+    image: np.ndarray, quads: np.ndarray, cells: int, passes: int = 2, contour_inset: float = 0.0
 ) -> np.ndarray:
     """Refined corners ``(N, 4, 2)`` of quads ``(N, 4, 2)`` running clockwise on screen.
+
+    ``image`` is the grey frame, or the BGR one (sampled as grey, see :func:`remap_points`).
 
     ``cells`` is the number of cells across a marker (border included), which
     bounds how far a profile may reach. A further pass (up to ``passes``) is
@@ -57,7 +59,7 @@ def refine_corners(
     active = np.ones(len(out), dtype=bool)
     for _ in range(passes):
         before = out[active]
-        after, reach = _refine_once(gray, before, cells)
+        after, reach = _refine_once(image, before, cells)
         out[active] = after
         moved = np.abs(after - before).max(axis=1)
         # a profile that ended within the blur of the edge biases the fit
@@ -72,31 +74,41 @@ def refine_corners(
 _ROW_POINTS = 16384
 
 
-def remap_points(gray: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Bilinear grey levels ``(P,)`` uint8 of ``gray`` at pixel points ``(P, 2)`` (x, y).
+#: OpenCV's BGR-to-grey weights (``cv2.COLOR_BGR2GRAY``), for sampling colour frames.
+_BGR_TO_GRAY = np.array([0.114, 0.587, 0.299])
 
-    Edge pixels repeat beyond the image (``BORDER_REPLICATE``). The points go
-    to ``cv2.remap`` as one row when they fit in one: OpenCV splits a remap by
-    rows between its threads, and for the few thousand points a frame needs,
-    waking them (and their spinning afterwards) costs more CPU time than the work.
+
+def remap_points(image: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Bilinear grey levels ``(P,)`` float64 of ``image`` at pixel points ``(P, 2)`` (x, y).
+
+    ``image`` is grey or BGR ``uint8``; a BGR image is sampled per channel and
+    weighted as ``cv2.cvtColor`` weighs it, so a tracker that needs grey levels
+    at a few thousand points need not convert the whole frame (to within
+    cvtColor's rounding, half a grey level). Edge pixels repeat beyond the image
+    (``BORDER_REPLICATE``). The points go to ``cv2.remap`` as one row when they
+    fit in one: OpenCV splits a remap by rows between its threads, and for the
+    few thousand points a frame needs, waking them (and their spinning
+    afterwards) costs more CPU time than the work.
     """
     points = np.asarray(points, dtype=np.float32).reshape(-1, 2)
     count = len(points)
     if count == 0:
-        return np.zeros(0, np.uint8)
+        return np.zeros(0)
     rows = -(-count // _ROW_POINTS)
     if rows > 1:
         points = np.concatenate([points, np.zeros((rows * _ROW_POINTS - count, 2), np.float32)])
     maps = points.reshape(rows, -1, 2)
-    values = cv2.remap(gray, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return values.reshape(-1)[:count]
+    values = cv2.remap(image, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    if values.ndim == 3:
+        return (values.reshape(-1, 3)[:count] @ _BGR_TO_GRAY).astype(np.float64)
+    return values.reshape(-1)[:count].astype(np.float64)
 
 
 _NEXT = np.array([1, 2, 3, 0])
 _PREV = np.array([3, 0, 1, 2])
 
 
-def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+def _refine_once(image: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
     """One pass over quads given as complex corners ``x + iy (N, 4)``: refined corners, reach (px).
 
     This runs on a handful of markers per frame, where the count of numpy
@@ -112,8 +124,8 @@ def _refine_once(gray: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.nd
     # points along each edge (N, 4, T), then profiles across it (N, 4, T, S)
     base = quads[..., None] + _T * d[..., None]
     points = base[..., None] + (reach[:, None] * normal)[..., None, None] * _S
-    values = remap_points(gray, points.view(np.float64).reshape(-1, 2))
-    v = values.reshape(n, 4, len(_T), len(_S)).astype(np.float64)
+    values = remap_points(image, points.view(np.float64).reshape(-1, 2))
+    v = values.reshape(n, 4, len(_T), len(_S))
     inside = v[..., :2] @ _HALVES
     contrast = v[..., -2:] @ _HALVES - inside
     valid = contrast > _MIN_CONTRAST
