@@ -58,8 +58,9 @@ def time_contenders(
     """Mean over inputs of the best of ``rounds`` per input, in milliseconds, for each
     contender ``name: (fn, inputs)`` and measure: ``"cpu"`` (OpenCV's threads as
     configured), ``"wall"`` (the same calls) and ``"one"`` (CPU with OpenCV on one
-    thread). Contenders alternate input by input. Also returns each contender's
-    results of its first threaded round.
+    thread). Contenders alternate input by input, each given a fresh copy of the
+    input (not timed). Also returns each contender's results of its first
+    threaded round.
     """
     threads = cv2.getNumThreads()
     n = min(len(inputs) for _, inputs in contenders.values())
@@ -71,7 +72,9 @@ def time_contenders(
             cv2.setNumThreads(1 if one_thread else threads)
             for i in range(n):
                 for name, (fn, inputs) in contenders.items():
-                    cpu, wall, result = timed_call(fn, inputs[i])
+                    # a fresh copy, as a camera delivers a frame: no contender reads a
+                    # frame that the one before it has just pulled into the cache
+                    cpu, wall, result = timed_call(fn, np.copy(inputs[i]))
                     if one_thread:
                         best[name, "one"][i] = min(best[name, "one"][i], cpu)
                         continue

@@ -28,6 +28,16 @@ def test_dark_after_blur3_is_blur_then_threshold(height, width, white, seed):
     assert np.array_equal(dark_after_blur3(binary), expected[1])
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(3, 40), st.integers(3, 40), st.floats(0.0, 255.0), st.integers(0, 2**32 - 1))
+def test_dark_after_blur3_binarises_grey_at_any_level(height, width, level, seed):
+    rng = np.random.default_rng(seed)
+    gray = rng.integers(0, 256, (height, width), dtype=np.uint8)
+    binary = cv2.threshold(gray, level, 255, cv2.THRESH_BINARY)[1]
+    expected = cv2.threshold(cv2.GaussianBlur(binary, (3, 3), 0), 127, 255, cv2.THRESH_BINARY_INV)
+    assert np.array_equal(dark_after_blur3(gray, level), expected[1])
+
+
 @pytest.mark.parametrize(
     "prep",
     [

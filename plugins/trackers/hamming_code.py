@@ -49,8 +49,6 @@ PARITY_CHECK = np.array(
 DATA_POSITIONS = (2, 4, 5, 6)
 #: Weights that turn a row of 7 bits (left to right) into an integer word, MSB first.
 ROW_WEIGHTS = 1 << np.arange(BITS - 1, -1, -1)
-#: Weights that put row r's nibble at its place in the id (row 0 most significant).
-_NIBBLE_WEIGHTS = 1 << (4 * np.arange(BITS - 1, -1, -1, dtype=np.int64))
 
 
 def _codeword(nibble: int) -> np.ndarray:
@@ -101,17 +99,6 @@ def marker_grid(marker_id: int) -> np.ndarray:
     return grid
 
 
-def decode_words(words: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Decode rows given as 7-bit integers ``(..., 7)`` (left bit most significant).
-
-    Returns ``(ids, corrected, flips)``: ids and bits corrected ``(...)`` as
-    :func:`decode_bits` gives them, and the column each row's correction flips
-    ``(..., 7)`` (-1: none) as :func:`corrected_columns` does; one table look-up each.
-    """
-    ids = WORD_NIBBLE[words] @ _NIBBLE_WEIGHTS
-    return ids, WORD_ERRORS[words].sum(axis=-1), WORD_FLIP[words]
-
-
 def decode_bits(bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Decode data grids ``(..., 7, 7)`` of 0/1 read row by row as printed.
 
@@ -125,9 +112,3 @@ def decode_bits(bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     shifts = 4 * np.arange(BITS - 1, -1, -1)
     ids = (nibbles << shifts).sum(axis=-1)
     return ids, errors.sum(axis=-1)
-
-
-def corrected_columns(bits: np.ndarray) -> np.ndarray:
-    """For data grids ``(..., 7, 7)``: the column each row's correction flips, ``(..., 7)`` (-1: none)."""
-    words = (np.asarray(bits, dtype=np.int64) * ROW_WEIGHTS).sum(axis=-1)
-    return WORD_FLIP[words]

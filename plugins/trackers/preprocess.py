@@ -114,9 +114,12 @@ class Preprocessing:
         """
         if not self.binarises:
             raise ValueError("dark() needs a binarising preprocessing (threshold or adaptive)")
+        if self.blur == 3 and min(gray.shape) >= 3:
+            if self.adaptive:
+                return dark_after_blur3(self._binarise(gray))
+            # the global threshold, and the one dark_after_blur3 applies, in one
+            return dark_after_blur3(gray, 255.0 * self.threshold)
         binary = self._binarise(gray)
-        if self.blur == 3 and min(binary.shape) >= 3:
-            return dark_after_blur3(binary)
         if self.blur:
             binary = cv2.GaussianBlur(binary, (self.blur, self.blur), 0)
         return threshold_image(binary, 127, cv2.THRESH_BINARY_INV)
@@ -164,19 +167,20 @@ def threshold_image(gray: np.ndarray, level: float, kind: int) -> np.ndarray:
     return out.reshape(gray.shape)
 
 
-def dark_after_blur3(binary: np.ndarray) -> np.ndarray:
-    """255 where a 0/255 image is dark after OpenCV's 3x3 Gaussian blur (at most 127), else 0.
+def dark_after_blur3(image: np.ndarray, level: float = 127.0) -> np.ndarray:
+    """255 where ``image`` binarised at ``level`` is dark after OpenCV's 3x3 Gaussian blur.
 
-    Exactly ``threshold(GaussianBlur(binary, (3, 3), 0), 127, 255, THRESH_BINARY_INV)``
-    for images of at least 3x3: the blur's kernel is (1 2 1) x (1 2 1) / 16, so a
+    With ``binary = threshold(image, level, 255, THRESH_BINARY)``, exactly
+    ``threshold(GaussianBlur(binary, (3, 3), 0), 127, 255, THRESH_BINARY_INV)``
+    for images of at least 3x3 (a 0/255 image binarises to itself at 127): the blur's kernel is (1 2 1) x (1 2 1) / 16, so a
     pixel ends up dark when the weighted count of white pixels around it is at
     most 7 of 16 (8 rounds to 128), borders mirrored without repeating the edge
     (OpenCV's default). The sums are in-place additions of the image shifted by
     one pixel and by one row: no worker threads and two frame buffers, where
     the blur costs more CPU time in its threads than in its arithmetic.
     """
-    h, w = binary.shape
-    _, ones = cv2.threshold(binary.reshape(1, -1), 127, 1, cv2.THRESH_BINARY)
+    h, w = image.shape
+    _, ones = cv2.threshold(image.reshape(1, -1), level, 1, cv2.THRESH_BINARY)
     flat = ones.reshape(-1)
     grid = flat.reshape(h, w)
     across = np.empty(h * w, np.uint8)  # 1 2 1 along each row
