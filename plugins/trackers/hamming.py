@@ -81,10 +81,10 @@ _CELL_SAMPLES = (_CELL_CENTRES[:, None, :] - 0.5 + _OFFSETS) / GRID
 _QUIET_SAMPLES = _QUIET_UV / GRID
 #: Corner order of a quad whose printed top-left corner is its corner k.
 _ROLLS = np.array([[(k + i) % 4 for i in range(4)] for k in range(4)])
-# Index in the 81 cells of each data cell after turning the inner 7x7 grid k
-# quarter turns (np.rot90's sense): (4, 7, 7).
+# Index in the 81 cells of each data cell, row by row as printed, when the
+# marker's top-left corner is the quad's corner k: the inner 7x7 grid turned
+# k quarter turns (np.rot90's sense), (4, 49).
 _INNER = np.arange(GRID * GRID).reshape(GRID, GRID)[1:-1, 1:-1]
-#: The 49 data cells, row by row as printed, for each of the four turns.
 _TURNED = np.stack([np.rot90(_INNER, k).ravel() for k in range(4)])
 _BORDER_CELLS = np.flatnonzero(_BORDER_FLAT)
 

@@ -354,15 +354,13 @@ def read_markers(
 
 
 @njit(cache=True, nogil=True)
-def _area_and_centre(quad: np.ndarray) -> tuple[float, float, float]:
-    """Area (shoelace, unsigned) and centre of the corners of a quad ``(4, 2)``."""
+def _twice_signed_area(quad: np.ndarray) -> float:
+    """Twice the shoelace area of a quad ``(4, 2)``: positive when clockwise on screen (y down)."""
     twice = 0.0
     for k in range(4):
         j = (k + 1) % 4
         twice += quad[k, 0] * quad[j, 1] - quad[j, 0] * quad[k, 1]
-    cx = 0.25 * (quad[0, 0] + quad[1, 0] + quad[2, 0] + quad[3, 0])
-    cy = 0.25 * (quad[0, 1] + quad[1, 1] + quad[2, 1] + quad[3, 1])
-    return 0.5 * abs(twice), cx, cy
+    return twice
 
 
 @njit(cache=True, nogil=True)
@@ -381,7 +379,9 @@ def best_of_overlapping(
     cy = np.empty(n)
     rank = np.empty(n)
     for i in range(n):
-        area[i], cx[i], cy[i] = _area_and_centre(quads[i])
+        area[i] = 0.5 * abs(_twice_signed_area(quads[i]))
+        cx[i] = 0.25 * (quads[i, 0, 0] + quads[i, 1, 0] + quads[i, 2, 0] + quads[i, 3, 0])
+        cy[i] = 0.25 * (quads[i, 0, 1] + quads[i, 1, 1] + quads[i, 2, 1] + quads[i, 3, 1])
     largest = area.max() if n else 0.0
     for i in range(n):
         # corrections, then ambiguity, then size; the area term stays below 1
@@ -418,10 +418,6 @@ def clockwise_quads(quads: np.ndarray, min_side: float) -> np.ndarray:
         keep[m] = shortest >= min_side
     out = quads[keep].copy()
     for m in range(out.shape[0]):
-        twice = 0.0
-        for k in range(4):
-            j = (k + 1) % 4
-            twice += out[m, k, 0] * out[m, j, 1] - out[m, j, 0] * out[m, k, 1]
-        if twice < 0.0:
+        if _twice_signed_area(out[m]) < 0.0:
             out[m] = out[m, ::-1].copy()
     return out
