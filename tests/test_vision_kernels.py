@@ -103,3 +103,17 @@ def test_of_overlapping_readings_the_cleaner_then_the_larger_is_kept():
     # equally corrected, one ambiguous: the other wins
     kept = kernels.best_of_overlapping(quads[:2], np.array([1, 1]), np.array([True, False]))
     assert kept.tolist() == [1]
+
+
+def test_kernels_compile_where_nothing_can_be_cached(monkeypatch):
+    from numba.core import caching
+
+    def twice(x):
+        return 2 * x
+
+    assert isinstance(kernels.compiled(twice)._cache, caching.FunctionCache)
+    # no folder to cache in (a read-only container): numba refuses cache=True
+    monkeypatch.setattr(caching.CacheImpl, "_locator_classes", [])
+    uncached = kernels.compiled(twice)
+    assert uncached(21) == 42
+    assert not isinstance(uncached._cache, caching.FunctionCache)

@@ -18,15 +18,31 @@ integers. Images are ``uint8``, grey ``(H, W)`` or BGR ``(H, W, 3)``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
+import numba
 import numpy as np
-from numba import njit
+
+
+def compiled(function: Callable[..., Any]) -> Any:
+    """``function`` compiled by numba (no GIL), its machine code cached on disk when it can be.
+
+    numba refuses to cache where neither the package's folder nor the user's
+    cache folder is writable (a read-only container, say); the function is
+    then compiled afresh in each process rather than failing to import.
+    """
+    try:
+        return numba.njit(cache=True, nogil=True)(function)
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        return numba.njit(nogil=True)(function)
+
 
 # cv2.COLOR_BGR2GRAY's weights (a tuple: numba freezes it into the compiled code)
 _BGR = (0.114, 0.587, 0.299)
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def grey_at(image: np.ndarray, x: float, y: float) -> float:
     """Bilinear grey level of ``image`` at ``(x, y)``; edge pixels repeat beyond the image.
 
@@ -58,7 +74,7 @@ def grey_at(image: np.ndarray, x: float, y: float) -> float:
     return level
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def _refine_quad(
     image: np.ndarray,
     quad: np.ndarray,
@@ -151,7 +167,7 @@ def _refine_quad(
     return reach
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def refine_quads(
     image: np.ndarray,
     quads: np.ndarray,
@@ -191,7 +207,7 @@ def refine_quads(
     return out
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def sample_cells(
     image: np.ndarray, quads: np.ndarray, cell_uv: np.ndarray, quiet_uv: np.ndarray
 ) -> np.ndarray:
@@ -236,7 +252,7 @@ def sample_cells(
     return out
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def read_markers(
     reading: np.ndarray,
     border: np.ndarray,
@@ -353,7 +369,7 @@ def read_markers(
     return rows[:found], turns[:found], ids_out[:found], corrected_out[:found], ties_out[:found]
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def _twice_signed_area(quad: np.ndarray) -> float:
     """Twice the shoelace area of a quad ``(4, 2)``: positive when clockwise on screen (y down)."""
     twice = 0.0
@@ -363,7 +379,7 @@ def _twice_signed_area(quad: np.ndarray) -> float:
     return twice
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def best_of_overlapping(
     quads: np.ndarray, corrected: np.ndarray, ambiguous: np.ndarray
 ) -> np.ndarray:
@@ -399,7 +415,7 @@ def best_of_overlapping(
     return np.flatnonzero(kept)
 
 
-@njit(cache=True, nogil=True)
+@compiled
 def clockwise_quads(quads: np.ndarray, min_side: float) -> np.ndarray:
     """The quads ``(N, 4, 2)`` whose every side is at least ``min_side``, turned clockwise on screen.
 
