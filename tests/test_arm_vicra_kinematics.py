@@ -3,18 +3,16 @@
 import numpy as np
 import pytest
 from hypothesis import given, settings
-from hypothesis import strategies as st
+from kinematic_checks import (
+    assert_fk_of_ik_is_the_target,
+    assert_ik_of_fk_contains_q,
+    joint_configs,
+)
 
 from armtree.errors import Unreachable
 from armtree.plugins.arms.vicra.kinematics import VicraModel
 
 MODEL = VicraModel()
-
-
-def joint_configs():
-    return st.tuples(*[st.floats(j.lower, j.upper, allow_nan=False) for j in MODEL.joints]).map(
-        np.array
-    )
 
 
 def test_reach_and_column_match_seed_000():
@@ -39,23 +37,15 @@ def test_ik_takes_the_nearer_branch():
 
 
 @settings(max_examples=200, deadline=None)
-@given(joint_configs())
+@given(joint_configs(MODEL))
 def test_ik_of_fk_contains_q(q):
-    sols = MODEL.ik_all(MODEL.fk(q))
-    # near the stretched-out singularity acos loses half the digits: 1e-4 deg
-    assert np.nanmin(np.abs(sols - q).max(axis=-1)) < 1e-4
+    assert_ik_of_fk_contains_q(MODEL, q)
 
 
 @settings(max_examples=200, deadline=None)
-@given(joint_configs())
+@given(joint_configs(MODEL))
 def test_fk_of_ik_is_the_target(q):
-    p = MODEL.position(q)
-    good = MODEL.ik_all(p)
-    good = good[np.all(np.isfinite(good), axis=-1)]
-    assert len(good) >= 1
-    np.testing.assert_allclose(
-        MODEL.position(good), np.broadcast_to(p, (len(good), 3)), atol=1e-3
-    )  # 1 um
+    assert_fk_of_ik_is_the_target(MODEL, q)
 
 
 def test_link_frames_agree_with_position_and_batch():
