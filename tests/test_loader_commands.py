@@ -159,6 +159,37 @@ def test_shipped_trees_reference_the_shipped_schema():
         )
 
 
+def _differing_paths(a, b, path: str = "") -> list[str]:
+    """JSON paths where two documents differ (a key on one side only counts as a difference)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        keys = list(a) + [k for k in b if k not in a]
+        return [p for k in keys for p in _differing_paths(a.get(k), b.get(k), f"{path}/{k}")]
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [
+            p
+            for i, (x, y) in enumerate(zip(a, b, strict=True))
+            for p in _differing_paths(x, y, f"{path}/{i}")
+        ]
+    return [] if a == b else [path or "/"]
+
+
+def test_shipped_schema_is_what_armtree_schema_writes_now():
+    shipped = json.loads((shipped_dir("tree") / "armtree.schema.json").read_text())
+    current = build_schema(get_plugin_manager(autoload=False).registry)
+    paths = _differing_paths(current, shipped)
+    assert not paths, (
+        f"trees/armtree.schema.json is out of date at {len(paths)} paths, e.g. {paths[:5]}; "
+        "regenerate it with: ARMTREE_DISABLE_PLUGIN_AUTOLOAD=1 armtree schema -o trees/armtree.schema.json"
+    )
+
+
+def test_differing_paths_names_each_changed_key():
+    a = {"x": {"y": 1, "z": [1, 2]}, "k": 1}
+    b = {"x": {"y": 2, "z": [1, 3]}, "n": 1}
+    assert _differing_paths(a, b) == ["/x/y", "/x/z/1", "/k", "/n"]
+    assert _differing_paths(a, a) == []
+
+
 def test_armtree_check_in_a_subprocess_exits_0_or_2_with_positions(tmp_path):
     import os
     import subprocess
