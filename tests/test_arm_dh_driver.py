@@ -96,7 +96,7 @@ def test_stop_freezes_the_servos(sim):
     sim.tick()
     frozen = sim.emu.true_joints()
     sim.tick(30)
-    np.testing.assert_allclose(sim.emu.true_joints(), frozen)
+    np.testing.assert_allclose(sim.emu.true_joints(), frozen, atol=1e-9)
     assert sim.arm.model.home[0] < frozen[0] < sim.arm.model.home[0] + 60.0
     assert b"STOP0 STOP1 STOP2 STOP3 STOP4 STOP5" in sim.sent()
 

@@ -83,17 +83,17 @@ def test_prismatic_joint_and_link_frames():
     arm = DHModel(
         [DHRow(0, 0, 50, kind="prismatic"), DHRow(0, 90, 0)], [(0, 200), (-90, 90)], "modified"
     )
-    np.testing.assert_allclose(arm.position(np.array([120.0, 0.0])), [0, 0, 170])
+    np.testing.assert_allclose(arm.position(np.array([120.0, 0.0])), [0, 0, 170], atol=1e-9)
     q = np.random.default_rng(3).uniform(arm.lower, arm.upper, (3, 4, 2))
     frames = arm.link_frames(q)
     assert frames.shape == (3, 4, 4, 4, 4)
-    np.testing.assert_allclose(frames[..., -1, :, :], arm.fk(q))
+    np.testing.assert_allclose(frames[..., -1, :, :], arm.fk(q), atol=1e-9)
 
 
 def test_batched_fk_equals_one_at_a_time_and_geometric_jacobian_matches():
     q = np.random.default_rng(4).uniform(-180, 180, (5000, 6))
     batch = PUMA.fk(q)
-    np.testing.assert_allclose(batch[4321], PUMA.fk(q[4321]))
+    np.testing.assert_allclose(batch[4321], PUMA.fk(q[4321]), atol=1e-9)
     J = PUMA.jacobian_geometric(q[7])
     np.testing.assert_allclose(np.radians(1) * J[:3], PUMA.jacobian(q[7]), atol=1e-4)
 
@@ -187,7 +187,7 @@ def test_model_from_config_reads_tool_base_and_home():
             }
         }
     )
-    np.testing.assert_allclose(model.position(np.array([0.0])), [110, 0, 50])
+    np.testing.assert_allclose(model.position(np.array([0.0])), [110, 0, 50], atol=1e-9)
     assert model.home.tolist() == [30.0]
     with pytest.raises(ConfigError):
         model_from_config({"dh": {"table": [{"a": 1}], "home": [1, 2]}})

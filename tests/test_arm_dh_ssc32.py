@@ -53,7 +53,7 @@ def test_any_request_text_parses(text):
 
 def test_servo_config():
     maps = S.servo_maps_from_config(None, 2)
-    assert [m.channel for m in maps] == [0, 1] and maps[0].angle(1500) == pytest.approx(0)
+    assert [m.channel for m in maps] == [0, 1] and maps[0].angle(1500) == pytest.approx(0, abs=1e-9)
     maps = S.servo_maps_from_config([{"channel": 4, "table": [[500, -90], [2500, 90]]}], 1)
     assert maps[0].channel == 4 and maps[0].range() == pytest.approx((-90, 90))
     for bad, match in [

@@ -48,10 +48,10 @@ def test_connect_reads_the_banner_and_homes_on_the_end_stops():
         s.arm.connect()
         assert s.arm.banner[0] == "start" and any("Marlin" in x for x in s.arm.banner)
         # until the start-up homing ends, the driver reports where it will end
-        np.testing.assert_allclose(s.arm.joints(), s.arm.model.park)
+        np.testing.assert_allclose(s.arm.joints(), s.arm.model.park, atol=1e-9)
         s.until_homed()
         assert s.arm.endstops == {"x_min": True, "y_max": True, "z_max": True}
-        np.testing.assert_allclose(s.emu.true_joints()[:3], s.emu.reported_joints()[:3])
+        np.testing.assert_allclose(s.emu.true_joints()[:3], s.emu.reported_joints()[:3], atol=1e-9)
         np.testing.assert_allclose(s.emu.true_joints(), s.arm.model.park, atol=0.02)
         assert s.lines_received()[:2] == ["M110 N0", "G90"]
         assert "G28" in s.lines_received()
@@ -61,7 +61,7 @@ def test_moves_are_refused_until_homed():
     with Sim(home_on_connect=False) as s:
         s.arm.connect()
         # power-up: the firmware counts from zero while the arm is elsewhere
-        np.testing.assert_allclose(s.emu.reported_joints()[:3], 0.0)
+        np.testing.assert_allclose(s.emu.reported_joints()[:3], 0.0, atol=1e-9)
         assert not np.allclose(s.emu.true_joints()[:3], 0.0)
         handle = s.arm.move_joints([100.0, 0.0, 90.0, 0.0])
         assert handle.status is MotionStatus.FAILED and "not homed" in str(handle.error)
@@ -136,7 +136,7 @@ def test_stop_sends_m410_and_the_arm_stops_at_once(sim):
     sim.tick()
     stopped = sim.emu.true_joints()
     sim.tick(20)
-    np.testing.assert_allclose(sim.emu.true_joints(), stopped)
+    np.testing.assert_allclose(sim.emu.true_joints(), stopped, atol=1e-9)
     assert stopped[1] < 100.0 and "M410" in sim.lines_received()
     # the arm takes commands again
     again = sim.until(sim.arm.move_joints([300.0, 0.0, 90.0, 0.0]))

@@ -73,7 +73,7 @@ def test_the_reports_fit_recovers_the_tool_offset_and_joint_offsets():
     assert 0.4 < fit.rms_after_mm < 0.6
     assert fit.params["l1_mm"] == 135.0 and fit.params["l2_mm"] == 160.0
     np.testing.assert_allclose(
-        fit.positions(points.joints_deg), fit.residuals_after_mm + points.measured_mm
+        fit.positions(points.joints_deg), fit.residuals_after_mm + points.measured_mm, atol=1e-9
     )
 
 

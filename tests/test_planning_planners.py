@@ -40,7 +40,7 @@ def test_direct_returns_the_straight_move_when_it_is_free(checker):
     planner = DirectPlanner(checker)
     start, goal = np.array([-60.0, 20.0, 30.0]), np.array([30.0, 30.0, 40.0])
     path = planner.plan(start, goal)
-    np.testing.assert_allclose(path, [start, goal])
+    np.testing.assert_allclose(path, [start, goal], atol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -97,8 +97,8 @@ def test_prm_goes_around_the_wall(checker, tmp_path):
     start, goal = np.array([30.0, 30.0, 20.0]), np.array([130.0, 30.0, 20.0])
     assert not checker.segment_free(start, goal)
     path = planner.plan(start, goal)
-    np.testing.assert_allclose(path[0], start)
-    np.testing.assert_allclose(path[-1], goal)
+    np.testing.assert_allclose(path[0], start, atol=1e-9)
+    np.testing.assert_allclose(path[-1], goal, atol=1e-9)
     assert len(path) >= 3
     _path_is_valid(checker, path)
 
@@ -183,9 +183,24 @@ def test_prm_with_few_milestones_is_a_config_error(checker):
         PRMPlanner(checker, milestones=1)
 
 
-def test_progress_bar_can_be_forced_on(checker, capsys):
-    PRMPlanner(checker, milestones=50, neighbours=3, cache_dir=None, progress=True).build()
-    capsys.readouterr()  # drawn on stderr without error
+def test_progress_bar_can_be_forced_on_and_off(checker, monkeypatch):
+    from rich.progress import Progress
+
+    updates = []
+    update = Progress.update
+
+    def record(self, task, **fields):
+        updates.append((fields.get("completed"), fields.get("total")))
+        return update(self, task, **fields)
+
+    monkeypatch.setattr(Progress, "update", record)
+    shown = PRMPlanner(checker, milestones=50, neighbours=3, cache_dir=None, progress=True).build()
+    assert updates and updates[-1][0] == updates[-1][1] > 0, "the bar ends full"
+    assert [done for done, _ in updates] == sorted(done for done, _ in updates)
+    updates.clear()
+    hidden = PRMPlanner(checker, milestones=50, neighbours=3, cache_dir=None, progress=False)
+    np.testing.assert_array_equal(hidden.build().edges, shown.edges)
+    assert updates == [], "progress=False draws no bar"
 
 
 # -- factories and registration ---------------------------------------------------------
@@ -284,7 +299,7 @@ def test_concurrent_queries_share_the_roadmap_safely(checker, tmp_path):
     with ThreadPoolExecutor(4) as pool:
         paths = list(pool.map(lambda p: planner.plan(*p), pairs))
     for (start, goal), path in zip(pairs, paths, strict=True):
-        np.testing.assert_allclose(path[[0, -1]], [start, goal])
+        np.testing.assert_allclose(path[[0, -1]], [start, goal], atol=1e-9)
         _path_is_valid(checker, path)
     assert set(planner._graph.nodes) == set(range(len(planner.roadmap.nodes)))
 

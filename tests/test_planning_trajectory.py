@@ -38,7 +38,7 @@ def test_quintic_matches_all_six_boundary_conditions():
     c = quintic_coefficients(np.array([0.0]), np.array([30.0]), 2.0, 1.0, -1.0, 0.5, 0.0)
     t = 2.0
     p = np.polynomial.Polynomial(c[:, 0])
-    assert p(0) == pytest.approx(0) and p(t) == pytest.approx(30)
+    assert p(0) == pytest.approx(0, abs=1e-9) and p(t) == pytest.approx(30)
     assert p.deriv()(0) == pytest.approx(1) and p.deriv()(t) == pytest.approx(-1)
     assert p.deriv(2)(0) == pytest.approx(0.5) and p.deriv(2)(t) == pytest.approx(0, abs=1e-9)
 
@@ -71,7 +71,7 @@ def test_given_durations_and_sampling():
     np.testing.assert_allclose(traj.waypoints, [[0.0], [10.0], [30.0]], atol=1e-12)
     times, q = traj.sample(0.1)
     assert times[0] == 0 and times[-1] == pytest.approx(3.0) and np.all(np.diff(times) > 0)
-    assert q[0, 0] == pytest.approx(0) and q[-1, 0] == pytest.approx(30)
+    assert q[0, 0] == pytest.approx(0, abs=1e-9) and q[-1, 0] == pytest.approx(30)
     with pytest.raises(ValueError):
         plan_trajectory(np.array([[0.0], [1.0]]), durations=[0.0])
     with pytest.raises(PlanningError):

@@ -184,7 +184,7 @@ def test_a_run_builds_its_own_rig_on_a_virtual_clock_and_closes_it():
     result = r.execute()
     assert result.status == "SUCCESS"
     steps = [e[1] for e in plugin.events if isinstance(e, tuple) and e[0] == "step"]
-    assert steps == pytest.approx([0.0, 0.05, 0.1])
+    assert steps == pytest.approx([0.0, 0.05, 0.1], abs=1e-12)
     assert plugin.events[-3:] == ["arm closed", "camera closed", "emulator closed"]
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import copy
-
 import cv2
 import numpy as np
 import pytest
@@ -13,6 +11,7 @@ from armtree.clock import VirtualClock
 from armtree.errors import ConfigError
 from armtree.plugins.sim.camera import sim_camera
 from armtree.plugins.sim.world import world_for
+from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.rig import RigContext
 
 # The Dobot report's Logitech C270 (seed 004, Fig. 10).
@@ -32,19 +31,11 @@ STAND = {
     "position": [200, 0, 600],
     "look_at": [200, 0, 0],
 }
-PROFILE = {
-    "tracker": {"type": "aruco", "dictionary": "4x4_50"},
-    "tags": {
-        "ducky": {"id": 0, "size_mm": 25},
-        "duckybot": {"id": 1, "size_mm": 25},
-        "trash": {"ids": [2, 3, 4], "size_mm": 25},
-    },
-    "world": {
-        "table": {"x": [-300, 500], "y": [-400, 400]},
-        "objects": {
-            "ducky": {"kind": "ducky", "at": [230, -30], "yaw": 20},
-            "trash": {"kind": "trash", "at": [180, 40], "yaw": -15},
-        },
+WORLD = {
+    "table": {"x": [-300, 500], "y": [-400, 400]},
+    "objects": {
+        "ducky": {"kind": "ducky", "at": [230, -30], "yaw": 20},
+        "trash": {"kind": "trash", "at": [180, 40], "yaw": -15},
     },
 }
 PARAMS = cv2.aruco.DetectorParameters()
@@ -52,15 +43,22 @@ PARAMS.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
 DETECTOR = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50), PARAMS)
 
 
-def rig(camera_config, seed=0, profile=PROFILE, tool=(183, -6, 200)):
-    clock = VirtualClock()
-    context = RigContext(profile=copy.deepcopy(profile), clock=clock, seed=seed)
-    world = world_for(context)
-    emulator = FakeEmulator()
-    emulator.put(tool)
-    world.attach_arm(emulator)
-    camera = sim_camera(dict(camera_config), context)
-    return clock, world, emulator, camera
+@pytest.fixture
+def rig(sim_profile):
+    """A factory: clock, world, arm emulator (tool held at ``tool``) and sim camera."""
+
+    def make(camera_config, seed=0, profile=None, tool=(183, -6, 200)):
+        clock = VirtualClock()
+        profile = sim_profile(WORLD) if profile is None else profile
+        context = RigContext(profile=profile, clock=clock, seed=seed)
+        world = world_for(context)
+        emulator = FakeEmulator()
+        emulator.put(tool)
+        world.attach_arm(emulator)
+        camera = sim_camera(dict(camera_config), context)
+        return clock, world, emulator, camera
+
+    return make
 
 
 def detect(image):
@@ -79,7 +77,7 @@ def truth_corners(world, camera, name):
     return camera.renderer.project(camera.pose(), points), points
 
 
-def test_eye_in_hand_markers_are_found_where_they_project():
+def test_eye_in_hand_markers_are_found_where_they_project(rig):
     clock, world, emu, camera = rig(C270)
     frame = camera.read()
     assert frame.image.shape == (480, 640, 3) and frame.image.dtype == np.uint8
@@ -105,7 +103,7 @@ def test_eye_in_hand_markers_are_found_where_they_project():
         assert ok and np.linalg.norm(tvec.ravel() - centre[:3]) < 0.01 * np.linalg.norm(centre[:3])
 
 
-def test_frames_follow_the_run_clock():
+def test_frames_follow_the_run_clock(rig):
     clock, world, emu, camera = rig(C270)
     first = camera.read()
     assert first.timestamp == 0.0 and first.index == 0
@@ -119,7 +117,7 @@ def test_frames_follow_the_run_clock():
     assert camera.read().index == 31, "the newest frame, not a backlog"
 
 
-def test_same_seed_same_frames_other_seed_other_noise():
+def test_same_seed_same_frames_other_seed_other_noise(rig):
     images = []
     for seed in (5, 5, 6):
         clock, world, emu, camera = rig(C270, seed=seed)
@@ -130,7 +128,7 @@ def test_same_seed_same_frames_other_seed_other_noise():
     assert np.abs(images[0].astype(int) - images[2]).mean() < 6, "only the noise differs"
 
 
-def test_dropped_frames_at_the_configured_rate_and_reproducibly():
+def test_dropped_frames_at_the_configured_rate_and_reproducibly(rig):
     config = dict(C270, drop_rate=0.3, noise=0.0)
     runs = []
     for _ in range(2):
@@ -148,7 +146,7 @@ def sharpness(image):
     return cv2.Laplacian(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), cv2.CV_64F).var()
 
 
-def test_moving_camera_blurs_the_image():
+def test_moving_camera_blurs_the_image(rig):
     config = dict(C270, noise=0.0, blur=0.0)
     clock, world, emu, camera = rig(config)
     still = camera.read().image
@@ -162,7 +160,7 @@ def test_moving_camera_blurs_the_image():
     assert sharpness(moving) < 0.7 * sharpness(still)
 
 
-def test_eye_to_hand_arm_link_hides_a_marker():
+def test_eye_to_hand_arm_link_hides_a_marker(rig):
     clock, world, emu, camera = rig(STAND, tool=(300, -150, 150))
     assert set(detect(camera.read().image)) == {0, 2}
     # The tool box (24 x 24 x 40 mm) right above the ducky's marker hides it from the stand.
@@ -173,7 +171,7 @@ def test_eye_to_hand_arm_link_hides_a_marker():
     assert set(detect(camera.read().image)) == {2}
 
 
-def test_table_edge_shadow_and_light_are_rendered():
+def test_table_edge_shadow_and_light_are_rendered(rig):
     clock, world, emu, camera = rig(dict(STAND, noise=0.0, blur=0.0), tool=(150, 0, 200))
     image = camera.read().image.astype(int)
     plain = dict(STAND, noise=0.0, blur=0.0, shadows=False)
@@ -193,16 +191,13 @@ def test_table_edge_shadow_and_light_are_rendered():
         ({"mount": "eye_to_hand", "position": [0, 0, 100], "look_at": [0, 0, 100]}, "coincide"),
     ],
 )
-def test_bad_camera_config(change, message):
+def test_bad_camera_config(change, message, rig):
     with pytest.raises(ConfigError, match=message):
         rig(dict(C270, **change))
 
 
-def test_hamming_marker_read_by_the_hamming_tracker():
-    trackers = pytest.importorskip(
-        "armtree.plugins.trackers.hamming", reason="the vision plugin's hamming tracker"
-    )
-    profile = copy.deepcopy(PROFILE)
+def test_hamming_marker_read_by_the_hamming_tracker(rig, sim_profile):
+    profile = sim_profile(WORLD)
     profile["tracker"] = {"type": "hamming"}
     profile["tags"] = {
         "ducky": {"id": 1234567, "size_mm": 25},
@@ -210,5 +205,5 @@ def test_hamming_marker_read_by_the_hamming_tracker():
     }
     clock, world, emu, camera = rig(dict(C270), profile=profile)
     frame = camera.read()
-    found = {d.id for d in trackers.HammingTracker().detect(frame)}
+    found = {d.id for d in HammingTracker().detect(frame)}
     assert {1234567, 42} <= found

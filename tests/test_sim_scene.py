@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 from importlib import resources
 
 import pytest
@@ -11,39 +10,37 @@ import yaml
 from armtree.errors import ConfigError
 from armtree.plugins.sim.scene import parse_scene
 
-BASE = {
-    "tracker": {"type": "aruco", "dictionary": "4x4_50"},
-    "tags": {
-        "ducky": {"id": 0, "size_mm": 25},
-        "duckybot": {"id": 1, "size_mm": 25},
-        "trash": {"ids": [2, 3, 4], "size_mm": 25},
+WORLD = {
+    "table": {"x": [-200, 400], "y": [-300, 300]},
+    "objects": {
+        "ducky": {"kind": "ducky", "at": [200, -100]},
+        "trash_a": {"kind": "trash", "at": [150, 100]},
+        "trash_b": {"kind": "trash", "at": [250, 100]},
+        "bin": {"kind": "bin", "at": [0, 200]},
     },
-    "world": {
-        "table": {"x": [-200, 400], "y": [-300, 300]},
-        "objects": {
-            "ducky": {"kind": "ducky", "at": [200, -100]},
-            "trash_a": {"kind": "trash", "at": [150, 100]},
-            "trash_b": {"kind": "trash", "at": [250, 100]},
-            "bin": {"kind": "bin", "at": [0, 200]},
-        },
-        "duckybots": {"bot": {"start": [300, -200, 90], "route": [{"park": [300, 0, 90]}]}},
-    },
+    "duckybots": {"bot": {"start": [300, -200, 90], "route": [{"park": [300, 0, 90]}]}},
 }
 
 
-def with_world(**changes):
-    profile = copy.deepcopy(BASE)
-    for path, value in changes.items():
-        node = profile["world"]
-        keys = path.split("__")
-        for key in keys[:-1]:
-            node = node[key]
-        node[keys[-1]] = value
-    return profile
+@pytest.fixture
+def with_world(sim_profile):
+    """A factory: the profile with ``a__b=value`` changes made in its world."""
+
+    def make(**changes):
+        profile = sim_profile(WORLD)
+        for path, value in changes.items():
+            node = profile["world"]
+            keys = path.split("__")
+            for key in keys[:-1]:
+                node = node[key]
+            node[keys[-1]] = value
+        return profile
+
+    return make
 
 
-def test_valid_world_gets_markers_from_the_tags():
-    scene = parse_scene(BASE)
+def test_valid_world_gets_markers_from_the_tags(with_world):
+    scene = parse_scene(with_world())
     markers = {o.name: o.marker.id if o.marker else None for o in scene.objects}
     assert markers == {"ducky": 0, "trash_a": 2, "trash_b": 3, "bin": None}
     assert scene.duckybots[0].body.marker.id == 1
@@ -69,14 +66,14 @@ def test_valid_world_gets_markers_from_the_tags():
         ({"seed": "x"}, ["world.seed"]),
     ],
 )
-def test_bad_world_is_a_config_error_naming_the_entry(changes, words):
+def test_bad_world_is_a_config_error_naming_the_entry(changes, words, with_world):
     with pytest.raises(ConfigError) as info:
         parse_scene(with_world(**changes))
     for word in words:
         assert word in str(info.value)
 
 
-def test_marker_id_outside_the_dictionary():
+def test_marker_id_outside_the_dictionary(with_world):
     profile = with_world(objects__trash_a__marker={"id": 2})
     profile["tracker"]["dictionary"] = "4x4_50"
     profile["tags"]["trash"]["ids"] = [2, 77]
@@ -85,7 +82,7 @@ def test_marker_id_outside_the_dictionary():
         parse_scene(profile)
 
 
-def test_object_inside_a_bin_is_allowed_but_not_through_its_wall():
+def test_object_inside_a_bin_is_allowed_but_not_through_its_wall(with_world):
     inside = with_world(objects__trash_a__at=[0, 200, 3])
     scene = parse_scene(inside)
     assert any(o.name == "trash_a" for o in scene.objects)
@@ -93,8 +90,8 @@ def test_object_inside_a_bin_is_allowed_but_not_through_its_wall():
         parse_scene(with_world(objects__trash_a__at=[40, 200, 3]))
 
 
-def test_profile_obstacles_join_the_world():
-    profile = copy.deepcopy(BASE)
+def test_profile_obstacles_join_the_world(with_world):
+    profile = with_world()
     profile["obstacles"] = [{"box": {"center": [100, -200, 40], "size": [40, 40, 80]}}]
     scene = parse_scene(profile)
     obstacle = next(o for o in scene.objects if o.name == "obstacles[0]")

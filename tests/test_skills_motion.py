@@ -17,7 +17,7 @@ def test_move_to_place_goes_through_the_planner_waypoints():
     assert status is Status.SUCCESS
     assert rig.planner.calls == 1 and len(rig.arm.moves) == 2  # midpoint then goal
     assert np.allclose(rig.arm.pose()[:3, 3], [180, -160, 50])
-    assert node.bb.get("reached") == [180.0, -160.0, 50.0]
+    assert node.bb.get("reached") == pytest.approx([180.0, -160.0, 50.0], abs=1e-9)
 
 
 def test_move_to_pose_without_planner_uses_the_arms_own_checks():

@@ -2,6 +2,7 @@
 
 import cv2
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -77,9 +78,11 @@ def test_sample_cells_maps_the_unit_square_onto_the_quad_as_opencv_does(params):
 def test_a_cell_is_the_mean_of_its_points_and_a_degenerate_quad_reads_one_level():
     quad = np.array([[[20.0, 10.0], [120.0, 10.0], [120.0, 110.0], [20.0, 110.0]]])
     cell = np.array([[[0.0, 0.5], [1.0, 0.5]]])  # x 20 and 120: mean 70
-    assert kernels.sample_cells(RAMP, quad, cell, np.zeros((0, 2)))[0, 0] == 70.0
+    assert kernels.sample_cells(RAMP, quad, cell, np.zeros((0, 2)))[0, 0] == pytest.approx(
+        70.0, abs=1e-6
+    )
     flat = np.array([[[30.0, 5.0], [30.0, 5.0], [30.0, 5.0], [30.0, 5.0]]])
-    assert np.all(kernels.sample_cells(RAMP, flat, cell, np.zeros((1, 2))) == 30.0)
+    assert np.allclose(kernels.sample_cells(RAMP, flat, cell, np.zeros((1, 2))), 30.0, atol=1e-6)
 
 
 def test_clockwise_quads_turns_and_filters():
