@@ -20,6 +20,7 @@ from typing import Any
 import pluggy
 
 from . import hookspecs
+from .constructor_params import declared_params
 from .errors import ConfigError, Mark
 
 ENTRY_POINT_GROUP = "armtree"
@@ -55,8 +56,8 @@ class Component:
 
     @property
     def params(self) -> tuple[Any, ...]:
-        """The factory's declared parameters (``PARAMS``), possibly empty."""
-        return tuple(getattr(self.factory, "PARAMS", ()))
+        """The factory's parameters: its ``PARAMS``, or a plain py_trees behaviour's constructor's."""
+        return declared_params(self.factory)
 
 
 class _Pluggy(pluggy.PluginManager):

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from .builtin_behaviours import COMPOSITE, DECORATOR
+from .constructor_params import declared_params
 from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
@@ -56,7 +57,7 @@ def _params_object(params: tuple[Param, ...], extra: dict[str, Any]) -> dict[str
 
 def node_type_schema(name: str, factory: Any) -> dict[str, Any]:
     """The schema of a one-key mapping ``{name: spec}`` for one node type."""
-    params = tuple(getattr(factory, "PARAMS", ()))
+    params = declared_params(factory)
     kind = node_kind(factory)
     doc = (getattr(factory, "__doc__", None) or "").strip().splitlines()
     if kind == COMPOSITE:

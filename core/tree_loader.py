@@ -75,6 +75,7 @@ import py_trees
 
 from .behaviour import Behaviour
 from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
+from .constructor_params import declared_params, name_argument, takes_signature_params
 from .errors import ConfigError, Mark
 from .params import REQUIRED, Binding, Param, check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
@@ -529,7 +530,7 @@ class _Loader:
         elif kind == DECORATOR:
             params["child"] = built_children
         try:
-            behaviour = factory(node_name, **params)
+            behaviour = construct(factory, node_name, params)
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor error is shown at the node
             self.error(f"{ntype} {node_name!r}: {exc}", type_mark, ctx)
             return None
@@ -592,7 +593,7 @@ class _Loader:
         self, factory: Any, options: MarkedDict, node: _Node, ctx: _Context
     ) -> dict[str, Any] | None:
         """Validated parameters with defaults filled in, or None after recording errors."""
-        declared = {p.name: p for p in getattr(factory, "PARAMS", ())}
+        declared = {p.name: p for p in declared_params(factory)}
         bindable = is_bindable(factory)
         writes = set(getattr(factory, "writes", ()))
         before = len(self.errors)
@@ -787,6 +788,19 @@ def node_kind(factory: Any) -> str:
         if issubclass(factory, py_trees.composites.Composite):
             return COMPOSITE
     return LEAF
+
+
+def construct(factory: Any, name: str, params: dict[str, Any]) -> py_trees.behaviour.Behaviour:
+    """Build one node: ``factory(name, **params)``; a plain py_trees behaviour gets its name
+    the way its constructor takes it (``name=``, first argument, or set afterwards)."""
+    how = name_argument(factory) if takes_signature_params(factory) else "positional"
+    if how == "keyword":
+        return factory(name=name, **params)
+    if how == "positional":
+        return factory(name, **params)
+    behaviour = factory(**params)
+    behaviour.name = name
+    return behaviour
 
 
 def is_bindable(factory: Any) -> bool:
