@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import reprlib
 from dataclasses import dataclass
+from typing import Any
 
 
 class ConfigError(ValueError):
@@ -80,3 +82,34 @@ class Mark:
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.column}"
+
+
+class _Shown(reprlib.Repr):
+    """``repr`` bounded in length and depth, and safe for integers of any size."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.maxlevel = 3
+        self.maxlist = self.maxtuple = self.maxset = self.maxdict = 6
+        self.maxstring = 60
+        self.maxother = 60
+
+    def repr_int(self, x: int, level: int) -> str:
+        # Python refuses to print integers above 4,300 digits; say how long it is instead.
+        digits = x.bit_length() * 0.30103
+        return repr(x) if digits < 30 else f"<an integer of about {digits:.0f} digits>"
+
+
+_SHOWN = _Shown()
+
+
+def shown(value: Any) -> str:
+    """``repr(value)`` for an error message: short, bounded work, never raising.
+
+    A hostile file can hold a list of millions of items or a number of thousands of
+    digits; a message quotes only its beginning.
+    """
+    try:
+        return _SHOWN.repr(value)
+    except Exception:  # noqa: BLE001 - a message must never fail to be written
+        return f"<{type(value).__name__}>"

@@ -100,10 +100,9 @@ class Skill(armtree.Behaviour):
 
     #: Rig parts the skill cannot run without: ``"arm"``, ``"camera"``, ``"planner"``.
     NEEDS: tuple[str, ...] = ("arm",)
-    #: Parameters naming a place (checked against the profile's ``places:`` at setup).
-    PLACE_PARAMS: tuple[str, ...] = ()
-    #: Parameters naming a tag role (checked against the profile's ``tags:`` at setup).
-    ROLE_PARAMS: tuple[str, ...] = ()
+    # Parameters naming a place or a tag role declare it with ``Param(kind="place")`` /
+    # ``kind="tag_role"``: the loader resolves them against the profile at load time
+    # (with the tree's line), and setup checks them again against the rig it is given.
 
     def __init__(self, name: str, **params: Any) -> None:
         super().__init__(name, **params)
@@ -113,10 +112,11 @@ class Skill(armtree.Behaviour):
     def setup(self, **kwargs: Any) -> None:
         """Take the rig; a literal place name or tag role the profile lacks is a ConfigError."""
         super().setup(**kwargs)
-        for pname in self.PLACE_PARAMS:
-            self.place_name_check(pname)
-        for pname in self.ROLE_PARAMS:
-            self.role_check(pname)
+        for param in self.PARAMS:
+            if param.kind == "place":
+                self.place_name_check(param.name)
+            elif param.kind == "tag_role":
+                self.role_check(param.name)
 
     def procedure(self) -> Procedure:
         """The skill's steps; yield actions, return the result, raise SkillFailure to fail."""

@@ -156,8 +156,24 @@ class ArmSkill(Skill):
     """A skill with the common motion parameters ``speed`` and ``settle_s``."""
 
     COMMON = (
-        Param("speed", "float", 1.0, "", "fraction of the arm's maximum speed, 0 to 1"),
-        Param("settle_s", "float", 0.15, "s", "wait after a move before a frame counts"),
+        Param(
+            "speed",
+            "float",
+            1.0,
+            "",
+            "fraction of the arm's maximum speed, 0 to 1",
+            exclusive_minimum=0.0,
+            maximum=1.0,
+        ),
+        Param(
+            "settle_s",
+            "float",
+            0.15,
+            "s",
+            "wait after a move before a frame counts",
+            minimum=0.0,
+            maximum=60.0,
+        ),
     )
     #: Parameters of skills that move the camera around to look.
     LOOK = (
@@ -177,6 +193,8 @@ class ArmSkill(Skill):
             4.0,
             "mm",
             "grip this much higher at most when the touching point is out of reach",
+            minimum=0.0,
+            maximum=100.0,
         ),
     )
 
@@ -206,14 +224,25 @@ class Pick(ArmSkill):
     """
 
     PARAMS = (
-        Param("tag", "str", "", "", "tag role of the object (empty: use `from` only)"),
-        Param("from", "any", None, "mm", "place name, [x, y, z] or {key}: where the object is"),
+        Param(
+            "tag", "str", "", "", "tag role of the object (empty: use `from` only)", kind="tag_role"
+        ),
+        Param(
+            "from",
+            "any",
+            None,
+            "mm",
+            "place name, [x, y, z] or {key}: where the object is",
+            kind="place",
+        ),
         Param(
             "approach_mm",
             "float",
             60.0,
             "mm",
             "height above the object to approach from and lift to",
+            minimum=0.0,
+            maximum=1000.0,
         ),
         Param(
             "grasp_offset_mm",
@@ -221,6 +250,8 @@ class Pick(ArmSkill):
             0.0,
             "mm",
             "tool height above the object's top when gripping",
+            minimum=-100.0,
+            maximum=500.0,
         ),
         Param(
             "look_height_mm",
@@ -228,9 +259,21 @@ class Pick(ArmSkill):
             120.0,
             "mm",
             "camera height above `from` when locating the tag",
+            exclusive_minimum=0.0,
+            maximum=5000.0,
         ),
-        Param("search_radius_mm", "float", 80.0, "mm", "how far from `from` the tag may be"),
-        Param("dwell_s", "float", 0.3, "s", "time for the suction to grip"),
+        Param(
+            "search_radius_mm",
+            "float",
+            80.0,
+            "mm",
+            "how far from `from` the tag may be",
+            minimum=0.0,
+            maximum=5000.0,
+        ),
+        Param(
+            "dwell_s", "float", 0.3, "s", "time for the suction to grip", minimum=0.0, maximum=60.0
+        ),
         Param("verify", "bool", True, "", "check with the camera that the object left its spot"),
         Param(
             "verify_tolerance_mm",
@@ -238,6 +281,8 @@ class Pick(ArmSkill):
             10.0,
             "mm",
             "a marker this close to the pick spot was not picked",
+            exclusive_minimum=0.0,
+            maximum=1000.0,
         ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
         *ArmSkill.LOOK,
@@ -245,8 +290,6 @@ class Pick(ArmSkill):
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")
-    PLACE_PARAMS = ("from",)
-    ROLE_PARAMS = ("tag",)
 
     def procedure(self) -> Procedure:
         tag = self.param("tag")
@@ -302,28 +345,71 @@ class Place(ArmSkill):
 
     PARAMS = (
         Param(
-            "at", "any", doc="place name, [x, y, z] or {key}: where to put the object", unit="mm"
+            "at",
+            "any",
+            doc="place name, [x, y, z] or {key}: where to put the object",
+            unit="mm",
+            kind="place",
         ),
-        Param("tag", "str", "", "", "tag role marking the target, looked up again before placing"),
-        Param("approach_mm", "float", 60.0, "mm", "height above the target to approach from"),
-        Param("release_mm", "float", 30.0, "mm", "tool height above the target when releasing"),
+        Param(
+            "tag",
+            "str",
+            "",
+            "",
+            "tag role marking the target, looked up again before placing",
+            kind="tag_role",
+        ),
+        Param(
+            "approach_mm",
+            "float",
+            60.0,
+            "mm",
+            "height above the target to approach from",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "release_mm",
+            "float",
+            30.0,
+            "mm",
+            "tool height above the target when releasing",
+            minimum=-100.0,
+            maximum=1000.0,
+        ),
         Param(
             "look_height_mm",
             "float",
             120.0,
             "mm",
             "camera height above `at` when looking for `tag`",
+            exclusive_minimum=0.0,
+            maximum=5000.0,
         ),
-        Param("search_radius_mm", "float", 120.0, "mm", "how far from `at` the tag may be"),
+        Param(
+            "search_radius_mm",
+            "float",
+            120.0,
+            "mm",
+            "how far from `at` the tag may be",
+            minimum=0.0,
+            maximum=5000.0,
+        ),
         Param("require_tag", "bool", False, "", "fail when `tag` is not seen (else place at `at`)"),
-        Param("dwell_s", "float", 0.3, "s", "time for the suction to let go"),
+        Param(
+            "dwell_s",
+            "float",
+            0.3,
+            "s",
+            "time for the suction to let go",
+            minimum=0.0,
+            maximum=60.0,
+        ),
         Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
         *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")
-    PLACE_PARAMS = ("at",)
-    ROLE_PARAMS = ("tag",)
 
     def procedure(self) -> Procedure:
         target = self.point(self.param("at"), f"{self.name}: at")

@@ -16,7 +16,11 @@ class MoveTo(ArmSkill):
 
     PARAMS = (
         Param(
-            "to", "any", doc="place name, [x, y, z] or {key}: where the tool centre goes", unit="mm"
+            "to",
+            "any",
+            doc="place name, [x, y, z] or {key}: where the tool centre goes",
+            unit="mm",
+            kind="place",
         ),
         Param(
             "offset",
@@ -24,12 +28,14 @@ class MoveTo(ArmSkill):
             [0.0, 0.0, 0.0],
             "mm",
             "added to the target, e.g. [0, 0, 50] to hover",
+            minimum=-5000.0,
+            maximum=5000.0,
+            length=3,
         ),
         Param("pose", "any", None, "mm", "output: the position reached", io="out"),
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
-    PLACE_PARAMS = ("to",)
 
     def procedure(self) -> Procedure:
         target = self.point(self.param("to"), f"{self.name}: to") + np.asarray(

@@ -109,30 +109,135 @@ class CleanUpParams:
     """The parameters search and clean_up share."""
 
     PARAMS = (
-        Param("trash", "str", "trash", "", "tag role of the markers to clear away"),
-        Param("bin", "any", "garbage_bin", "mm", "place name or [x, y, z] to drop trash over"),
-        Param("bin_radius_mm", "float", 60.0, "mm", "trash seen this close to the bin is in it"),
-        Param("approach_mm", "float", 60.0, "mm", "height above an object to approach from"),
-        Param("grasp_offset_mm", "float", 2.0, "mm", "tool height above a marker when gripping"),
-        Param("dwell_s", "float", 0.3, "s", "time for the suction to grip or let go"),
-        Param("max_items", "int", 10, "", "most trash carries before giving up"),
-        Param("attempts", "int", 2, "", "tries per trash marker before leaving it"),
+        Param(
+            "trash", "str", "trash", "", "tag role of the markers to clear away", kind="tag_role"
+        ),
+        Param(
+            "bin",
+            "any",
+            "garbage_bin",
+            "mm",
+            "place name or [x, y, z] to drop trash over",
+            kind="place",
+        ),
+        Param(
+            "bin_radius_mm",
+            "float",
+            60.0,
+            "mm",
+            "trash seen this close to the bin is in it",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "approach_mm",
+            "float",
+            60.0,
+            "mm",
+            "height above an object to approach from",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "grasp_offset_mm",
+            "float",
+            2.0,
+            "mm",
+            "tool height above a marker when gripping",
+            minimum=-100.0,
+            maximum=500.0,
+        ),
+        Param(
+            "dwell_s",
+            "float",
+            0.3,
+            "s",
+            "time for the suction to grip or let go",
+            minimum=0.0,
+            maximum=60.0,
+        ),
+        Param(
+            "max_items",
+            "int",
+            10,
+            "",
+            "most trash carries before giving up",
+            minimum=0,
+            maximum=1000,
+        ),
+        Param(
+            "attempts",
+            "int",
+            2,
+            "",
+            "tries per trash marker before leaving it",
+            minimum=1,
+            maximum=100,
+        ),
         *ArmSkill.LOOK,
         *ArmSkill.GRIP,
     )
 
 
 SCAN_PARAMS = (
-    Param("radius_mm", "float", 200.0, "mm", "radius of the ring of the table the camera looks at"),
     Param(
-        "height_mm", "float", 120.0, "mm", "camera height above the ring (lowered if unreachable)"
+        "radius_mm",
+        "float",
+        200.0,
+        "mm",
+        "radius of the ring of the table the camera looks at",
+        exclusive_minimum=0.0,
+        maximum=5000.0,
     ),
-    Param("surface_z_mm", "float", 0.0, "mm", "height of the surface the ring lies on"),
-    Param("step_deg", "float", 5.0, "deg", "base-angle step between scan poses"),
-    Param("range_deg", "vector", [-100.0, 100.0], "deg", "base-angle range of the sweep"),
-    Param("sweeps", "int", 2, "", "legs of the back-and-forth sweep"),
-    Param("poses", "list", [], "mm", "explicit scan poses [[x, y, z], ...] instead of the arc"),
-    Param("frames", "int", 2, "", "frames to read at each scan pose"),
+    Param(
+        "height_mm",
+        "float",
+        120.0,
+        "mm",
+        "camera height above the ring (lowered if unreachable)",
+        minimum=0.0,
+        maximum=5000.0,
+    ),
+    Param(
+        "surface_z_mm",
+        "float",
+        0.0,
+        "mm",
+        "height of the surface the ring lies on",
+        minimum=-5000.0,
+        maximum=5000.0,
+    ),
+    # A step below 0.1 degree or a range beyond a turn either way would only multiply
+    # scan poses (without bound at 1e-9 degrees); such values are refused at load time.
+    Param(
+        "step_deg",
+        "float",
+        5.0,
+        "deg",
+        "base-angle step between scan poses",
+        minimum=0.1,
+        maximum=360.0,
+    ),
+    Param(
+        "range_deg",
+        "vector",
+        [-100.0, 100.0],
+        "deg",
+        "base-angle range of the sweep",
+        minimum=-360.0,
+        maximum=360.0,
+        length=2,
+    ),
+    Param("sweeps", "int", 2, "", "legs of the back-and-forth sweep", minimum=1, maximum=100),
+    Param(
+        "poses",
+        "list",
+        [],
+        "mm",
+        "explicit scan poses [[x, y, z], ...] instead of the arc",
+        max_items=1000,
+    ),
+    Param("frames", "int", 2, "", "frames to read at each scan pose", minimum=1, maximum=100),
 )
 
 
@@ -213,8 +318,6 @@ class CleanUp(ArmSkill):
     )
     RESOURCES = ("arm", "tool")
     NEEDS = ("arm", "camera")
-    PLACE_PARAMS = ("bin",)
-    ROLE_PARAMS = ("trash",)
 
     def procedure(self) -> Procedure:
         poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
@@ -241,7 +344,7 @@ class Search(ArmSkill):
     """
 
     PARAMS = (
-        Param("tag", "str", doc="tag role to find"),
+        Param("tag", "str", doc="tag role to find", kind="tag_role"),
         Param("pose", "any", None, "mm", "output: the tag's position in the base frame", io="out"),
         Param("clean_up", "bool", False, "", "carry trash seen on the way to `bin`"),
         *SCAN_PARAMS,
@@ -250,8 +353,6 @@ class Search(ArmSkill):
     )
     RESOURCES = ("arm", "tool")
     NEEDS = ("arm", "camera")
-    PLACE_PARAMS = ("bin",)
-    ROLE_PARAMS = ("tag", "trash")
 
     def procedure(self) -> Procedure:
         tag = self.param("tag")

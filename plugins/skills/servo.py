@@ -31,41 +31,72 @@ class VisualServo(ArmSkill):
     """
 
     PARAMS = (
-        Param("tag", "str", doc="tag role of the target marker"),
+        Param("tag", "str", doc="tag role of the target marker", kind="tag_role"),
         Param(
             "offset",
             "vector",
             [0.0, 0.0, 0.0],
             "mm",
             "wanted tool position relative to the target marker",
+            minimum=-5000.0,
+            maximum=5000.0,
+            length=3,
         ),
-        Param("tool_tag", "str", "", "", "tag role of a marker on the tool (eye-to-hand servoing)"),
+        Param(
+            "tool_tag",
+            "str",
+            "",
+            "",
+            "tag role of a marker on the tool (eye-to-hand servoing)",
+            kind="tag_role",
+        ),
         Param(
             "marker_offset",
             "vector",
             [0.0, 0.0, 0.0],
             "mm",
             "the tool marker's position in the tool frame",
+            minimum=-5000.0,
+            maximum=5000.0,
+            length=3,
         ),
         Param(
-            "tolerance_mm", "float", 3.0, "mm", "stop when the error is below this (seed 000: 3 mm)"
+            "tolerance_mm",
+            "float",
+            3.0,
+            "mm",
+            "stop when the error is below this (seed 000: 3 mm)",
+            exclusive_minimum=0.0,
+            maximum=1000.0,
         ),
-        Param("max_iterations", "int", 10, "", "corrections before giving up"),
-        Param("gain", "float", 1.0, "", "fraction of the measured joint error sent per iteration"),
+        Param(
+            "max_iterations", "int", 10, "", "corrections before giving up", minimum=1, maximum=1000
+        ),
+        Param(
+            "gain",
+            "float",
+            1.0,
+            "",
+            "fraction of the measured joint error sent per iteration",
+            exclusive_minimum=0.0,
+            maximum=2.0,
+        ),
         Param(
             "correction",
             "vector",
             [1.0, 0.0, 1.0, 0.0],
             "",
             "seed 000 eq. 8 map [a_x, b_x, a_y, b_y] of measured positions",
+            minimum=-1e6,
+            maximum=1e6,
+            length=4,
         ),
-        Param("frames", "int", 2, "", "frames to read per measurement"),
+        Param("frames", "int", 2, "", "frames to read per measurement", minimum=1, maximum=100),
         Param("error", "any", None, "mm", "output: the last measured error", io="out"),
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
     NEEDS = ("arm", "camera")
-    ROLE_PARAMS = ("tag", "tool_tag")
 
     def procedure(self) -> Procedure:
         tag, tool_tag = self.param("tag"), self.param("tool_tag")

@@ -38,26 +38,77 @@ class Track(ArmSkill):
     """
 
     PARAMS = (
-        Param("tag", "str", doc="tag role to follow"),
-        Param("height_mm", "float", 0.0, "mm", "camera height above the marker (0: 5 tag sizes)"),
-        Param("alpha", "float", 0.2, "", "weight of a new measurement in the smoothed position"),
+        Param("tag", "str", doc="tag role to follow", kind="tag_role"),
         Param(
-            "deadband_mm", "float", 1.0, "mm", "smallest change of the wanted position worth a move"
+            "height_mm",
+            "float",
+            0.0,
+            "mm",
+            "camera height above the marker (0: 5 tag sizes)",
+            minimum=0.0,
+            maximum=5000.0,
         ),
-        Param("still_mm", "float", 3.0, "mm", "a marker moving less than this is standing still"),
         Param(
-            "still_s", "float", 2.0, "s", "how long the marker must stand still (0: never ends so)"
+            "alpha",
+            "float",
+            0.2,
+            "",
+            "weight of a new measurement in the smoothed position",
+            exclusive_minimum=0.0,
+            maximum=1.0,
+        ),
+        Param(
+            "deadband_mm",
+            "float",
+            1.0,
+            "mm",
+            "smallest change of the wanted position worth a move",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "still_mm",
+            "float",
+            3.0,
+            "mm",
+            "a marker moving less than this is standing still",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "still_s",
+            "float",
+            2.0,
+            "s",
+            "how long the marker must stand still (0: never ends so)",
+            minimum=0.0,
+            maximum=86400.0,
         ),
         Param("until", "bool", False, "", "end with SUCCESS when this (a {key}) becomes true"),
-        Param("lost_frames", "int", 30, "", "consecutive frames without the marker before FAILURE"),
-        Param("period_s", "float", 0.2, "s", "time between looks while the arm is still"),
+        Param(
+            "lost_frames",
+            "int",
+            30,
+            "",
+            "consecutive frames without the marker before FAILURE",
+            minimum=1,
+            maximum=1000000,
+        ),
+        Param(
+            "period_s",
+            "float",
+            0.2,
+            "s",
+            "time between looks while the arm is still",
+            minimum=0.01,
+            maximum=3600.0,
+        ),
         Param("pose", "any", None, "mm", "output: the marker's smoothed base position", io="out"),
         *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
     NEEDS = ("arm", "camera")
-    ROLE_PARAMS = ("tag",)
 
     def height(self, tag: str) -> float:
         """Camera height above the marker in mm."""
