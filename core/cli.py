@@ -109,8 +109,9 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
 # ---------------------------------------------------------------------------
 
 
-def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``run-tree`` and ``armtree run`` (without the plugin options)."""
+def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> None:
+    """The options of ``run-tree`` and ``armtree run`` (without the plugin options),
+    and those the plugins of ``manager`` add (``armtree_run_options``)."""
     parser.add_argument("tree", metavar="TREE", help="tree file or name of a shipped tree")
     parser.add_argument("--rig", metavar="PROFILE", help="hardware profile (default: the tree's)")
     parser.add_argument(
@@ -133,6 +134,8 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--max-ticks", type=int, metavar="N", help="fail after N ticks")
     parser.add_argument("--quiet", action="store_true", help="no live view")
+    if manager is not None:
+        manager.hook.armtree_run_options(parser=parser)
 
 
 def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
@@ -158,6 +161,7 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
         quiet=args.quiet,
         manager=manager,
         debug=getattr(args, "debug", False),
+        settings={k: v for k, v in vars(args).items() if k != "manager"},
     )
     if getattr(args, "debug", False) and result.traceback:
         print(result.traceback, file=sys.stderr, end="")
@@ -173,23 +177,41 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
 
 def run_tree_main(argv: Sequence[str] | None = None) -> int:
     """``run-tree TREE [options]``: run a tree on its rig; returns the exit code."""
-    parser = argparse.ArgumentParser(
-        prog="run-tree", description="Run a behaviour tree on a rig (simulated by default)."
-    )
-    add_run_arguments(parser)
-    plugin_options(parser)
-    args = parser.parse_args(argv)
-    return guarded(lambda: run_from_args(args), args.debug)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    pre = argparse.ArgumentParser(add_help=False)
+    plugin_options(pre)
+    known, _ = pre.parse_known_args(argv)
+    # The plugins are loaded before the options are parsed: they may add options.
+    holder: dict[str, Any] = {}
+
+    def build() -> int:
+        holder["manager"] = manager = plugin_manager_for(known.plugin, known.block)
+        parser = argparse.ArgumentParser(
+            prog="run-tree", description="Run a behaviour tree on a rig (simulated by default)."
+        )
+        add_run_arguments(parser, manager)
+        plugin_options(parser)
+        holder["parser"] = parser
+        return EXIT_OK
+
+    code = guarded(build, known.debug)
+    if code != EXIT_OK:
+        return code
+    args = holder["parser"].parse_args(argv)
+    return guarded(lambda: run_from_args(args, holder["manager"]), args.debug)
 
 
 class RunCommand:
-    """``armtree run``: the same as ``run-tree``."""
+    """``armtree run``: the same as ``run-tree``; ``manager``'s plugins may add options."""
 
     help = "run a tree (the same as run-tree)"
 
+    def __init__(self, manager: Any = None) -> None:
+        self.manager = manager
+
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the run options."""
-        add_run_arguments(parser)
+        add_run_arguments(parser, self.manager)
 
     def run(self, args: argparse.Namespace) -> int:
         """Run the tree; the exit code."""
@@ -220,7 +242,7 @@ class BenchCommand:
 
 
 def _commands(manager: Any) -> dict[str, Any]:
-    commands: dict[str, Any] = {"run": RunCommand(), "bench": BenchCommand()}
+    commands: dict[str, Any] = {"run": RunCommand(manager), "bench": BenchCommand()}
     registry = manager.registry
     for name in registry.names("command"):
         component = registry.get("command", name)

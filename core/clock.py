@@ -27,6 +27,12 @@ class Clock(ABC):
     def sleep_until(self, t: float) -> None:
         """Block until ``now() >= t`` (a virtual clock jumps there at once)."""
 
+    def hold(self) -> None:  # noqa: B027 - a virtual clock stands still by itself
+        """Stop the clock (a paused run): ``now()`` stays where it is until :meth:`release`."""
+
+    def release(self) -> None:  # noqa: B027
+        """Let a held clock run on from where it stood."""
+
 
 class VirtualClock(Clock):
     """A clock that jumps forward when the runtime tells it to; thread-safe to read."""
@@ -57,14 +63,29 @@ class VirtualClock(Clock):
 
 
 class WallClock(Clock):
-    """Monotonic wall time, for --realtime and real hardware."""
+    """Monotonic wall time, for --realtime and real hardware, less the time it was held."""
 
     def __init__(self) -> None:
-        self._t0 = time.monotonic()
+        # (start, held since): replaced as one tuple, so readers on other threads
+        # never see a start that does not belong to the hold.
+        self._state: tuple[float, float | None] = (time.monotonic(), None)
 
     def now(self) -> float:
-        """Seconds since this clock was made."""
-        return time.monotonic() - self._t0
+        """Seconds since this clock was made, not counting time it was held."""
+        t0, held = self._state
+        return (held if held is not None else time.monotonic()) - t0
+
+    def hold(self) -> None:
+        """Stand still until :meth:`release`."""
+        t0, held = self._state
+        if held is None:
+            self._state = (t0, time.monotonic())
+
+    def release(self) -> None:
+        """Run on from where the clock stood: the held time is skipped."""
+        t0, held = self._state
+        if held is not None:
+            self._state = (t0 + time.monotonic() - held, None)
 
     def sleep_until(self, t: float) -> None:
         """Sleep the calling thread until ``now() >= t``."""

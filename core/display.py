@@ -136,9 +136,14 @@ class LiveView(NullView):
     def _render(self, run: Run, statuses: FinalStatuses | None = None) -> Any:
         header = Text(
             f"{run.tree.name}  tick {run.tick_count}  t={run.clock.now():.2f}s"
-            f"  overruns {run.overruns}   (q or Ctrl-C to stop)",
+            f"  overruns {run.overruns}",
             style="bold",
         )
+        control = getattr(run, "control", None)
+        state = control.state if control is not None else "running"
+        if state != "running":
+            header.append(f"  {state.upper()}", style="bold magenta")
+        header.append("   (p pause/resume, n step, q or Ctrl-C stop)", style="dim")
         tree = render_tree(run.tree.root, header, statuses)
         if self._messages:
             from rich.console import Group

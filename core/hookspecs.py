@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any
 import pluggy
 
 if TYPE_CHECKING:
+    import argparse
+
     from .errors import ConfigError
     from .profile import Profile
     from .rig import Rig, RigContext
@@ -149,6 +151,40 @@ def armtree_rig_ready(rig: Rig, context: RigContext) -> None:
 
 
 # ---------------------------------------------------------------------------
+# Run options: for plugins that add options to ``run-tree`` (a monitor, a
+# file watcher) and act on them before anything is built.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_run_options(parser: argparse.ArgumentParser) -> None:
+    """Add options to ``run-tree`` and ``armtree run``.
+
+    :param parser: the :class:`argparse.ArgumentParser` of the run command;
+        add arguments with ``parser.add_argument``. The parsed values reach
+        the run as ``run.settings`` (a dict keyed by each option's ``dest``).
+
+    Use option names of your own (``--monitor``, not ``--port``): a name two
+    plugins add is an argparse error.
+    """
+
+
+@hookspec
+def armtree_run_opening(run: Run) -> None:
+    """A run is about to open its log and build its rig; nothing has moved.
+
+    :param run: the :class:`armtree.runtime.Run`; ``run.settings`` holds the
+        command-line options, ``run.control`` its pause/step/stop control.
+
+    The place to start what serves the run (a monitor's server, a file
+    watcher) and register its clean-up in ``run.closers``. Raising
+    :class:`armtree.ConfigError` refuses the run: the CLI prints it and exits
+    2 (a port already in use, say). Unlike the hooks below, any exception
+    raised here ends the run before it starts.
+    """
+
+
+# ---------------------------------------------------------------------------
 # Run lifecycle: for loggers, monitors and scorers. Called by the runtime on
 # its own thread; an exception raised here is reported and the run goes on.
 # ---------------------------------------------------------------------------
@@ -167,6 +203,17 @@ def armtree_tick(run: Run) -> None:
     """The tree has just been ticked once; ``run.tick_count`` says which tick.
 
     Keep it cheap: it is called at the tree's tick rate.
+    """
+
+
+@hookspec
+def armtree_run_paused(run: Run, paused: bool) -> None:
+    """The run has stopped at a safe point (``paused=True``) or goes on (``False``).
+
+    While paused the run's clock stands still, running behaviours keep their
+    resources and the arm has no command under way; nothing is ticked.
+    ``run.control.state`` says ``"paused"``; after a step the run pauses
+    again at the next safe point.
     """
 
 

@@ -91,7 +91,7 @@ def _exit_now() -> None:
 
 
 class StopKey:
-    """The stop key (``q``) read without blocking from a terminal on stdin.
+    """The stop key (``q``), and the other run keys, read without blocking from a terminal on stdin.
 
     Active only when ``stream`` is a TTY; inside the ``with`` block the terminal
     is in cbreak mode (keys arrive without Enter, Ctrl-C still signals) and it is
@@ -122,15 +122,19 @@ class StopKey:
 
     def pressed(self) -> bool:
         """True if the stop key was typed since the last call; never blocks."""
+        return self.key.decode() in self.read()
+
+    def read(self) -> str:
+        """Every key typed since the last call, lower-cased (``""`` if none); never blocks."""
         if not self.active or self._fd is None:
-            return False
+            return ""
         try:
             ready, _, _ = select.select([self._fd], [], [], 0)
             if not ready:
-                return False
-            return self.key in os.read(self._fd, 64).lower()
+                return ""
+            return os.read(self._fd, 64).decode("utf-8", "replace").lower()
         except OSError:
-            return False
+            return ""
 
     def restore(self) -> None:
         """Put the terminal back as it was (idempotent)."""

@@ -143,6 +143,10 @@ class ArmDriver(ABC):
     def stop(self) -> None:
         """Stop motion at once (decelerating as the firmware does); keep the tool state."""
 
+    def busy(self) -> bool:
+        """True while a command sent to the arm is still under way (a paused run waits for it)."""
+        return False
+
     def set_gripper(self, opening: float) -> MotionHandle:
         """Set the gripper opening (degrees of the gripper servo, or mm)."""
         handle = MotionHandle("gripper")

@@ -11,6 +11,8 @@ A run:
 2. sets every behaviour up with ``rig=``, ``clock=`` and ``runtime=``;
 3. ticks at ``tree.tick_hz``: advance the clock, ``rig.step(now)``, tick the
    tree, log status changes and blackboard writes, call ``armtree_tick``;
+   between ticks it holds while ``run.control`` (:mod:`armtree.control`) asks it
+   to pause, and on a virtual clock it keeps to ``run.control.speed`` if set;
 4. ends on the root's SUCCESS or FAILURE, ``timeout``/``max_ticks`` (FAILURE),
    an exception inside a behaviour (FAILURE, with the node's path and YAML
    position) or an interrupt (INTERRUPTED: signal, stop key, component event);
@@ -37,6 +39,7 @@ from py_trees.blackboard import ActivityType, Blackboard
 from py_trees.common import Status
 
 from .clock import Clock, VirtualClock, WallClock
+from .control import RunControl
 from .display import NullView, make_view
 from .errors import HardwareFault
 from .interrupts import EXIT_INTERRUPTED, Interrupts, StopKey
@@ -133,6 +136,7 @@ class Run:
         view: Any = None,
         close_rig: bool | None = None,
         debug: bool = False,
+        settings: dict[str, Any] | None = None,
     ) -> None:
         self.tree = tree
         self.root: py_trees.behaviour.Behaviour = tree.root
@@ -157,6 +161,19 @@ class Run:
         self.tick_count = 0
         self.overruns = 0
         self.interrupts = Interrupts(force_exit=self._force_exit)
+        #: Pause, step, resume, stop and speed, from any thread (page, keys, tests).
+        self.control = RunControl(self.interrupts)
+        #: The command-line options that started the run (``{}`` from the API), read by
+        #: plugins that added options of their own (``armtree_run_options``).
+        self.settings: dict[str, Any] = dict(settings or {})
+        #: Called with no argument when the run is over, whatever happened, newest first:
+        #: for what a plugin opened in ``armtree_run_opening`` (a server, a watcher).
+        self.closers: list[Any] = []
+        #: Blackboard writes of the last tick, ``[(key, value)]`` (kept while logging).
+        self.tick_writes: list[tuple[str, Any]] = []
+        #: Wall seconds the last tick took: rig step, tree tick, logging, tick hooks.
+        self.tick_wall = 0.0
+        self._anchor: tuple[float, float, float] | None = None
         self.resources = Resources(halt=self._halt_owner)
         self.view = view if view is not None else (NullView() if quiet else make_view(False))
         # A view that ignores updates (quiet) is not handed the tick's status changes,
@@ -229,6 +246,25 @@ class Run:
         nodes = getattr(self.tree, "nodes", None)
         return nodes.get(behaviour.id) if nodes else None
 
+    @property
+    def nodes(self) -> list[py_trees.behaviour.Behaviour]:
+        """Every node of the tree, depth first from the root (the order of :attr:`statuses`)."""
+        return self._nodes
+
+    @property
+    def node_paths(self) -> tuple[str, ...]:
+        """Each node's path, in the order of :attr:`nodes`."""
+        return self._paths
+
+    @property
+    def statuses(self) -> tuple[str, ...]:
+        """Each node's status name after the last tick, in the order of :attr:`nodes`.
+
+        A new tuple only when some status changed, so ``is`` tells a monitor
+        whether to look closer.
+        """
+        return self._last
+
     # ------------------------------------------------------------------
     # The run
     # ------------------------------------------------------------------
@@ -247,6 +283,8 @@ class Run:
                 self.interrupts.signals(self._handle_signals),
                 stop_key if stop_key is not None else contextlib.nullcontext(),
             ):
+                # A plugin may refuse the run here (a ConfigError: exit 2, nothing built).
+                self._manager_hook("armtree_run_opening", run=self)
                 self._open_log()
                 self._prepare_blackboard()
                 try:
@@ -345,6 +383,7 @@ class Run:
         timeout, max_ticks = self.timeout, self.max_ticks
         tick_hooks = bool(self._impls("armtree_tick"))
         logging = self.log.enabled
+        control = self.control
         next_poll = time.monotonic()
         next_flush = next_poll + _FLUSH_S
         t0 = next_t = clock.now()
@@ -355,7 +394,12 @@ class Run:
                 return _End("FAILURE", f"timeout: {timeout:g} s on the run clock reached")
             if max_ticks is not None and self.tick_count >= max_ticks:
                 return _End("FAILURE", f"max ticks: {max_ticks} ticks reached")
+            if control.holding and self._at_safe_point():
+                self._hold(stop_key)
+                if interrupts.requested:
+                    return self._interrupted()
             self.tick_count += 1
+            tick_start = time.monotonic()
             now = clock.now()
             if rig is not None:
                 try:
@@ -371,10 +415,11 @@ class Run:
             if tick_hooks:
                 self._call_hook("armtree_tick", run=self)
             wall = time.monotonic()
+            self.tick_wall = wall - tick_start
             if wall >= next_poll:
                 next_poll = wall + _POLL_S
-                if stop_key is not None and stop_key.pressed():
-                    interrupts.request("stop key")
+                if stop_key is not None:
+                    self._keys(stop_key)
                 if wall >= next_flush:
                     # A run killed outright (SIGKILL, power) keeps all but the last second.
                     next_flush = wall + _FLUSH_S
@@ -389,6 +434,8 @@ class Run:
             next_t = round(t0 + self.tick_count * period, 9) if virtual else next_t + period
             if virtual:
                 clock.sleep_until(next_t)
+                if control.speed is not None:
+                    self._pace(next_t, control.speed)
             else:
                 late = clock.now() - next_t
                 if late > 0:
@@ -398,6 +445,55 @@ class Run:
                     next_t = clock.now()
                 else:
                     interrupts.wake.wait(-late)
+
+    def _keys(self, keys: StopKey) -> None:
+        typed = keys.read()
+        if typed:
+            self.control.key(typed)
+
+    def _at_safe_point(self) -> bool:
+        """A tick boundary where holding leaves the arm stopped: on a virtual clock
+        always (nothing the runtime steps moves while it stands), otherwise once the
+        arm has no command under way."""
+        arm = getattr(self.rig, "arm", None)
+        return self.clock.virtual or arm is None or not arm.busy()
+
+    def _hold(self, keys: StopKey | None) -> None:
+        """Stand still (clock held, nothing halted) until resumed, stepped or stopped."""
+        control, clock, wake = self.control, self.clock, self.control.wake
+        clock.hold()
+        control.enter()
+        self.log.event(self.tick_count, clock.now(), "paused")
+        self.log.flush()
+        self.view.message(f"paused after tick {self.tick_count}: p resume, n step, q stop")
+        self._call_hook("armtree_run_paused", run=self, paused=True)
+        while control.must_wait() and not self.interrupts.requested:
+            wake.wait(_POLL_S)
+            wake.clear()
+            if keys is not None:
+                self._keys(keys)
+            self.view.update(self, ())
+        stepping = control.leave()
+        clock.release()
+        self._anchor = None
+        if not self.interrupts.requested:
+            self.log.event(self.tick_count, clock.now(), "step" if stepping else "resumed")
+            self._call_hook("armtree_run_paused", run=self, paused=False)
+
+    def _pace(self, t: float, speed: float) -> None:
+        """On a virtual clock, wait until run time ``t`` is due at ``speed`` run s per wall s."""
+        wall = time.monotonic()
+        anchor = self._anchor
+        if anchor is None or anchor[2] != speed:
+            self._anchor = (wall, t, speed)
+            return
+        delay = anchor[0] + (t - anchor[1]) / speed - wall
+        if delay > 0:
+            self.interrupts.wake.wait(delay)
+        else:
+            # Behind: count it, and start again from now rather than bunching ticks.
+            self.overruns += 1
+            self._anchor = (wall, t, speed)
 
     def _track(self, now: float, logging: bool) -> None:
         last = self._last
@@ -421,13 +517,17 @@ class Run:
         self.view.update(self, changes)
         if logging:
             stream = Blackboard.activity_stream
+            if self.tick_writes:
+                self.tick_writes = []
             if stream is not None and stream.data:
                 self._log_blackboard(stream.data, now)
                 stream.clear()
 
     def _log_blackboard(self, items: list[Any], now: float) -> None:
+        writes = self.tick_writes
         for item in items:
             if item.activity_type in _LOGGED_ACTIVITIES:
+                writes.append((item.key, item.current_value))
                 self.log.write(
                     {
                         "kind": "blackboard",
@@ -690,6 +790,15 @@ class Run:
         close = self._own_rig if self._close_rig is None else self._close_rig
         if self.rig is not None and close:
             self.rig.close()
+        while self.closers:
+            closer = self.closers.pop()
+            try:
+                closer()
+            except Exception as exc:  # noqa: BLE001 - closing goes on past a broken closer
+                print(
+                    f"warning: closing {closer!r} raised {type(exc).__name__}: {exc}",
+                    file=sys.stderr,
+                )
         self.log.close()
 
     def _force_exit(self) -> None:
@@ -719,6 +828,11 @@ class Run:
             else:
                 self._hook_impls[name] = list(getattr(self.manager.hook, name).get_hookimpls())
         return self._hook_impls[name]
+
+    def _manager_hook(self, name: str, **kwargs: Any) -> None:
+        """Call every implementation of ``name``, letting an exception end the run."""
+        for impl in self._impls(name):
+            impl.function(*[kwargs[a] for a in impl.argnames])
 
     def _call_hook(self, name: str, **kwargs: Any) -> None:
         """Call every implementation of ``name``; one that raises is reported and skipped."""

@@ -212,6 +212,10 @@ class SerialArmDriver(ArmDriver):
             self._handles = [h for h in self._handles if not h.done]
             return list(self._handles)
 
+    def busy(self) -> bool:
+        """True while a tracked command has not finished."""
+        return bool(self.active_handles())
+
     def stop_all(self) -> None:
         """Mark every unfinished handle STOPPED."""
         with self._state_lock:
