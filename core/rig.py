@@ -114,6 +114,10 @@ class ArmDriver(ABC):
     model: KinematicModel
     #: The port or device this driver talks to, for messages.
     device: str = ""
+    #: False for an arm whose firmware only takes set points (hobby servos on an
+    #: SSC-32): the host times the motion, so a planner's whole path goes to
+    #: :meth:`follow_path` as one trajectory instead of one :meth:`move_joints` per waypoint.
+    interpolates: bool = True
 
     @abstractmethod
     def connect(self) -> None:
@@ -130,6 +134,23 @@ class ArmDriver(ABC):
     @abstractmethod
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
         """Move to joint target ``q`` (degrees / mm) at ``speed`` (fraction of maximum)."""
+
+    def follow_path(self, waypoints: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Move through joint ``waypoints`` ``(N, n)`` (degrees / mm) without stopping between them.
+
+        Arms that do not interpolate (:attr:`interpolates` False) implement it:
+        the path is timed within the joints' speed and acceleration limits and
+        validated along the way before a byte is sent. Others refuse it; send
+        their waypoints to :meth:`move_joints` one after another.
+        """
+        handle = MotionHandle("follow path")
+        handle.update(
+            MotionStatus.FAILED,
+            error=Unreachable(
+                f"{self.model.name} interpolates its own moves: send waypoints with move_joints"
+            ),
+        )
+        return handle
 
     @abstractmethod
     def move_to(self, xyz: np.ndarray, speed: float = 1.0) -> MotionHandle:

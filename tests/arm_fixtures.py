@@ -26,11 +26,13 @@ class ArmSim:
     dt = 0.05
     limit = 400
 
-    def __init__(self, factory: Callable[[dict, RigContext], Any], config: dict) -> None:
+    def __init__(
+        self, factory: Callable[[dict, RigContext], Any], config: dict, profile: Any = None
+    ) -> None:
         self.clock = VirtualClock()
         self.interrupts: list[tuple[str, Exception | None]] = []
         self.context = RigContext(
-            profile=None,
+            profile=profile,
             clock=self.clock,
             interrupt=lambda reason, fault=None: self.interrupts.append((reason, fault)),
         )

@@ -40,6 +40,12 @@ def sim():
     yield from connected(Sim(config))
 
 
+@pytest.fixture
+def ramp():
+    """The arm moved by the board's own linear ramps (``trajectory: none``)."""
+    yield from connected(Sim(puma_config(trajectory="none")))
+
+
 def test_shipped_profiles_build_their_models():
     registry = get_plugin_manager().registry
     for name in ("dobot_magician", "vicra", "dh"):
@@ -59,7 +65,8 @@ def test_connect_reads_the_version_and_pulses(sim):
     np.testing.assert_allclose(sim.arm.joints(), sim.arm.model.home, atol=1.0)
 
 
-def test_move_to_sends_one_timed_group_move_and_completes_on_q(sim):
+def test_without_a_trajectory_move_to_sends_one_timed_group_move_and_completes_on_q(ramp):
+    sim = ramp
     target = np.array([300.0, 100.0, 150.0])
     handle = sim.arm.move_to(target)
     assert handle.status is MotionStatus.RUNNING
@@ -79,7 +86,8 @@ def test_move_to_sends_one_timed_group_move_and_completes_on_q(sim):
     assert np.abs(sim.arm.joints() - sim.emu.true_joints()).max() <= step / 2 + 1e-9
 
 
-def test_group_move_takes_the_time_the_slowest_joint_needs(sim):
+def test_group_move_takes_the_time_the_slowest_joint_needs(ramp):
+    sim = ramp
     goal = sim.arm.model.home + np.array([40.0, 0, 0, 0, 0, 0])
     handle = sim.arm.move_joints(goal, speed=0.5)
     t0 = sim.clock.now()

@@ -125,6 +125,11 @@ class Move(Action):
         waypoints = [np.asarray(w, dtype=float) for w in np.atleast_2d(path)]
         while len(waypoints) > 1 and np.allclose(waypoints[0], q0, atol=1e-6):
             waypoints.pop(0)
+        if not getattr(arm, "interpolates", True):
+            # firmware without interpolation: the whole path goes as one timed trajectory
+            self._allow(*waypoints)
+            self._handle = arm.follow_path(np.stack(waypoints), self.speed)
+            return
         self._waypoints = waypoints
         self._next()
 
@@ -138,12 +143,17 @@ class Move(Action):
         self._allow(goal)
         self._handle = self.rig.arm.move_joints(goal, self.speed)
 
-    def _allow(self, goal: np.ndarray) -> None:
-        """Set the deadline of the motion to joints ``goal`` starting now."""
+    def _allow(self, *goals: np.ndarray) -> None:
+        """Set the deadline of the motion through joints ``goals`` starting now."""
         arm = self.rig.arm
         speeds = np.array([j.max_speed for j in arm.model.joints], dtype=float)
-        delta = np.abs(np.asarray(goal, dtype=float) - np.asarray(arm.joints(), dtype=float))
-        expected = float(np.max(delta / speeds)) / max(self.speed, 1e-3) if len(speeds) else 0.0
+        points = np.vstack([np.asarray(arm.joints(), dtype=float), *goals])
+        delta = np.abs(np.diff(points, axis=0))
+        expected = (
+            float(np.sum(np.max(delta / speeds, axis=1))) / max(self.speed, 1e-3)
+            if len(speeds)
+            else 0.0
+        )
         self._deadline = self.rig.clock.now() + self.TIMEOUT_FACTOR * expected + self.TIMEOUT_SLACK
 
     def poll(self) -> State:

@@ -2,9 +2,16 @@
 
 Joint targets are checked against the model's limits (and the range each
 servo reaches, which the model's limits already include) before a byte is
-sent, turned into pulses through each joint's fitted servo map (seed 001) and
-sent as one group move timed so that no joint exceeds its speed. The board
-gives no acknowledgement, so the driver polls it: ``QP`` reads back every
+sent and turned into pulses through each joint's fitted servo map (seed 001).
+The board only ramps each servo linearly to a target, so the driver times the
+motion itself: a target, or a planner's whole path (:meth:`SSC32Driver.follow_path`),
+becomes a cubic or quintic trajectory within the joints' speed and
+acceleration limits (seed 002, eq. 2), is validated along the way (limits,
+speeds, collisions with the profile's scene, the arm with itself) and only
+then streamed as short timed group moves (:mod:`.streaming`); a trajectory
+that fails is refused with the reason and nothing is sent. With
+``trajectory: none`` a target is one group move timed by the slowest joint.
+The board gives no acknowledgement, so the driver polls it: ``QP`` reads back every
 pulse (10 us resolution) and ``Q`` says whether the move is finished; a move
 is DONE when the board reports ``.`` for a query sent after the move. A
 reply that does not come within ``reply_timeout`` is retried, and after
@@ -21,12 +28,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.errors import HardwareFault, Unreachable
+from armtree.collision import CollisionChecker
+from armtree.errors import HardwareFault, PlanningError, Unreachable
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.rig import MotionHandle, MotionStatus, ToolState
+from armtree.scene import Scene
+from armtree.trajectory import Trajectory, plan_trajectory, validate_trajectory
 
 from . import ssc32 as S
 from .kinematics import DHModel
+from .streaming import TrajectoryStream
+
+#: Ways the driver times a motion (``arm.trajectory``).
+TRAJECTORY_KINDS = ("cubic", "quintic", "none")
 
 
 @dataclass
@@ -37,8 +51,24 @@ class _Move:
     start: np.ndarray
 
 
+@dataclass
+class _Stream:
+    handle: MotionHandle
+    stream: TrajectoryStream
+    start: np.ndarray
+
+
 class SSC32Driver(SerialArmDriver):
-    """A DH arm whose joints are servos on an SSC-32 (115200 8N1 by default)."""
+    """A DH arm whose joints are servos on an SSC-32 (115200 8N1 by default).
+
+    ``trajectory`` is ``"cubic"`` (seed 002, eq. 2), ``"quintic"`` or
+    ``"none"``; ``stream_period`` (s) is the time between streamed set points;
+    ``checker`` validates trajectories against the profile's obstacles
+    (without one, against the arm itself only). ``tool`` is ``"suction"`` (a
+    pump on ``suction_channel``) or ``"gripper"`` (the default when there is a
+    gripper and no pump): then :meth:`set_suction` closes the gripper to
+    ``grip_angles[0]`` and opens it to ``grip_angles[1]`` degrees.
+    """
 
     protocol = "an SSC-32 servo controller (VER -> SSC32-...)"
 
@@ -50,9 +80,14 @@ class SSC32Driver(SerialArmDriver):
         *,
         gripper: S.ServoMap | None = None,
         suction_channel: int | None = None,
+        tool: str | None = None,
+        grip_angles: tuple[float, float] = (0.0, 90.0),
         poll_period: float = 0.02,
         reply_timeout: float = 0.3,
         retries: int = 3,
+        trajectory: str = "cubic",
+        stream_period: float = 0.05,
+        checker: CollisionChecker | None = None,
         **options,
     ) -> None:
         options.setdefault("baud", 115200)
@@ -61,9 +96,20 @@ class SSC32Driver(SerialArmDriver):
         self.servos = list(servos)
         self.gripper_map = gripper
         self.suction_channel = suction_channel
+        self.tool_kind = tool or ("gripper" if suction_channel is None and gripper else "suction")
+        self.grip_closed, self.grip_open = (float(a) for a in grip_angles)
         self.poll_period = poll_period
         self.reply_timeout = reply_timeout
         self.retries = retries
+        if trajectory not in TRAJECTORY_KINDS:
+            raise ValueError(f"trajectory must be one of {TRAJECTORY_KINDS}, got {trajectory!r}")
+        self.trajectory_kind = trajectory
+        self.interpolates = trajectory == "none"
+        self.stream_period = float(stream_period)
+        self.checker = checker or CollisionChecker(model, Scene())
+        #: The newest trajectory followed and its start on the run clock (s), for tests and plots.
+        self.last_trajectory: tuple[float, Trajectory] | None = None
+        self._stream: _Stream | None = None
         self.version = ""
         self._lock = threading.RLock()
         self._buf = bytearray()
@@ -147,10 +193,12 @@ class SSC32Driver(SerialArmDriver):
         self._moves = [m for m in self._moves if m not in done]
 
     def on_time(self, now: float) -> None:
-        """Poll pulses and motion status; retry a lost reply; give up after ``retries``."""
+        """Send the set point due, poll pulses and motion status; retry a lost reply;
+        give up after ``retries``."""
         with self._lock:
             if not self.handshake_done():
                 return
+            command = self._stream_step(now)
             fail = False
             if self._expect and now - self._query_sent > self.reply_timeout:
                 self._silent_polls += 1
@@ -165,11 +213,41 @@ class SSC32Driver(SerialArmDriver):
                 self._buf.clear()
                 self._query_sent = now
                 self._query_seq = self._move_seq + 1
+        if command:
+            self.write(command)
         if fail:
             self.lose_link(f"link lost: the SSC-32 did not answer {self.retries + 1} queries")
             return
         if send:
             self.write(S.query_pulses(channels)[:-1] + b" Q\r")
+
+    def _stream_step(self, now: float) -> bytes:
+        """The group move of the set point due at ``now`` (empty when none is); lock held."""
+        active = self._stream
+        if active is None or not active.stream.due(now):
+            if active is not None:
+                active.handle.update(MotionStatus.RUNNING, progress=active.stream.progress(now))
+            return b""
+        point = active.stream.next(now)
+        pulses = self._pulses_for(point.q)
+        ramp_ms = max(1, int(round(1000.0 * point.ramp_s)))
+        if point.last:
+            # from here on the board's Q says when the servos are there
+            self._stream = None
+            self._move_seq += 1
+            self._moves.append(_Move(active.handle, self._move_seq, point.q, active.start))
+            self._commanded = point.q
+            self._commanded_pulses = np.array([float(pulses[m.channel]) for m in self.servos])
+        else:
+            active.handle.update(MotionStatus.RUNNING, progress=active.stream.progress(now))
+        return S.move_command(pulses, ramp_ms)
+
+    def _pulses_for(self, q: np.ndarray) -> dict[int, int]:
+        """Each joint servo's pulse (us, whole) for joints ``q``, kept on the board's range."""
+        return {
+            m.channel: int(np.clip(round(float(m.pulse(v))), S.PULSE_MIN, S.PULSE_MAX))
+            for m, v in zip(self.servos, q, strict=True)
+        }
 
     # ------------------------------------------------------------------ ArmDriver
 
@@ -194,20 +272,13 @@ class SSC32Driver(SerialArmDriver):
         return self._tool
 
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
-        """Group move of every joint servo to ``q``, timed by the slowest joint at ``speed``."""
+        """Move every joint servo to ``q``: along a timed trajectory (:meth:`follow_path`),
+        or with ``trajectory: none`` as one group move timed by the slowest joint at ``speed``."""
+        if not self.interpolates:
+            return self.follow_path(np.atleast_2d(np.asarray(q, dtype=float)), speed)
         description = f"move joints {np.round(np.asarray(q, dtype=float), 2).tolist()}"
         try:
-            goal = self.checked_joints(q)
-            pulses = {
-                m.channel: int(round(float(m.pulse(v))))
-                for m, v in zip(self.servos, goal, strict=True)
-            }
-            bad = {ch: p for ch, p in pulses.items() if not S.PULSE_MIN <= p <= S.PULSE_MAX}
-            if bad:
-                raise Unreachable(
-                    f"{self.model.name}: joint target {np.round(goal, 2).tolist()} "
-                    f"needs pulses {bad} outside {S.PULSE_MIN}-{S.PULSE_MAX} us"
-                )
+            goal, pulses = self._checked_goal(q)
         except Unreachable as exc:
             return self.refused(description, exc)
         fault = self.ensure_connected()
@@ -237,6 +308,84 @@ class SSC32Driver(SerialArmDriver):
         self._last_handle = handle
         return handle
 
+    def follow_path(self, waypoints: np.ndarray, speed: float = 1.0) -> MotionHandle:
+        """Follow joint ``waypoints`` ``(N, n)`` from where the arm is, without stopping between them.
+
+        The path is timed as a ``trajectory`` (cubic or quintic) within the
+        joints' speed and acceleration limits scaled by ``speed`` (0 to 1),
+        validated along the way (limits, speeds, collisions) and streamed. A
+        refused waypoint or trajectory gives a FAILED handle naming why
+        (:class:`Unreachable` or :class:`PlanningError`); nothing is sent.
+        """
+        points = np.atleast_2d(np.asarray(waypoints, dtype=float))
+        description = f"follow path to {np.round(points[-1], 2).tolist()}"
+        try:
+            checked = [self._checked_goal(w)[0] for w in points]
+        except Unreachable as exc:
+            return self.refused(description, exc)
+        fault = self.ensure_connected()
+        if fault is not None:
+            return self.refused(description, fault)
+        goal_pulses = self._pulses_for(checked[-1])
+        key = ("path", tuple(sorted(goal_pulses.items())), round(float(speed), 3))
+        if self.is_duplicate(key) and self._last_handle is not None and not self._last_handle.done:
+            return self._last_handle
+        start = self.joints()
+        try:
+            trajectory = self.time_path(np.vstack([start, *checked]), speed)
+        except PlanningError as exc:
+            return self.refused(description, exc)
+        handle = self.track(MotionHandle(description, checked[-1]))
+        now = self.clock.now() if self.barrier is None else self._current_time()
+        with self._lock:
+            if self._stream is not None:
+                self._stream.handle.update(MotionStatus.STOPPED)
+            self._stream = _Stream(
+                handle, TrajectoryStream(trajectory, now, self.stream_period), start
+            )
+            self._commanded = None
+            self._commanded_pulses = None  # moving: only the read-back is known
+            command = self._stream_step(now)
+        self.last_trajectory = (now, trajectory)
+        if not self.write(command):
+            handle.update(
+                MotionStatus.FAILED, error=self.fault or HardwareFault("not sent", self.device)
+            )
+            with self._lock:
+                self._stream = None
+        else:
+            handle.update(MotionStatus.RUNNING, progress=0.0)
+        self.remember_sent(key)
+        self._last_handle = handle
+        return handle
+
+    def time_path(self, path: np.ndarray, speed: float = 1.0) -> Trajectory:
+        """The validated trajectory through joint configurations ``path`` ``(N, n)``.
+
+        Raises :class:`PlanningError` (reason ``outside_limits``, ``too_fast``,
+        ``collision``, ...) saying where along it the path fails.
+        """
+        scale = float(min(max(speed, 0.01), 1.0))
+        vmax = np.array([j.max_speed for j in self.model.joints]) * scale
+        amax = np.array([j.max_accel for j in self.model.joints]) * scale
+        trajectory = plan_trajectory(path, self.trajectory_kind, max_speed=vmax, max_accel=amax)
+        validate_trajectory(trajectory, self.checker).raise_if_bad()
+        return trajectory
+
+    def _checked_goal(self, q: np.ndarray) -> tuple[np.ndarray, dict[int, int]]:
+        """``q`` within the limits and its pulses within the board's range; raises Unreachable."""
+        goal = self.checked_joints(q)
+        pulses = {
+            m.channel: int(round(float(m.pulse(v)))) for m, v in zip(self.servos, goal, strict=True)
+        }
+        bad = {ch: p for ch, p in pulses.items() if not S.PULSE_MIN <= p <= S.PULSE_MAX}
+        if bad:
+            raise Unreachable(
+                f"{self.model.name}: joint target {np.round(goal, 2).tolist()} "
+                f"needs pulses {bad} outside {S.PULSE_MIN}-{S.PULSE_MAX} us"
+            )
+        return goal, pulses
+
     def set_gripper(self, opening: float) -> MotionHandle:
         """Gripper servo to ``opening`` (degrees through its map), if the profile has one."""
         if self.gripper_map is None:
@@ -260,7 +409,10 @@ class SSC32Driver(SerialArmDriver):
         return handle
 
     def set_suction(self, on: bool) -> MotionHandle:
-        """Pump on a digital output (``#<ch>H`` / ``#<ch>L``), if the profile names one."""
+        """Pump on a digital output (``#<ch>H`` / ``#<ch>L``), if the profile names one;
+        with ``tool: gripper``, close (on) or open (off) the gripper instead."""
+        if self.tool_kind == "gripper":
+            return self.set_gripper(self.grip_closed if on else self.grip_open)
         handle = MotionHandle(f"suction {'on' if on else 'off'}")
         if self.suction_channel is None:
             handle.update(
@@ -285,6 +437,7 @@ class SSC32Driver(SerialArmDriver):
     def stop(self) -> None:
         """``STOP`` every joint channel at once: the servos hold where they are."""
         with self._lock:
+            self._stream = None
             self._moves.clear()
             self._commanded_pulses = None  # stopped mid-ramp: only the read-back is known
         self.stop_all()

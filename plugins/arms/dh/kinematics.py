@@ -14,6 +14,7 @@ a 6-joint arm take a few tens of milliseconds (benchmarks/bench_kinematics.py).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -25,6 +26,10 @@ from armtree.kinematics import Joint, KinematicModel, LinkBox
 
 #: Configurations per block in batched FK: small enough for the temporaries to stay in cache.
 _CHUNK = 2048
+#: Iterations without a 0.1 % fall of the error after which an IK start is given up.
+STALL = 8
+#: Single-target IK answers kept for a repeated question.
+RECENT = 8
 
 
 @dataclass(frozen=True)
@@ -42,6 +47,9 @@ class DHRow:
     d: float
     theta: float = 0.0
     kind: str = "revolute"
+    #: Joint speed (deg/s or mm/s) and acceleration (per s^2) limits; None: the defaults.
+    max_speed: float | None = None
+    max_accel: float | None = None
 
 
 def parse_dh(
@@ -66,14 +74,31 @@ def parse_dh(
         where = f"arm.dh.table[{i}]"
         if not isinstance(raw, Mapping):
             raise ConfigError(f"{where} must be a mapping with a, alpha, d, theta", source)
-        unknown = set(raw) - {"a", "alpha", "d", "theta", "type", "limits", "name"}
+        unknown = set(raw) - {
+            "a",
+            "alpha",
+            "d",
+            "theta",
+            "type",
+            "limits",
+            "name",
+            "max_speed",
+            "max_accel",
+        }
         if unknown:
             raise ConfigError(f"{where}: unknown field(s) {sorted(unknown)}", source)
-        values = {}
+        values: dict[str, Any] = {}
         for key in ("a", "alpha", "d", "theta"):
             v = raw.get(key, 0.0)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
                 raise ConfigError(f"{where}.{key} must be a finite number, got {v!r}", source)
+            values[key] = float(v)
+        for key in ("max_speed", "max_accel"):
+            v = raw.get(key)
+            if v is None:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ConfigError(f"{where}.{key} must be a number > 0, got {v!r}", source)
             values[key] = float(v)
         kind = {
             "R": "revolute",
@@ -105,6 +130,15 @@ class DHModel(KinematicModel):
     centre point (``n + 2`` frames). ``ik_all`` takes ``(..., 4, 4)`` poses (6
     constraints) or ``(..., 3)`` positions and runs damped least squares from
     several seeds at once; each returned row is a distinct converged solution.
+
+    ``tool_axis`` (a base-frame direction) makes position targets keep the
+    tool's z axis along it: a hobby arm's wrist pitch holds the gripper
+    vertical (``[0, 0, -1]``) while the other joints place it, as seed 001's
+    arms are used. ``link_width`` is the least thickness (mm) of the link
+    boxes drawn and checked for collisions; ``tool_boxes`` (in the last joint's
+    frame) replace the box from the last joint to the tool centre, so an end
+    effector can have its real shape (a gripper's palm above the fingertips,
+    its fingers beside them).
     """
 
     def __init__(
@@ -119,6 +153,8 @@ class DHModel(KinematicModel):
         seeds: int = 12,
         seed: int = 0,
         link_width: float = 60.0,
+        tool_axis: Sequence[float] | None = None,
+        tool_boxes: Sequence[LinkBox] = (),
     ) -> None:
         if convention not in ("modified", "standard"):
             raise ValueError(f"unknown DH convention {convention!r}")
@@ -126,7 +162,14 @@ class DHModel(KinematicModel):
         self.convention = convention
         self.rows = tuple(rows)
         self.joints = tuple(
-            Joint(f"q{i + 1}", r.kind, lo, hi, max_speed=90.0 if r.kind == "revolute" else 100.0)
+            Joint(
+                f"q{i + 1}",
+                r.kind,
+                lo,
+                hi,
+                max_speed=r.max_speed or (90.0 if r.kind == "revolute" else 100.0),
+                max_accel=r.max_accel or 360.0,
+            )
             for i, (r, (lo, hi)) in enumerate(zip(self.rows, limits, strict=True))
         )
         self._a = np.array([r.a for r in self.rows])
@@ -138,12 +181,24 @@ class DHModel(KinematicModel):
         self._revolute = np.array([r.kind == "revolute" for r in self.rows])
         self.tool_offset = np.asarray(tool_offset, dtype=float)
         self.base = np.asarray(base, dtype=float)
+        self.tool_axis: np.ndarray | None = None
+        if tool_axis is not None:
+            axis = np.asarray(tool_axis, dtype=float)
+            norm = float(np.linalg.norm(axis))
+            if axis.shape != (3,) or not np.isfinite(norm) or norm < 1e-9:
+                raise ValueError(f"tool_axis must be a non-zero [x, y, z], got {tool_axis!r}")
+            self.tool_axis = axis / norm
+        self.link_width = float(link_width)
         lo, hi = self.lower, self.upper
         self.home = np.clip(np.zeros(self.dof) if home is None else np.asarray(home, float), lo, hi)
         # Deterministic IK seeds: home first, then a fixed sample of the joint space.
         rng = np.random.default_rng(seed)
         self.seeds = np.vstack([self.home, rng.uniform(lo, hi, size=(max(seeds, 1) - 1, self.dof))])
-        self.boxes = self._make_boxes(link_width)
+        self._recent: dict[tuple, np.ndarray] = {}
+        self._recent_lock = threading.Lock()
+        #: Boxes of the end effector given in the profile (in the last joint's frame).
+        self.tool_boxes = tuple(tool_boxes)
+        self.boxes = self._make_boxes(self.link_width, self.tool_boxes)
         self.self_collision_pairs = self._collision_pairs()
 
     # ------------------------------------------------------------------ FK
@@ -299,9 +354,33 @@ class DHModel(KinematicModel):
         below ``tol`` mm and the orientation error below ``tol / orientation_weight``
         rad, within the joint limits. Duplicate solutions (closer than 1e-3 deg)
         are reported once. ``orientation_weight`` (mm per radian) balances the
-        two kinds of error in the damped step.
+        two kinds of error in the damped step. The answers for the last few
+        single targets are kept: a planner asks whether a target is reachable
+        and then for its solutions, one call after the other.
         """
         target = np.asarray(target, dtype=float)
+        key = None
+        if target.size <= 16 and seeds is None:
+            key = (target.shape, target.tobytes(), tol, iterations, orientation_weight)
+            with self._recent_lock:
+                if key in self._recent:
+                    return self._recent[key].copy()
+        out = self._ik_all(target, seeds, tol, iterations, orientation_weight)
+        if key is not None:
+            with self._recent_lock:
+                self._recent[key] = out.copy()
+                while len(self._recent) > RECENT:
+                    del self._recent[next(iter(self._recent))]
+        return out
+
+    def _ik_all(
+        self,
+        target: np.ndarray,
+        seeds: np.ndarray | None,
+        tol: float,
+        iterations: int,
+        orientation_weight: float,
+    ) -> np.ndarray:
         full = target.shape[-2:] == (4, 4)
         if not full and target.shape[-1] != 3:
             raise ValueError(
@@ -390,21 +469,32 @@ class DHModel(KinematicModel):
     def _errors(
         self, q: np.ndarray, tgt: np.ndarray, full: bool, w: float
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Error vectors ``(M, 6|3)`` (mm, weighted radians) and the Jacobian ``(M, 6|3, n)``."""
+        """Error vectors ``(M, 6|3)`` (mm, weighted radians) and the Jacobian ``(M, 6|3, n)``.
+
+        Position targets of a model with :attr:`tool_axis` get three more rows:
+        ``w * (axis - z)``, the tool's z axis ``z`` pulled onto the wanted axis
+        (zero only when they point the same way), with ``dz = omega x z``.
+        """
+        axis = not full and self.tool_axis is not None
         rots, origins = self._chain(q, keep=True)
         R = rots[-1]
         tip = self._tool(R, origins[-1])
-        J = np.zeros((q.shape[0], 6 if full else 3, self.dof))
-        for i, (zc, o) in enumerate(self._axes(rots, origins)):
-            z = zc.T
-            if self._revolute[i]:
-                # mm per degree: the chain takes degrees
-                J[:, :3, i] = np.cross(z, (tip - o).T) * (np.pi / 180.0)
-                if full:
-                    J[:, 3:, i] = z * (w * np.pi / 180.0)
-            else:
-                J[:, :3, i] = z
+        z_tool = R[:, 2]  # (3, M)
+        deg = np.pi / 180.0
+        axes = self._axes(rots, origins)
+        axis_dirs = np.stack([z for z, _ in axes], axis=1)  # (3, n, M): every joint at once
+        points = np.stack([o for _, o in axes], axis=1)
+        revolute = self._revolute[None, :, None]
+        # mm per degree for revolute joints (the chain takes degrees), mm per mm for prismatic
+        rows = [np.where(revolute, _cross(axis_dirs, tip[:, None, :] - points) * deg, axis_dirs)]
+        if full:
+            rows.append(np.where(revolute, axis_dirs * (w * deg), 0.0))
+        elif axis:
+            rows.append(np.where(revolute, _cross(axis_dirs, z_tool[:, None, :]) * (w * deg), 0.0))
+        J = np.concatenate(rows).transpose(2, 0, 1)  # (M, 3 | 6, n)
         e_pos = tgt[:, :3, 3] - tip.T if full else tgt - tip.T
+        if axis:
+            return np.concatenate([e_pos, w * (self.tool_axis - z_tool.T)], axis=1), J
         if not full:
             return e_pos, J
         Rc = np.moveaxis(R, -1, 0)  # (M, 3, 3)
@@ -426,7 +516,9 @@ class DHModel(KinematicModel):
         m = e.shape[1]
         eye = np.eye(m)
         active = np.ones(q.shape[0], dtype=bool)
-        for _ in range(iterations):
+        # a start stuck in a local minimum (often against a joint limit) stops early
+        progress = np.zeros(q.shape[0], dtype=int)
+        for k in range(iterations):
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 break
@@ -438,11 +530,14 @@ class DHModel(KinematicModel):
             cn = np.einsum("ij,ij->i", en, en)
             better = cn < cost[idx]
             take = idx[better]
+            progress[idx[cn < cost[idx] * (1.0 - 1e-3)]] = k
             q[take], e[take], J[take], cost[take] = qn[better], en[better], Jn[better], cn[better]
             lam[take] *= 0.5
             lam[idx[~better]] *= 4.0
             lam = np.clip(lam, 1e-4, 1e6)
-            active[idx] = (np.sqrt(cost[idx]) >= tol) & (lam[idx] < 1e6)
+            active[idx] = (
+                (np.sqrt(cost[idx]) >= tol) & (lam[idx] < 1e6) & (k - progress[idx] < STALL)
+            )
         return q, np.sqrt(cost)
 
     def _dedupe(self, q: np.ndarray) -> np.ndarray:
@@ -492,21 +587,22 @@ class DHModel(KinematicModel):
                     pairs.append((i, j))
         return tuple(pairs)
 
-    def _make_boxes(self, width: float) -> tuple[LinkBox, ...]:
+    def _make_boxes(self, width: float, tool: tuple[LinkBox, ...] = ()) -> tuple[LinkBox, ...]:
         """One box per link, spanning frame ``i``'s origin to frame ``i + 1``'s at home.
 
         The box is axis-aligned in frame ``i`` and at least ``width`` mm thick in
-        every direction, so short links still have a volume.
+        every direction, so short links still have a volume. ``tool`` boxes, when
+        given, stand for the last link (the end effector).
         """
         frames = self.link_frames(self.home)
         boxes = []
-        for i in range(self.dof + 1):
+        for i in range(self.dof + (0 if tool else 1)):
             rel = np.linalg.inv(frames[i]) @ frames[i + 1][:, 3]
             size = tuple(float(max(abs(s), width)) for s in rel[:3])
             off = np.eye(4)
             off[:3, 3] = rel[:3] / 2
             boxes.append(LinkBox(f"link{i}", i, size, off))
-        return tuple(boxes)
+        return (*boxes, *tool)
 
 
 def _rotvec(R: np.ndarray) -> np.ndarray:
@@ -531,6 +627,13 @@ def _rotvec(R: np.ndarray) -> np.ndarray:
         sign = np.where(np.einsum("mi,mi->m", axis, v[near_pi]) < 0, -1.0, 1.0)
         out[near_pi] = axis * (sign * angle[near_pi])[:, None]
     return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products of the columns of two ``(3, M)`` arrays."""
+    return np.stack(
+        (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    )
 
 
 def _snap(values: np.ndarray) -> np.ndarray:
@@ -571,6 +674,20 @@ def model_from_config(config: Mapping[str, Any], source: str = "<profile>") -> D
     home = dh.get("home")
     if home is not None and (not isinstance(home, Sequence) or len(home) != len(rows)):
         raise ConfigError(f"arm.dh.home must list {len(rows)} joint values", source)
+    axis = dh.get("tool_axis")
+    if axis is not None and (
+        not isinstance(axis, Sequence)
+        or len(axis) != 3
+        or not all(isinstance(v, (int, float)) and np.isfinite(v) for v in axis)
+        or not np.any(np.asarray(axis, dtype=float))
+    ):
+        raise ConfigError(
+            f"arm.dh.tool_axis must be a non-zero [x, y, z] direction, got {axis!r}", source
+        )
+    width = dh.get("link_width_mm", 60.0)
+    if isinstance(width, bool) or not isinstance(width, (int, float)) or not width > 0:
+        raise ConfigError(f"arm.dh.link_width_mm must be a number > 0, got {width!r}", source)
+    tool_boxes = _tool_boxes(dh.get("tool_boxes_mm"), len(rows), source)
     return DHModel(
         rows,
         limits,
@@ -580,4 +697,37 @@ def model_from_config(config: Mapping[str, Any], source: str = "<profile>") -> D
         base=base,
         home=home,
         seeds=int(dh.get("ik_seeds", 12)),
+        link_width=float(width),
+        tool_axis=axis,
+        tool_boxes=tool_boxes,
     )
+
+
+def _tool_boxes(spec: Any, dof: int, source: str) -> tuple[LinkBox, ...]:
+    """``arm.dh.tool_boxes_mm``: ``[{name, size: [x, y, z], center: [x, y, z]}]`` in the
+    last joint's frame, as :class:`LinkBox` es on that frame."""
+    if spec is None:
+        return ()
+    if not isinstance(spec, Sequence) or isinstance(spec, str) or not spec:
+        raise ConfigError("arm.dh.tool_boxes_mm must be a list of {name, size, center}", source)
+    out = []
+    for k, item in enumerate(spec):
+        where = f"arm.dh.tool_boxes_mm[{k}]"
+        if not isinstance(item, Mapping) or set(item) - {"name", "size", "center"}:
+            raise ConfigError(f"{where} must be a mapping of name, size and center", source)
+        vectors = []
+        for key, default in (("size", None), ("center", [0.0, 0.0, 0.0])):
+            v = item.get(key, default)
+            ok = (
+                isinstance(v, Sequence)
+                and len(v) == 3
+                and all(isinstance(x, (int, float)) and np.isfinite(x) for x in v)
+            )
+            if not ok or (key == "size" and min(v) <= 0):
+                raise ConfigError(f"{where}.{key} must be [x, y, z] in mm, got {v!r}", source)
+            vectors.append([float(x) for x in v])
+        offset = np.eye(4)
+        offset[:3, 3] = vectors[1]
+        name = str(item.get("name", f"tool{k}"))
+        out.append(LinkBox(name, dof, tuple(vectors[0]), offset))
+    return tuple(out)

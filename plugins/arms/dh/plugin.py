@@ -8,12 +8,14 @@ import numpy as np
 
 import armtree
 from armtree.clock import Clock
+from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.plugins.arms.common import driver_port
 from armtree.rig import RigContext
+from armtree.scene import Scene
 
-from .driver import SSC32Driver
+from .driver import TRAJECTORY_KINDS, SSC32Driver
 from .emulator import SSC32Emulator
 from .kinematics import DHModel, model_from_config
 from .ssc32 import ServoMap, servo_maps_from_config
@@ -21,6 +23,16 @@ from .ssc32 import ServoMap, servo_maps_from_config
 
 def _servos(config: dict[str, Any], n: int) -> list[ServoMap]:
     return servo_maps_from_config(config.get("servos"), n)
+
+
+def _grip_angles(config: dict[str, Any]) -> tuple[float, float]:
+    """The gripper servo's closed and open angles (degrees), from ``arm.gripper``."""
+    spec = config.get("gripper") or {}
+    closed, opened = spec.get("closed", 0.0), spec.get("open", 90.0)
+    for key, value in (("closed", closed), ("open", opened)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"arm.gripper.{key}: expected an angle in degrees, got {value!r}")
+    return float(closed), float(opened)
 
 
 def _gripper(config: dict[str, Any]) -> ServoMap | None:
@@ -56,6 +68,9 @@ def _model(config: dict[str, Any]) -> DHModel:
         base=base.base,
         home=None if home is None else np.asarray(home, dtype=float),
         seeds=int(dh.get("ik_seeds", 12)),
+        link_width=base.link_width,
+        tool_axis=base.tool_axis,
+        tool_boxes=base.tool_boxes,
     )
 
 
@@ -94,8 +109,14 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
         servos,
         gripper=_gripper(config),
         suction_channel=config.get("suction_channel"),
+        tool=config.get("tool"),
+        grip_angles=_grip_angles(config),
         baud=int(config.get("baud", 115200)),
         link_timeout=float(config.get("link_timeout", 1.0)),
+        trajectory=str(config.get("trajectory", "cubic")),
+        stream_period=float(config.get("stream_period_s", 0.05)),
+        # the profile's table and obstacles: a trajectory through them is refused
+        checker=CollisionChecker(model, Scene.from_profile(context.profile or {})),
         **options,
     )
 
@@ -116,9 +137,38 @@ dh_factory.PARAMS = (
         None,
         doc="one {channel, table: [[pulse_us, angle], ...]} per joint, fitted by least squares",
     ),
-    Param("gripper", "dict", None, doc="gripper servo {channel, table}"),
+    Param(
+        "gripper",
+        "dict",
+        None,
+        doc="gripper servo {channel, table, closed, open}: closed and open in degrees "
+        "(default 0 and 90)",
+    ),
     Param("suction_channel", "int", None, doc="SSC-32 output driving a pump (#<ch>H / #<ch>L)"),
+    Param(
+        "tool",
+        "str",
+        None,
+        doc="what grips: suction (the pump) or gripper; default: the gripper when there "
+        "is one and no pump",
+        choices=("suction", "gripper"),
+    ),
     Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
+    Param(
+        "trajectory",
+        "str",
+        "cubic",
+        doc="how the host times a motion for the board: cubic (seed 002, eq. 2) or quintic "
+        "polynomials streamed as short group moves, or none (one group move per target)",
+        choices=TRAJECTORY_KINDS,
+    ),
+    Param(
+        "stream_period_s",
+        "float",
+        0.05,
+        unit="s",
+        doc="time between the set points streamed along a trajectory",
+    ),
 )
 dh_factory.model = _model
 dh_factory.emulator = _emulator
