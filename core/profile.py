@@ -13,6 +13,7 @@ the whole file before returning, collecting every problem into one
 * ``places``: ``name: [x, y, z]`` in mm; ``obstacles``: a list of shapes
   (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
   ``table: {z: MM}`` (or ``table: MM``): the table top in the arm's base frame;
+* ``workcell``: the task geometry skills use (:mod:`armtree.workcell`);
 * then the planning scene these make (:meth:`armtree.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
 * ``world`` (simulation only) is a mapping; ``plugins`` is a list of modules or
@@ -41,6 +42,7 @@ from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .resolve import available, resolve
 from .rig import TagSpec
 from .scene import Scene
+from .workcell import check_workcell
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 
 #: Profile section -> component kind in the plugin registry.
@@ -59,6 +61,7 @@ PROFILE_KEYS = (
     "places",
     "table",
     "obstacles",
+    "workcell",
     "world",
     "plugins",
 )
@@ -477,6 +480,7 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
     check("places", _check_places, data, errors)
     check("table", _check_table, data, errors)
     check("obstacles", _check_obstacles, data, errors)
+    check("workcell", check_workcell, data, errors)
     if data.get("world") is not None and not isinstance(data["world"], dict):
         errors.append(error_at("world: expected a mapping", data.value_mark("world")))
         invalid.add("world")

@@ -18,6 +18,7 @@ from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
 from .tree_loader import SUBTREE_KEYS, node_kind
+from .workcell import workcell_schema
 
 DRAFT = "http://json-schema.org/draft-07/schema#"
 NODE_REF = {"$ref": "#/definitions/node"}
@@ -213,6 +214,7 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
             ],
         },
         "obstacles": {"type": "array", "items": {"anyOf": shapes}},
+        "workcell": workcell_schema(),
         "world": {"type": "object", "description": "the simulated world (sim only)"},
         "plugins": {"type": "array", "items": {"type": "string"}},
     }

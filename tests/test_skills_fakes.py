@@ -52,6 +52,9 @@ PLACES = {
     "garbage_bin": [60.0, 230.0, 40.0],
 }
 
+#: The fake rig's task geometry: a ring of r = 200 mm on the table top at z = 0.
+WORKCELL = {"table_z_mm": 0.0, "look_height_mm": 120.0, "survey": {"ring": {"radius_mm": 200.0}}}
+
 
 def rz(deg: float) -> np.ndarray:
     """4x4 rotation about z by ``deg`` degrees."""
@@ -342,14 +345,16 @@ def make_rig(
     mount: str = "eye_in_hand",
     ticks: int = 2,
     noise_mm: float = 0.0,
+    workcell: dict | None = None,
 ) -> FakeRig:
-    """A fake rig with the given world markers."""
+    """A fake rig with the given world markers; ``workcell`` entries replace those of
+    :data:`WORKCELL` in its profile."""
     clock = VirtualClock()
     world = World(markers or [])
     arm = FakeArm(world, ticks=ticks)
     cam = FakeCamera(clock, arm, mount) if camera else None
     rig = FakeRig(
-        profile=None,
+        profile={"workcell": {**WORKCELL, **(workcell or {})}},
         clock=clock,
         arm=arm,
         camera=cam,

@@ -48,10 +48,10 @@ def test_pick_with_neither_place_nor_visible_tag_fails():
 def test_place_on_a_tag_uses_its_fresh_position_and_releases():
     bot = Marker(1, np.array([225.0, 60.0, 10.0]))
     held = Marker(0, np.zeros(3), held=True)
-    rig = make_rig([bot, held])
+    rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
     rig.world.held = held
     rig.arm.suction = True
-    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", release_mm=30.0)
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot")
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert not rig.arm.suction and rig.world.held is None
@@ -69,10 +69,12 @@ def test_place_fails_when_the_tag_is_not_near_the_target():
 
 def test_place_without_its_tag_in_view_uses_the_given_pose():
     held = Marker(0, np.zeros(3), held=True)
-    rig = make_rig([held, Marker(1, np.array([100.0, 200.0, 0.0]))])
+    rig = make_rig(
+        [held, Marker(1, np.array([100.0, 200.0, 0.0]))], workcell={"release_offset_mm": 30.0}
+    )
     rig.world.held = held
     rig.arm.suction = True
-    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", release_mm=30.0)
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot")
     status, _ = run(node, rig)
     assert status is Status.SUCCESS and np.allclose(held.dropped_at, [210, 50, 40])
 
@@ -82,7 +84,7 @@ def test_place_at_a_named_place_without_a_tag():
     rig = make_rig([held])
     rig.world.held = held
     rig.arm.suction = True
-    status, _ = run(Place("drop", at="garbage_bin", release_mm=0.0), rig)
+    status, _ = run(Place("drop", at="garbage_bin"), rig)
     assert status is Status.SUCCESS and np.allclose(held.dropped_at, [60, 230, 40])
 
 

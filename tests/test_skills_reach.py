@@ -52,8 +52,11 @@ def test_pick_with_an_approach_above_the_workspace_clamps_it():
 
 
 def test_search_arc_outside_the_workspace_is_pulled_into_it():
-    rig = make_rig([Marker(1, np.array([300.0, 0.0, 0.0]))])
-    node = Search("search", tag="duckybot", pose=Binding("p"), radius_mm=400.0, height_mm=120.0)
+    rig = make_rig(
+        [Marker(1, np.array([300.0, 0.0, 0.0]))],
+        workcell={"survey": {"ring": {"radius_mm": 400.0}}},
+    )
+    node = Search("search", tag="duckybot", pose=Binding("p"))
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert np.isclose(np.hypot(*rig.arm.pose()[:2, 3]), 320.0, atol=2.0)

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
+import armtree
 from armtree.params import Binding
 from armtree.plugins.skills.search import CleanUp, Search, sweep_angles
 
@@ -54,8 +55,8 @@ def test_sweep_rejects_a_bad_step():
 
 
 def test_search_finds_the_tag_and_outputs_its_base_position():
-    rig = make_rig([Marker(1, on_arc(40.0))])
-    node = Search("search", tag="duckybot", pose=Binding("duckybot_pose"), height_mm=100.0)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[Marker(1, on_arc(40.0))])
+    node = Search("search", tag="duckybot", pose=Binding("duckybot_pose"))
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert np.allclose(node.bb.get("duckybot_pose"), on_arc(40.0), atol=1e-3)
@@ -64,14 +65,18 @@ def test_search_finds_the_tag_and_outputs_its_base_position():
 
 
 def test_search_fails_after_its_sweeps_without_the_tag():
-    rig = make_rig([Marker(1, on_arc(-170.0))])
-    node = Search("search", tag="duckybot", pose=Binding("p"), step_deg=20.0)
+    ring = {"radius_mm": 200.0, "step_deg": 20.0}
+    rig = make_rig(
+        workcell={"look_height_mm": 100.0, "survey": {"ring": ring}},
+        markers=[Marker(1, on_arc(-170.0))],
+    )
+    node = Search("search", tag="duckybot", pose=Binding("p"))
     status, _ = run(node, rig)
     assert status is Status.FAILURE and "no 'duckybot' tag seen from" in node.feedback_message
 
 
 def test_search_skips_refused_scan_poses():
-    rig = make_rig([Marker(1, on_arc(60.0))])
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[Marker(1, on_arc(60.0))])
     node = Search(
         "search", tag="duckybot", pose=Binding("p"), poses=[[0, 0, 0], "home", [100, 173, 100]]
     )
@@ -82,8 +87,8 @@ def test_search_skips_refused_scan_poses():
 def test_search_with_clean_up_bins_trash_on_the_way_then_finds_the_tag():
     trash = Marker(3, on_arc(15.0))
     bot = Marker(1, on_arc(70.0))
-    rig = make_rig([trash, bot])
-    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True, height_mm=100.0)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[trash, bot])
+    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True)
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert trash.dropped_at is not None
@@ -93,14 +98,14 @@ def test_search_with_clean_up_bins_trash_on_the_way_then_finds_the_tag():
 
 def test_search_without_clean_up_leaves_trash_alone():
     trash = Marker(3, on_arc(15.0))
-    rig = make_rig([trash, Marker(1, on_arc(70.0))])
-    status, _ = run(Search("search", tag="duckybot", pose=Binding("p"), height_mm=100.0), rig)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[trash, Marker(1, on_arc(70.0))])
+    status, _ = run(Search("search", tag="duckybot", pose=Binding("p")), rig)
     assert status is Status.SUCCESS and trash.dropped_at is None
 
 
 def test_clean_up_clears_every_trash_marker_in_view():
     items = [Marker(2, np.array([205.0, 10.0, 0.0])), Marker(4, np.array([195.0, -15.0, 0.0]))]
-    rig = make_rig(items)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=items)
     rig.arm.q = np.array([0.0, 200.0, 120.0])
     node = CleanUp("clean", count=Binding("n"))
     status, _ = run(node, rig)
@@ -111,7 +116,9 @@ def test_clean_up_clears_every_trash_marker_in_view():
 
 
 def test_clean_up_leaves_trash_that_will_not_come_away_after_its_attempts():
-    rig = make_rig([Marker(2, np.array([205.0, 10.0, 0.0]))])
+    rig = make_rig(
+        workcell={"look_height_mm": 100.0}, markers=[Marker(2, np.array([205.0, 10.0, 0.0]))]
+    )
     rig.world.grip = lambda tool: None
     rig.arm.q = np.array([0.0, 200.0, 120.0])
     node = CleanUp("clean", attempts=2, count=Binding("n"))
@@ -124,7 +131,7 @@ def test_clean_up_leaves_trash_that_will_not_come_away_after_its_attempts():
 
 def test_clean_up_fails_after_max_items_carries():
     items = [Marker(i, np.array([200.0, -50.0 + 10 * i, 0.0])) for i in (2, 3, 4)]
-    rig = make_rig(items)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=items)
     rig.arm.q = np.array([0.0, 200.0, 120.0])
     node = CleanUp("clean", max_items=2)
     status, _ = run(node, rig)
@@ -136,8 +143,8 @@ def test_clean_up_fails_after_max_items_carries():
 
 def test_search_leaves_unreachable_trash_and_finds_the_tag():
     trash = Marker(3, np.append(on_arc(15.0)[:2], -100.0))  # below the arm's reach
-    rig = make_rig([trash, Marker(1, on_arc(70.0))])
-    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True, height_mm=100.0)
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[trash, Marker(1, on_arc(70.0))])
+    node = Search("search", tag="duckybot", pose=Binding("p"), clean_up=True)
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert trash.dropped_at is None and not trash.held
@@ -153,7 +160,7 @@ def test_search_needs_a_camera():
 
 def test_clean_up_ignores_trash_already_in_the_bin():
     in_bin = Marker(2, np.array([70.0, 215.0, 0.0]))
-    rig = make_rig([in_bin])
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[in_bin])
     rig.arm.q = np.array([72.0, 225.0, 120.0])  # camera over the bin
     node = CleanUp("clean", count=Binding("n"))
     status, _ = run(node, rig)
@@ -163,7 +170,17 @@ def test_clean_up_ignores_trash_already_in_the_bin():
 
 def test_clean_up_with_no_bin_radius_takes_the_same_trash():
     in_bin = Marker(2, np.array([70.0, 215.0, 0.0]))
-    rig = make_rig([in_bin])
+    rig = make_rig(workcell={"look_height_mm": 100.0}, markers=[in_bin])
     rig.arm.q = np.array([72.0, 225.0, 120.0])
     status, _ = run(CleanUp("clean", bin_radius_mm=0.0), rig)
     assert status is Status.SUCCESS and in_bin.dropped_at is not None
+
+
+def test_search_on_a_profile_without_a_survey_region_says_what_to_add():
+    rig = make_rig(workcell={"survey": None})
+    node = Search("search", tag="duckybot", pose=Binding("p"))
+    with pytest.raises(
+        armtree.ConfigError, match=r"needs workcell\.survey in the hardware profile"
+    ):
+        node.setup(rig=rig, clock=rig.clock)
+    assert rig.arm.moves == []

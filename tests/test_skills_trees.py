@@ -29,6 +29,7 @@ from test_skills_fakes import (
 import armtree
 from armtree.clock import VirtualClock
 from armtree.plugin_manager import PluginManager
+from armtree.resolve import available
 from armtree.rig_builder import build_rig
 from armtree.runtime import run
 from armtree.tree_loader import load_tree
@@ -93,7 +94,7 @@ class FakeHardware:
 
 
 def arc(deg: float, r: float = 185.0) -> list[float]:
-    """A point of the ring search.yaml scans (r = 185 mm, on a table a little below its z = -35 mm)."""
+    """A point of the fake profile's survey ring (r = 185 mm, a little below its table at z = -35 mm)."""
     return [r * math.cos(math.radians(deg)), r * math.sin(math.radians(deg)), -40.0]
 
 
@@ -120,6 +121,14 @@ def write_profile(tmp_path: Path, markers: list[list[float]]) -> Path:
             "trash": {"ids": [2, 3, 4], "size_mm": 25},
         },
         "places": PLACES,
+        # the ring of the sim_dobot profile, on a table a little above the markers
+        "workcell": {
+            "table_z_mm": -35,
+            "clearance_z_mm": 20,
+            "look_height_mm": 100,
+            "survey": {"ring": {"radius_mm": 185, "range_deg": [-100, 100], "step_deg": 5}},
+            "release_offset_mm": 35,
+        },
     }
     path = tmp_path / "fake.yaml"
     path.write_text(yaml.safe_dump(profile))
@@ -210,3 +219,10 @@ def test_touch_tag_tree_servos_over_the_tag_within_3_mm(tmp_path, manager):
     assert result.status == "SUCCESS", result.message
     tool = rig.arm.actual_pose()[:3, 3]
     assert np.linalg.norm(tool - (np.array(arc(25.0)) + [0, 0, 20])) < 3.0
+
+
+@pytest.mark.parametrize("rig", ["sim_dobot", "sim_vicra"])
+@pytest.mark.parametrize("name", available("tree"))
+def test_every_shipped_tree_loads_unchanged_on_every_sim_rig(name, rig):
+    tree = load_tree(name, rig=rig, overrides=["tag=duckybot"] if name == "search" else [])
+    assert tree.profile.name == rig

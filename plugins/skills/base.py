@@ -21,6 +21,7 @@ import armtree
 from armtree.params import Binding
 from armtree.profile import Profile, profile_source
 from armtree.rig import MotionHandle
+from armtree.workcell import Workcell, workcell_of
 
 from .actions import Action, SkillFailure, State
 
@@ -103,20 +104,42 @@ class Skill(armtree.Behaviour):
     # Parameters naming a place or a tag role declare it with ``Param(kind="place")`` /
     # ``kind="tag_role"``: the loader resolves them against the profile at load time
     # (with the tree's line), and setup checks them again against the rig it is given.
+    #: Keys of the profile's ``workcell:`` the skill cannot run without (checked at setup).
+    WORKCELL: tuple[str, ...] = ()
 
     def __init__(self, name: str, **params: Any) -> None:
         super().__init__(name, **params)
         self._process: Process | None = None
         self._halted: MotionHandle | None = None
+        self._workcell: Workcell | None = None
 
     def setup(self, **kwargs: Any) -> None:
-        """Take the rig; a literal place name or tag role the profile lacks is a ConfigError."""
+        """Take the rig; a literal place name or tag role the profile lacks, or a
+        ``workcell:`` key the skill needs and the profile lacks, is a ConfigError."""
         super().setup(**kwargs)
+        self._workcell = None
         for param in self.PARAMS:
             if param.kind == "place":
                 self.place_name_check(param.name)
             elif param.kind == "tag_role":
                 self.role_check(param.name)
+        if self.rig is not None:
+            for key in self.workcell_needs():
+                try:
+                    self.workcell.need(key, self.name)
+                except armtree.ConfigError as exc:
+                    raise self._profile_error("workcell", exc.message) from None
+
+    @property
+    def workcell(self) -> Workcell:
+        """The rig's task geometry, from its profile's ``workcell:`` section."""
+        if self._workcell is None:
+            self._workcell = workcell_of(getattr(self.rig, "profile", None))
+        return self._workcell
+
+    def workcell_needs(self) -> tuple[str, ...]:
+        """The ``workcell:`` keys this skill needs on this rig (default :attr:`WORKCELL`)."""
+        return self.WORKCELL
 
     def procedure(self) -> Procedure:
         """The skill's steps; yield actions, return the result, raise SkillFailure to fail."""

@@ -26,7 +26,7 @@ def camera_over(
 
     Eye-in-hand: lower heights down to ``min_height`` are tried in 5 mm steps,
     then the reachable tool position nearest the wanted one; the tool never
-    goes below the skill's ``clearance_z_mm``. Eye-to-hand: the tool simply goes
+    goes below the profile's ``workcell.clearance_z_mm``. Eye-to-hand: the tool simply goes
     ``height`` above the point (out of the way is the caller's business).
     Raises :class:`SkillFailure` when nothing near is reachable.
     """
@@ -175,16 +175,6 @@ class ArmSkill(Skill):
             maximum=60.0,
         ),
     )
-    #: Parameters of skills that move the camera around to look.
-    LOOK = (
-        Param(
-            "clearance_z_mm",
-            "any",
-            None,
-            "mm",
-            "lowest tool height while looking (one that clears every object); null: no limit",
-        ),
-    )
     #: Parameters of skills that grip with the suction cup.
     GRIP = (
         Param(
@@ -207,11 +197,9 @@ class ArmSkill(Skill):
         return float(self.param("settle_s"))
 
     def clearance(self) -> float | None:
-        """The ``clearance_z_mm`` parameter (mm), None when the skill has no such limit."""
-        if not any(p.name == "clearance_z_mm" for p in self.PARAMS):
-            return None
-        value = self.param("clearance_z_mm")
-        return None if value is None else float(value)
+        """The lowest tool height while looking around (mm, the profile's
+        ``workcell.clearance_z_mm``); None when the profile sets no limit."""
+        return self.workcell.clearance_z_mm
 
 
 class Pick(ArmSkill):
@@ -245,33 +233,6 @@ class Pick(ArmSkill):
             maximum=1000.0,
         ),
         Param(
-            "grasp_offset_mm",
-            "float",
-            0.0,
-            "mm",
-            "tool height above the object's top when gripping",
-            minimum=-100.0,
-            maximum=500.0,
-        ),
-        Param(
-            "look_height_mm",
-            "float",
-            120.0,
-            "mm",
-            "camera height above `from` when locating the tag",
-            exclusive_minimum=0.0,
-            maximum=5000.0,
-        ),
-        Param(
-            "search_radius_mm",
-            "float",
-            80.0,
-            "mm",
-            "how far from `from` the tag may be",
-            minimum=0.0,
-            maximum=5000.0,
-        ),
-        Param(
             "dwell_s", "float", 0.3, "s", "time for the suction to grip", minimum=0.0, maximum=60.0
         ),
         Param("verify", "bool", True, "", "check with the camera that the object left its spot"),
@@ -285,7 +246,6 @@ class Pick(ArmSkill):
             maximum=1000.0,
         ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
-        *ArmSkill.LOOK,
         *ArmSkill.GRIP,
         *ArmSkill.COMMON,
     )
@@ -297,12 +257,10 @@ class Pick(ArmSkill):
         target = None if source is None else self.point(source, f"{self.name}: from")
         seen = None
         if tag and self.rig.camera is not None and self.rig.tracker is not None:
-            sightings = yield from look_over(self, target, self.param("look_height_mm"), tag)
+            cell = self.workcell
+            sightings = yield from look_over(self, target, cell.look_height_mm, tag)
             seen = nearest(
-                sightings,
-                tag,
-                target,
-                self.param("search_radius_mm") if target is not None else None,
+                sightings, tag, target, cell.search_radius_mm if target is not None else None
             )
             if seen is not None:
                 target = seen.position
@@ -314,7 +272,7 @@ class Pick(ArmSkill):
             self,
             target,
             self.param("approach_mm"),
-            self.param("grasp_offset_mm"),
+            self.workcell.grasp_offset_mm,
             self.param("dwell_s"),
         )
         tool = self.rig.arm.tool
@@ -322,7 +280,7 @@ class Pick(ArmSkill):
             raise SkillFailure(f"{self.name}: the suction pump is off after gripping")
         if seen is not None and self.param("verify"):
             # look back at the spot: a marker still lying there was not picked
-            after = yield from look_over(self, target, self.param("look_height_mm"), None, 2)
+            after = yield from look_over(self, target, self.workcell.look_height_mm, None, 2)
             left = nearest(after, tag, target, self.param("verify_tolerance_mm"))
             if left is not None and abs(left.position[2] - target[2]) < self.param(
                 "verify_tolerance_mm"
@@ -340,7 +298,9 @@ class Place(ArmSkill):
     ``at`` is a place, a pose or a ``{key}``; with ``tag`` and a camera the
     marker of that role nearest to ``at`` is looked up again first, so a target
     that moved a little is still hit; when it is not in view, ``at`` stands
-    (or, with ``require_tag``, the skill fails and nothing is released).
+    (or, with ``require_tag``, the skill fails and nothing is released). On a
+    marker (``tag``) the tool lets go ``workcell.release_offset_mm`` above it;
+    without one, ``at`` is the release point itself.
     """
 
     PARAMS = (
@@ -368,33 +328,6 @@ class Place(ArmSkill):
             minimum=0.0,
             maximum=1000.0,
         ),
-        Param(
-            "release_mm",
-            "float",
-            30.0,
-            "mm",
-            "tool height above the target when releasing",
-            minimum=-100.0,
-            maximum=1000.0,
-        ),
-        Param(
-            "look_height_mm",
-            "float",
-            120.0,
-            "mm",
-            "camera height above `at` when looking for `tag`",
-            exclusive_minimum=0.0,
-            maximum=5000.0,
-        ),
-        Param(
-            "search_radius_mm",
-            "float",
-            120.0,
-            "mm",
-            "how far from `at` the tag may be",
-            minimum=0.0,
-            maximum=5000.0,
-        ),
         Param("require_tag", "bool", False, "", "fail when `tag` is not seen (else place at `at`)"),
         Param(
             "dwell_s",
@@ -406,7 +339,6 @@ class Place(ArmSkill):
             maximum=60.0,
         ),
         Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
-        *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")
@@ -414,18 +346,22 @@ class Place(ArmSkill):
     def procedure(self) -> Procedure:
         target = self.point(self.param("at"), f"{self.name}: at")
         tag = self.param("tag")
+        cell = self.workcell
+        # on a marker the tool lets go the held object's height above it; a place is
+        # the release point itself
+        release = cell.release_offset_mm if tag else 0.0
         if tag and self.rig.camera is not None and self.rig.tracker is not None:
-            sightings = yield from look_over(self, target, self.param("look_height_mm"), tag)
-            seen = nearest(sightings, tag, target, self.param("search_radius_mm"))
+            sightings = yield from look_over(self, target, cell.look_height_mm, tag)
+            seen = nearest(sightings, tag, target, cell.search_radius_mm)
             if seen is not None:
                 target = seen.position
             elif self.param("require_tag"):
                 raise SkillFailure(
-                    f"{self.name}: no {tag!r} tag within {self.param('search_radius_mm'):g} mm of {fmt(target)}"
+                    f"{self.name}: no {tag!r} tag within {cell.search_radius_mm:g} mm of {fmt(target)}"
                 )
         yield from release_steps(
-            self, target, self.param("approach_mm"), self.param("release_mm"), self.param("dwell_s")
+            self, target, self.param("approach_mm"), release, self.param("dwell_s")
         )
-        released = target + UP * self.param("release_mm")
+        released = target + UP * release
         self.output("pose", as_list(released))
         return released

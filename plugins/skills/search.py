@@ -8,7 +8,6 @@ garbage bin and returns to where it was.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -19,31 +18,7 @@ from armtree import Param
 from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
 from .base import ActionFailed, Procedure, as_list
 from .manipulation import ArmSkill, above, camera_over, grip_point, release_steps
-
-
-def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
-    """Base angles (degrees) of a back-and-forth sweep from ``start`` within [lo, hi].
-
-    First towards ``hi`` then back to ``lo`` and so on, ``sweeps`` legs in all
-    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees). Every
-    other leg begins with half a step, so its poses fall between those of the leg
-    before: a marker that no pose of one leg shows whole (cut by the image's edge)
-    is seen from new poses on the way back, not from the same ones again.
-    """
-    if step <= 0 or hi < lo:
-        raise ValueError("a sweep needs step > 0 and range lo <= hi")
-    angle = min(max(start, lo), hi)
-    out = [angle]
-    direction = 1.0
-    for leg in range(max(1, sweeps)):
-        end = hi if direction > 0 else lo
-        first = 0.5 * step if leg % 2 else step
-        while (end - angle) * direction > 1e-9:
-            angle = angle + direction * min(first, abs(end - angle))
-            first = step
-            out.append(angle)
-        direction = -direction
-    return out
+from .survey import survey_points, sweep_angles
 
 
 @dataclass
@@ -89,7 +64,7 @@ def clean_one(
         yield Suction(rig, False)  # a gripper opens before it goes down
     try:
         yield Move(rig, over, speed=speed, label="approach trash")
-        grip = grip_point(skill, item.position, skill.param("grasp_offset_mm"))
+        grip = grip_point(skill, item.position, skill.workcell.grasp_offset_mm)
         yield Move(rig, grip, speed=speed, label="descend")
     except ActionFailed as exc:
         log.skipped[item.id] = str(exc)
@@ -139,15 +114,6 @@ class CleanUpParams:
             maximum=1000.0,
         ),
         Param(
-            "grasp_offset_mm",
-            "float",
-            2.0,
-            "mm",
-            "tool height above a marker when gripping",
-            minimum=-100.0,
-            maximum=500.0,
-        ),
-        Param(
             "dwell_s",
             "float",
             0.3,
@@ -174,98 +140,42 @@ class CleanUpParams:
             minimum=1,
             maximum=100,
         ),
-        *ArmSkill.LOOK,
         *ArmSkill.GRIP,
     )
 
 
 SCAN_PARAMS = (
     Param(
-        "radius_mm",
-        "float",
-        200.0,
-        "mm",
-        "radius of the ring of the table the camera looks at",
-        exclusive_minimum=0.0,
-        maximum=5000.0,
-    ),
-    Param(
-        "height_mm",
-        "float",
-        120.0,
-        "mm",
-        "camera height above the ring (lowered if unreachable)",
-        minimum=0.0,
-        maximum=5000.0,
-    ),
-    Param(
-        "surface_z_mm",
-        "float",
-        0.0,
-        "mm",
-        "height of the surface the ring lies on",
-        minimum=-5000.0,
-        maximum=5000.0,
-    ),
-    # A step below 0.1 degree or a range beyond a turn either way would only multiply
-    # scan poses (without bound at 1e-9 degrees); such values are refused at load time.
-    Param(
-        "step_deg",
-        "float",
-        5.0,
-        "deg",
-        "base-angle step between scan poses",
-        minimum=0.1,
-        maximum=360.0,
-    ),
-    Param(
-        "range_deg",
-        "vector",
-        [-100.0, 100.0],
-        "deg",
-        "base-angle range of the sweep",
-        minimum=-360.0,
-        maximum=360.0,
-        length=2,
-    ),
-    Param("sweeps", "int", 2, "", "legs of the back-and-forth sweep", minimum=1, maximum=100),
-    Param(
-        "poses",
-        "list",
-        [],
-        "mm",
-        "explicit scan poses [[x, y, z], ...] instead of the arc",
-        max_items=1000,
+        "sweeps",
+        "int",
+        2,
+        "",
+        "legs of the back-and-forth sweep over the survey region",
+        minimum=1,
+        maximum=100,
     ),
     Param("frames", "int", 2, "", "frames to read at each scan pose", minimum=1, maximum=100),
 )
 
 
 def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
-    """The tool positions (mm) a sweeping skill looks from, in order (see :data:`SCAN_PARAMS`).
+    """The tool positions (mm) a sweeping skill looks from, in order.
 
-    On the arc, each puts the camera ``height_mm`` over a point of the ring
-    (seed 004, appendix B turns the base in 5 degree steps), or as near to that
-    as the arm reaches; computed one at a time as the sweep goes.
+    Each puts the camera ``workcell.look_height_mm`` over a point of the
+    profile's ``workcell.survey`` region (seed 004, appendix B turns the base in
+    5 degree steps), or as near to that as the arm reaches; computed one at a
+    time as the sweep goes.
     """
-    explicit = skill.param("poses")
-    if explicit:
-        yield from (skill.point(p, f"{skill.name}: poses") for p in explicit)
-        return
-    lo, hi = (float(v) for v in skill.param("range_deg"))
+    cell = skill.workcell
+    survey = cell.need("survey", skill.name)
+    table_z = cell.need("table_z_mm", skill.name)
     here = skill.rig.arm.pose()[:3, 3]
-    start = math.degrees(math.atan2(here[1], here[0]))
     try:
-        angles = sweep_angles(
-            start, lo, hi, float(skill.param("step_deg")), int(skill.param("sweeps"))
-        )
+        points = survey_points(survey, float(table_z), here, int(skill.param("sweeps")))
     except ValueError as exc:
         raise SkillFailure(f"{skill.name}: {exc}") from exc
-    r, h = float(skill.param("radius_mm")), float(skill.param("height_mm"))
-    z = float(skill.param("surface_z_mm"))
-    for a in angles:
-        ring = np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), z])
-        yield camera_over(skill, ring, h)
+    for point in points:
+        yield camera_over(skill, point, cell.look_height_mm)
 
 
 def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, log: TrashLog) -> Procedure:
@@ -319,6 +229,9 @@ class CleanUp(ArmSkill):
     RESOURCES = ("arm", "tool")
     NEEDS = ("arm", "camera")
 
+    def workcell_needs(self) -> tuple[str, ...]:
+        return ("survey", "table_z_mm") if self.params.get("sweep") else ()
+
     def procedure(self) -> Procedure:
         poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
         log = TrashLog()
@@ -337,8 +250,9 @@ class CleanUp(ArmSkill):
 class Search(ArmSkill):
     """Sweep the camera over the workspace until a tag of role ``tag`` is seen; output its pose.
 
-    Scan poses are on an arc of ``radius_mm`` at ``height_mm``, ``step_deg`` apart
-    within ``range_deg`` of the base x-axis, or the explicit ``poses``. With
+    Scan poses put the camera over the points of the profile's
+    ``workcell.survey`` region (a ring swept in base-angle steps, a rectangle or
+    viewpoints), ``sweeps`` legs back and forth. With
     ``clean_up``, trash seen on the way is carried to ``bin`` first. FAILURE when
     the sweeps end without the tag.
     """
@@ -353,6 +267,7 @@ class Search(ArmSkill):
     )
     RESOURCES = ("arm", "tool")
     NEEDS = ("arm", "camera")
+    WORKCELL = ("survey", "table_z_mm")
 
     def procedure(self) -> Procedure:
         tag = self.param("tag")

@@ -104,7 +104,6 @@ class Track(ArmSkill):
             maximum=3600.0,
         ),
         Param("pose", "any", None, "mm", "output: the marker's smoothed base position", io="out"),
-        *ArmSkill.LOOK,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
