@@ -59,11 +59,13 @@ class MagicianModel(KinematicModel):
             LinkBox("base", 0, (160.0, 160.0, 120.0), _shift(0, 0, -90)),
             LinkBox("rear_arm", 1, (40.0, 50.0, self.l1), _shift(0, 0, self.l1 / 2)),
             LinkBox("forearm", 2, (self.l2, 40.0, 40.0), _shift(self.l2 / 2, 0, 0)),
+            # on the tool frame, so it moves rigidly with the tool (and an eye-in-hand
+            # camera): from the wrist to the nozzle, its bottom 20 mm under the wrist
             LinkBox(
                 "end_effector",
-                3,
+                4,
                 (abs(self.tool_offset[0]) + 20, 30.0, 60.0),
-                _shift(self.tool_offset[0] / 2, 0, -20),
+                _shift(-self.tool_offset[0] / 2, -self.tool_offset[1], self.tool_offset[2] - 20),
             ),
         )
         self.self_collision_pairs = ((0, 2), (0, 3))
