@@ -168,6 +168,15 @@ def _marked_copy(value: Any, mark: Mark) -> Any:
     return value
 
 
+@dataclass(frozen=True)
+class Swap:
+    """A component whose ``type`` a ``--set`` changed: the type the file was written
+    for and the keys dropped because the new type does not take them (value, where)."""
+
+    previous: str
+    dropped: dict[str, tuple[Any, Mark | None]] = field(default_factory=dict)
+
+
 @dataclass
 class Profile:
     """A validated hardware profile.
@@ -178,6 +187,9 @@ class Profile:
     with :meth:`error`. Lengths are mm. ``invalid`` names the top-level
     sections that failed armtree's own checks; it is only non-empty while the
     ``armtree_validate_profile`` hooks run (a loaded profile has none).
+    ``swaps`` names the components whose type an override changed
+    (``--set arm.type=vicra``), so plugins can check that the rest of the file
+    fits the new one.
     """
 
     name: str
@@ -187,6 +199,7 @@ class Profile:
     plugins: list[str] = field(default_factory=list)
     manager: Any = None
     invalid: frozenset[str] = frozenset()
+    swaps: dict[str, Swap] = field(default_factory=dict)
 
     @property
     def description(self) -> str:
@@ -356,6 +369,12 @@ def _finish(
         plugins=[p for p, _ in plugins],
         manager=manager,
         invalid=frozenset(invalid),
+        swaps={
+            section: Swap(node.swapped_from, dict(getattr(node, "dropped", {})))
+            for section in COMPONENT_SECTIONS
+            if isinstance(node := data.get(section), MarkedDict)
+            and getattr(node, "swapped_from", None)
+        },
     )
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
@@ -524,6 +543,9 @@ def _check_component(
             continue
         param = params.get(key)
         if param is None and swapped_from and not _from_override(config.key_mark(key)):
+            if not hasattr(config, "dropped"):
+                config.dropped = {}
+            config.dropped[key] = (value, config.key_mark(key))
             del config[key]
             continue
         if param is None:

@@ -1,4 +1,5 @@
-"""Commands shared by the arm plugins: ``armtree emulate ARM [--profile P]``.
+"""Commands and checks shared by the arm plugins: ``armtree emulate ARM [--profile P]``,
+and the fit of a profile whose arm ``--set arm.type=X`` swapped (:mod:`.fit`).
 
 ``emulate`` builds the arm plugin's firmware emulator with
 ``factory.emulator(config, clock)`` (the convention documented in
@@ -22,6 +23,8 @@ import armtree
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
 from armtree.params import check_value
+
+from .fit import swap_misfits
 
 
 class EmulateCommand:
@@ -121,6 +124,16 @@ class EmulateCommand:
                     signal.signal(sig, handler)
 
         return restore
+
+
+@armtree.hookimpl
+def armtree_validate_profile(profile: Any) -> list[ConfigError]:
+    """After ``--set arm.type=X``: the profile's keys that do not fit the new arm
+    (places out of its reach, a tool it does not grip with, an eye-in-hand camera
+    written for another tool frame), each at its file, line and column."""
+    if "arm" in getattr(profile, "invalid", frozenset()):
+        return []
+    return swap_misfits(profile)
 
 
 @armtree.hookimpl

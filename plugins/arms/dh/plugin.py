@@ -35,6 +35,17 @@ def _grip_angles(config: dict[str, Any]) -> tuple[float, float]:
     return float(closed), float(opened)
 
 
+def _grips_with(config: dict[str, Any]) -> str | None:
+    """What the skills grip with (set_suction): ``tool``, else the gripper when there is
+    one and no pump, else the pump; None when the arm has neither."""
+    tool = config.get("tool")
+    has_pump = config.get("suction_channel") is not None
+    has_gripper = config.get("gripper") is not None
+    if tool is None:
+        tool = "gripper" if has_gripper and not has_pump else "suction"
+    return tool if {"gripper": has_gripper, "suction": has_pump}.get(tool) else None
+
+
 def _gripper(config: dict[str, Any]) -> ServoMap | None:
     spec = config.get("gripper")
     if spec is None:
@@ -172,6 +183,7 @@ dh_factory.PARAMS = (
 )
 dh_factory.model = _model
 dh_factory.emulator = _emulator
+dh_factory.grips_with = _grips_with
 
 
 @armtree.hookimpl

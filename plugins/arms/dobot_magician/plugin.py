@@ -62,6 +62,8 @@ magician_factory.PARAMS = (
 )
 magician_factory.model = _model
 magician_factory.emulator = _emulator
+#: What the skills grip with (set_suction): the suction cup.
+magician_factory.grips_with = lambda config: "suction"
 
 
 @armtree.hookimpl

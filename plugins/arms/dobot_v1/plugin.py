@@ -145,6 +145,8 @@ dobot_v1_factory.PARAMS = (
 )
 dobot_v1_factory.model = dobot_v1_model
 dobot_v1_factory.emulator = dobot_v1_emulator
+#: What the skills grip with (set_suction): the suction cup.
+dobot_v1_factory.grips_with = lambda config: "suction"
 
 
 @armtree.hookimpl

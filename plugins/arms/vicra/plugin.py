@@ -69,6 +69,8 @@ vicra_factory.PARAMS = (
 )
 vicra_factory.model = _model
 vicra_factory.emulator = _emulator
+#: What the skills grip with (set_suction): the pump or the gripper, as configured.
+vicra_factory.grips_with = lambda config: str(config.get("tool", "gripper"))
 
 
 @armtree.hookimpl
