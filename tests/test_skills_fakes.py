@@ -267,7 +267,13 @@ class FakeCamera(Camera):
         self.poses[self._index] = (
             tool @ self.extrinsics if self.mount == "eye_in_hand" else self.extrinsics
         )
-        return Frame(np.zeros((4, 4), np.uint8), now, np.eye(3), np.zeros(5), self._index)
+        return Frame(_IMAGE, now, _K.copy(), np.zeros(5), self._index)
+
+
+#: The fake camera's image (never drawn on) and intrinsics: the 640x480, fx = 810 view the
+#: fake tracker reports markers in.
+_IMAGE = np.zeros((480, 640), np.uint8)
+_K = np.array([[810.0, 0.0, 320.0], [0.0, 810.0, 240.0], [0.0, 0.0, 1.0]])
 
 
 def _fixed_camera() -> np.ndarray:

@@ -1,6 +1,9 @@
 """pick and place on fake rigs: locating by tag, gripping, verifying, releasing."""
 
+import re
+
 import numpy as np
+import pytest
 from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
@@ -23,69 +26,134 @@ def test_pick_locates_the_tag_near_the_place_and_holds_it():
     assert rig.arm.pose()[2, 3] > 50  # lifted
 
 
-def test_pick_fails_when_the_tag_stays_behind():
+def test_pick_fails_when_the_tag_stays_behind_and_lets_go_on_purpose():
     rig = make_rig([ducky()])
     rig.world.grip = lambda tool: None  # the cup does not hold
+    node = Pick("pick", tag="ducky", **{"from": "ducky_pickup"}, skip=Binding("skipped"))
+    node.bb.set("skipped", [], overwrite=True)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "is still at" in node.feedback_message
+    assert "mm from where it was gripped" in node.feedback_message
+    assert not rig.arm.suction  # nothing left half held
+    assert node.bb.get("skipped") == [0]
+
+
+def test_pick_finds_a_ducky_40_mm_from_its_place_by_looking_around():
+    place = np.array([180.0, -160.0, 0.0])  # ducky_pickup of the fakes
+    rig = make_rig([ducky(place + [0.0, 40.0, 0.0])], workcell={"look_height_mm": 60.0})
+    node = Pick("pick", tag="ducky", **{"from": "ducky_pickup"}, pose=Binding("picked"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert rig.world.held is not None and rig.world.held.id == 0
+    assert np.allclose(node.bb.get("picked"), place + [0, 40, 0], atol=1e-6)
+
+
+def test_pick_at_an_empty_spot_fails_saying_where_it_looked_and_never_goes_down():
+    rig = make_rig([ducky((100.0, 200.0, 0.0))])
     node = Pick("pick", tag="ducky", **{"from": "ducky_pickup"})
     status, _ = run(node, rig)
-    assert status is Status.FAILURE and "still at" in node.feedback_message
+    assert status is Status.FAILURE
+    assert "no 'ducky' tag within 80 mm of [180.0, -160.0, 0.0] mm" in node.feedback_message
+    looks = int(re.search(r"looked from (\d+) camera poses", node.feedback_message).group(1))
+    assert looks >= 7  # over the place, then a ring around it
+    assert not rig.arm.suction and rig.world.held is None
+    assert min(rig.arm.model.position(q)[2] for q in rig.arm.moves) > 60.0
 
 
-def test_pick_without_a_camera_uses_the_place():
+def test_pick_of_a_tag_without_a_camera_fails_and_says_how_to_pick_blind():
     rig = make_rig([ducky((180.0, -160.0, 0.0))], camera=False)
     node = Pick("pick", tag="ducky", **{"from": "ducky_pickup"})
     status, _ = run(node, rig)
-    assert status is Status.SUCCESS and rig.world.held.id == 0
+    assert status is Status.FAILURE and "needs a camera" in node.feedback_message
+    assert "with at:" in node.feedback_message and rig.arm.moves == []
 
 
-def test_pick_with_neither_place_nor_visible_tag_fails():
-    rig = make_rig([])
-    node = Pick("pick", tag="ducky")
+def test_untagged_pick_at_a_place_is_an_explicit_choice_reported_unverified():
+    rig = make_rig([ducky((180.0, -160.0, 0.0))], camera=False)
+    node = Pick("pick", at="ducky_pickup")
     status, _ = run(node, rig)
-    assert status is Status.FAILURE and "no 'ducky' tag in view" in node.feedback_message
+    assert status is Status.SUCCESS and rig.world.held.id == 0
+    assert node.feedback_message.startswith("unverified: ")
 
 
-def test_place_on_a_tag_uses_its_fresh_position_and_releases():
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"tag": "ducky", "at": "ducky_pickup"}, "not both"),
+        ({"from": "ducky_pickup"}, "give tag"),
+        ({}, "give tag"),
+    ],
+)
+def test_pick_needs_exactly_one_of_a_tag_or_a_blind_place(params, message):
+    with pytest.raises(ValueError, match=message):
+        Pick("pick", **params)
+
+
+def test_place_on_a_tag_uses_its_fresh_position_and_checks_the_object_is_on_it():
     bot = Marker(1, np.array([225.0, 60.0, 10.0]))
     held = Marker(0, np.zeros(3), held=True)
     rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
     rig.world.held = held
     rig.arm.suction = True
-    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot")
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", object="ducky")
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert not rig.arm.suction and rig.world.held is None
     assert np.allclose(held.dropped_at, [225, 60, 40], atol=1e-6)
+    assert "0 mm from the target" in node.feedback_message
 
 
-def test_place_fails_when_the_tag_is_not_near_the_target():
-    rig = make_rig([Marker(1, np.array([100.0, 200.0, 0.0]))])
-    rig.arm.suction = True
-    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", require_tag=True)
-    status, _ = run(node, rig)
-    assert status is Status.FAILURE and "no 'duckybot' tag within" in node.feedback_message
-    assert rig.arm.suction  # nothing released
-
-
-def test_place_without_its_tag_in_view_uses_the_given_pose():
+def test_place_fails_with_the_measured_distance_when_the_object_lands_off_the_target():
+    bot = Marker(1, np.array([225.0, 60.0, 10.0]))
     held = Marker(0, np.zeros(3), held=True)
-    rig = make_rig(
-        [held, Marker(1, np.array([100.0, 200.0, 0.0]))], workcell={"release_offset_mm": 30.0}
-    )
+    rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
+    rig.world.held = held
+    rig.arm.suction = True
+    release = rig.world.release
+
+    def slide_off(tool):
+        release(tool)
+        held.position = held.position + [35.0, 0.0, -30.0]  # it slid off onto the table
+
+    rig.world.release = slide_off
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", object="ducky")
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE
+    assert "35.0 mm from [225.0, 60.0, 10.0] mm" in node.feedback_message
+    assert "not on the target (tolerance 20 mm)" in node.feedback_message
+
+
+def test_place_without_its_tag_in_view_fails_and_keeps_holding():
+    held = Marker(0, np.zeros(3), held=True)
+    rig = make_rig([held, Marker(1, np.array([100.0, 200.0, 0.0]))])
     rig.world.held = held
     rig.arm.suction = True
     node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot")
     status, _ = run(node, rig)
-    assert status is Status.SUCCESS and np.allclose(held.dropped_at, [210, 50, 40])
+    assert status is Status.FAILURE and "no 'duckybot' tag within 80 mm" in node.feedback_message
+    assert "still holding" in node.feedback_message
+    assert rig.arm.suction and rig.world.held is held  # nothing released
 
 
-def test_place_at_a_named_place_without_a_tag():
+def test_place_at_a_named_place_without_a_tag_lets_go_there():
     held = Marker(2, np.zeros(3), held=True)
     rig = make_rig([held])
     rig.world.held = held
     rig.arm.suction = True
-    status, _ = run(Place("drop", at="garbage_bin"), rig)
-    assert status is Status.SUCCESS and np.allclose(held.dropped_at, [60, 230, 40])
+    node = Place("drop", at="garbage_bin", object="trash")
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert np.allclose(held.dropped_at, [60, 230, 40])
+
+
+def test_place_without_an_object_tag_says_it_did_not_check():
+    held = Marker(2, np.zeros(3), held=True)
+    rig = make_rig([held])
+    rig.world.held = held
+    rig.arm.suction = True
+    node = Place("drop", at="garbage_bin")
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS and node.feedback_message.startswith("unverified: ")
 
 
 def test_halted_pick_while_holding_keeps_the_object():

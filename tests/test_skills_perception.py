@@ -97,6 +97,7 @@ def test_eq8_linear_correction_fits_and_applies():
         LinearCorrection.fit(measured[:1], measured[:1])
 
 
+@settings(deadline=None)  # the first example compiles; a shared machine may be slow
 @given(x=st.floats(150, 250), y=st.floats(-150, 150), h=st.floats(60, 150))
 def test_tool_for_camera_over_puts_the_camera_above_the_point(x, y, h):
     model = CylModel()

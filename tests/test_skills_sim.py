@@ -74,3 +74,22 @@ def test_an_interrupt_while_carrying_trash_keeps_holding_it():
     assert result.ticks <= stopper.tick + 1  # halted within one tick
     assert score["held"] is not None and score["objects"][score["held"]]["kind"] == "trash"
     assert not score["fell_off_table"] and score["trash_in_bin"] == 0
+
+
+@pytest.mark.slow
+def test_a_ducky_40_mm_from_its_place_is_found_and_moved():
+    # along the ring the Dobot reaches (r = 185 mm): 40 mm from the profile's ducky_pickup
+    result, score, _ = run_sim("pick_and_place.yaml", "world.objects.ducky.at=[85.6, -164.0]")
+    assert result.status == "SUCCESS", result.message
+    assert score["objects"]["ducky"]["in_bin"] == "garbage_bin"
+    assert score["collision_count"] == 0 and score["held"] is None
+
+
+@pytest.mark.slow
+def test_picking_a_tag_at_an_empty_spot_fails_with_the_reason(tmp_path):
+    tree = tmp_path / "empty.yaml"
+    tree.write_text("rig: sim_dobot\nroot:\n  pick: {tag: ducky, from: [150, 108, -10]}\n")
+    result, score, _ = run_sim(str(tree))
+    assert result.status == "FAILURE"
+    assert "no 'ducky' tag within 80 mm of [150.0, 108.0, -10.0] mm" in result.message
+    assert score["held"] is None and score["objects"]["ducky"]["position_mm"][:2] == [119.0, -142.0]

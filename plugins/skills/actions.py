@@ -8,14 +8,14 @@ run's clock.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from armtree.errors import PlanningError, Unreachable
-from armtree.perception import camera_in_base, marker_in_base
-from armtree.rig import Detection, MotionHandle, MotionStatus
+from armtree.rig import MotionHandle, MotionStatus
+
+from .eye import Sighting, eye_of
 
 
 class SkillFailure(Exception):
@@ -220,30 +220,15 @@ class Pause(Action):
         return State.DONE if self.clock.now() >= self._until - 1e-9 else State.RUNNING
 
 
-@dataclass
-class Sighting:
-    """A marker seen in one frame: its role and id, and its pose in the base frame (4x4 mm)."""
-
-    role: str
-    id: int
-    pose: np.ndarray
-    detection: Detection
-    timestamp: float
-
-    @property
-    def position(self) -> np.ndarray:
-        """The marker centre in the base frame, mm."""
-        return self.pose[:3, 3].copy()
-
-
 class Look(Action):
     """Read fresh camera frames while the arm is still and locate every marker in them.
 
     Frames stamped before the step started (plus ``settle`` seconds) are skipped,
     so nothing is measured from a moving camera. Up to ``frames`` fresh frames are
     read, stopping early once a marker of ``want`` (a role) is seen. The result is
-    a list of :class:`Sighting`, newest per marker id. No frame within ``timeout``
-    seconds fails the step.
+    a list of :class:`Sighting`, newest per marker id, or with ``average`` each
+    marker's position averaged over the frames that saw it. No frame within
+    ``timeout`` seconds fails the step.
     """
 
     def __init__(
@@ -254,6 +239,7 @@ class Look(Action):
         frames: int = 3,
         settle: float = 0.0,
         timeout: float = 2.0,
+        average: bool = False,
     ) -> None:
         self.rig = rig
         self.clock = clock
@@ -261,38 +247,44 @@ class Look(Action):
         self.frames = max(1, frames)
         self.settle = settle
         self.timeout = timeout
+        self.average = average
+        self._all: dict[int, list[np.ndarray]] = {}
         self._seen: dict[int, Sighting] = {}
         self._count = 0
         self._t0 = 0.0
+        self._used = -1
 
     def start(self) -> None:
         self._t0 = self.clock.now() + self.settle
         self._seen = {}
+        self._all = {}
         self._count = 0
+        self._used = -1
         self.result = []
 
     def poll(self) -> State:
         rig = self.rig
         if rig.camera is None or rig.tracker is None:
             return self.fail("this rig has no camera and tracker to look with")
-        frame = rig.camera.read()
-        if frame is not None and frame.timestamp >= self._t0 - 1e-9:
+        view = eye_of(rig).newest()
+        if view is not None and view.timestamp >= self._t0 - 1e-9 and view.index != self._used:
+            self._used = view.index
             self._count += 1
-            tool = rig.arm.pose() if rig.arm is not None else np.eye(4)
-            base_T_camera = camera_in_base(rig.camera.mount, rig.camera.extrinsics, tool)
-            for det in rig.tracker.detect(frame):
-                if det.tvec is None:
-                    continue
-                role = det.role
-                if role in ("", "unknown"):
-                    spec = rig.role_of(det.id)
-                    role = spec.role if spec is not None else "unknown"
-                pose = marker_in_base(base_T_camera, det.rvec, det.tvec)
-                self._seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
-            self.result = list(self._seen.values())
+            for sighting in view.sightings:
+                self._seen[sighting.id] = sighting
+                self._all.setdefault(sighting.id, []).append(sighting.position)
+            self.result = [self._averaged(s) for s in self._seen.values()]
             wanted = self.want is None or any(s.role == self.want for s in self.result)
             if self._count >= self.frames or (self.want is not None and wanted):
                 return State.DONE
         elif self.clock.now() > self._t0 + self.timeout:
             return self.fail(f"the camera gave no frame for {self.timeout:g} s")
         return State.RUNNING
+
+    def _averaged(self, sighting: Sighting) -> Sighting:
+        positions = self._all[sighting.id]
+        if not self.average or len(positions) < 2:
+            return sighting
+        pose = sighting.pose.copy()
+        pose[:3, 3] = np.mean(positions, axis=0)
+        return Sighting(sighting.role, sighting.id, pose, sighting.detection, sighting.timestamp)

@@ -170,9 +170,17 @@ class Skill(armtree.Behaviour):
     def terminate(self, new_status: Status) -> None:
         if self._process is not None:
             if new_status is Status.INVALID:
+                action = self._process.action
                 self._halted = self._process.stop()
                 if self.rig is not None and self.rig.arm is not None:
                     self.rig.arm.stop()
+                    if "tool" in self.RESOURCES:
+                        # the tool is left as it is on purpose: what it holds stays held
+                        self.note(
+                            "halted",
+                            step=_describe(action) if action is not None else "",
+                            tool=_tool_words(self.rig.arm.tool),
+                        )
             self._process = None
 
     def halting(self) -> bool:
@@ -222,9 +230,34 @@ class Skill(armtree.Behaviour):
             return armtree.ConfigError(message, mark.file, mark.line, mark.column)
         return armtree.ConfigError(message, profile_source(profile))
 
+    def note(self, event: str, **data: Any) -> None:
+        """Write ``event`` with ``data`` to the run log (``run.jsonl``), if the run keeps one.
+
+        Skills record here what a status cannot say: a post-condition's measured
+        numbers, a check the rig could not make, what a halt left in the tool.
+        """
+        runtime = self.runtime
+        log = getattr(runtime, "log", None)
+        if log is None or not getattr(log, "enabled", True):
+            return
+        log.event(
+            getattr(runtime, "tick_count", 0), self.clock.now(), event, node=self.name, **data
+        )
+
+    def unverified(self, why: str) -> str:
+        """Say that a check could not be made (run log ``unverified`` event); the feedback text."""
+        self.note("unverified", why=why)
+        return f"unverified: {why}"
+
     def bound(self, pname: str) -> bool:
         """True when parameter ``pname`` is a ``{key}`` blackboard binding."""
         return isinstance(self.params.get(pname), Binding)
+
+
+def _tool_words(tool: Any) -> str:
+    if tool.gripper is not None:
+        return f"gripper at {tool.gripper:g}, left as it is"
+    return "suction on, holding what it holds" if tool.suction else "suction off, holding nothing"
 
 
 def _describe(action: Action) -> str:

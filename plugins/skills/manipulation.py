@@ -1,131 +1,53 @@
-"""Pick and place with a suction cup, and the steps that locate a marker before them.
+"""Pick and place that see what they act on, and check with the camera that it worked.
 
 Seed 004 ("Loading a ducky"): the pump holds an object while the tool touches
-it; the arm moves and releases it. Positions are the tool centre in the base
-frame, mm; a place's z is the height where the tool touches the object.
+it; the arm moves and releases it. The report's static ducky position needed
+frequent touch tests; here a place is only where to look: :func:`~.locate.locate`
+finds the tag around it, and a pick or place that the camera contradicts is a
+FAILURE with the measured numbers, which a retry in the tree can act on.
+
+Post-conditions, with the sensors the rig has:
+
+* after a pick, eye-in-hand: the camera looks back at the spot, and a marker still
+  lying there failed the grip; eye-to-hand: the marker must have risen with the
+  tool (seed 000's set-up sees tool and object in one view), or, hidden under the
+  gripper, be gone from the spot once the arm has carried it out of the view;
+* after a place: the held object's marker must be on the target within
+  ``place_tolerance_mm`` (on a marker) or near the place (a bin may hide it).
+
+A check the rig cannot make (the marker hidden under the gripper, no tag to look
+for) is said in the feedback and written to the run log as an ``unverified``
+event, never claimed. Positions are the tool centre or marker centres in the
+base frame, mm.
 """
 
 from __future__ import annotations
 
+import contextlib
+from typing import Any
+
 import numpy as np
 
 from armtree import Param
-from armtree.perception import EYE_IN_HAND, tool_for_camera_over
+from armtree.params import Binding
+from armtree.perception import EYE_IN_HAND
 
-from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
-from .base import Procedure, Skill, as_list
-from .reach import highest_reachable, lowest_reachable, nearest_reachable, reachable
+from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
+from .arm_skill import UP, ArmSkill, above, grip_point
+from .base import ActionFailed, Procedure, as_list
+from .eye import Sighting
+from .locate import locate, look_over, nearest, out_of_view
 
-UP = np.array([0.0, 0.0, 1.0])
-
-
-def camera_over(
-    skill: ArmSkill, point: np.ndarray, height: float, min_height: float = 40.0
-) -> np.ndarray:
-    """Tool position (mm) putting the camera ``height`` mm over ``point``, or as near as reachable.
-
-    Eye-in-hand: lower heights down to ``min_height`` are tried in 5 mm steps,
-    then the reachable tool position nearest the wanted one; the tool never
-    goes below the profile's ``workcell.clearance_z_mm``. Eye-to-hand: the tool simply goes
-    ``height`` above the point (out of the way is the caller's business).
-    Raises :class:`SkillFailure` when nothing near is reachable.
-    """
-    rig = skill.rig
-    model = rig.arm.model
-    if rig.camera.mount != EYE_IN_HAND:
-        return point + UP * height
-    min_z = skill.clearance()
-    q_near = rig.arm.joints()
-
-    home_z = float(model.position(model.home)[2])
-
-    def rotation_at(xyz: np.ndarray) -> np.ndarray:
-        # the orientation, not the point, matters here: for positioning arms it follows
-        # the direction from the base, so a reachable point at home height will do
-        for cand in (xyz, np.array([xyz[0], xyz[1], home_z])):
-            if reachable(model, cand):
-                return model.fk(model.ik(cand, near=q_near))[:3, :3]
-        reach = nearest_reachable(model, xyz)
-        if reach is None:
-            return np.eye(3)
-        return model.fk(model.ik(reach, near=q_near))[:3, :3]
-
-    def over(h: float) -> np.ndarray:
-        return tool_for_camera_over(model, point, h, rig.camera.extrinsics, rotation_at=rotation_at)
-
-    tool = point + UP * height
-    for h in np.arange(height, min(min_height, height) - 1e-9, -5.0):
-        tool = over(h)
-        if min_z is not None and tool[2] < min_z:
-            # raise the camera until the tool clears, and stop lowering
-            tool = over(h + min_z - tool[2])
-            if reachable(model, tool):
-                return tool
-            break
-        if reachable(model, tool):
-            return tool
-    near = nearest_reachable(model, tool, min_z=min_z)
-    if near is None:
-        raise SkillFailure(f"cannot bring the camera over {fmt(point)}: nothing near is reachable")
-    return near
-
-
-def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
-    """``target`` raised by ``height`` mm, or by as much of it as the arm can reach."""
-    want = target + UP * height
-    model = skill.rig.arm.model
-    if height <= 0 or reachable(model, want):
-        return want
-    best = highest_reachable(model, target, target[2], target[2] + height)
-    return want if best is None else best
-
-
-def look_over(
-    skill: Skill, point: np.ndarray | None, height: float, want: str | None, frames: int = 3
-) -> Procedure:
-    """Bring the camera ``height`` mm above ``point`` (stay put if None) and look.
-
-    Returns the list of :class:`Sighting`.
-    """
-    rig = skill.rig
-    if point is not None and rig.camera.mount == EYE_IN_HAND:
-        tool = camera_over(skill, point, height)
-        yield Move(rig, tool, speed=skill.speed(), label="look over")
-    return (yield Look(rig, skill.clock, want=want, frames=frames, settle=skill.settle()))
-
-
-def nearest(
-    sightings: list[Sighting], role: str, near: np.ndarray | None, radius: float | None = None
-) -> Sighting | None:
-    """The sighting of ``role`` nearest to ``near`` (mm, in the xy plane), within ``radius`` if given."""
-    cands = [s for s in sightings if s.role == role]
-    if not cands:
-        return None
-    if near is None:
-        return cands[0]
-    dist = [float(np.linalg.norm(s.position[:2] - near[:2])) for s in cands]
-    best = int(np.argmin(dist))
-    if radius is not None and dist[best] > radius:
-        return None
-    return cands[best]
-
-
-def grip_point(skill: ArmSkill, target: np.ndarray, grasp_offset: float) -> np.ndarray:
-    """Where the tool touches ``target``: ``grasp_offset`` above it, or up to ``reach_slack_mm``
-    higher when that is out of reach (a suction cup grips within a few millimetres)."""
-    want = target + UP * grasp_offset
-    model = skill.rig.arm.model
-    if reachable(model, want):
-        return want
-    slack = float(skill.param("reach_slack_mm"))
-    best = lowest_reachable(model, want, want[2], want[2] + slack)
-    return want if best is None else best
+#: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
+RISEN_MM = 10.0
+#: An object put on a target marker rests at least this much above it (mm).
+ON_TOP_MM = 5.0
 
 
 def pick_steps(
     skill: ArmSkill, target: np.ndarray, approach: float, grasp_offset: float, dwell: float
 ) -> Procedure:
-    """Approach above ``target``, descend, suction on, let it grip, lift back."""
+    """Approach above ``target``, descend, close the tool (suction on), let it grip, lift back."""
     rig, speed = skill.rig, skill.speed()
     over = above(skill, target, approach)
     if rig.arm.tool.gripper is not None:
@@ -138,9 +60,9 @@ def pick_steps(
 
 
 def release_steps(
-    skill: Skill, target: np.ndarray, approach: float, release: float, dwell: float
+    skill: ArmSkill, target: np.ndarray, approach: float, release: float, dwell: float
 ) -> Procedure:
-    """Approach above ``target``, descend to ``release`` mm above it, suction off, lift back."""
+    """Approach above ``target``, descend to ``release`` mm above it, open the tool, lift back."""
     rig, speed = skill.rig, skill.speed()
     over = above(skill, target + UP * release, max(0.0, approach - release))
     yield Move(rig, over, speed=speed, label="approach")
@@ -152,75 +74,159 @@ def release_steps(
         yield Move(rig, over, speed=speed, label="lift")
 
 
-class ArmSkill(Skill):
-    """A skill with the common motion parameters ``speed`` and ``settle_s``."""
+def tool_engaged(rig: Any) -> bool:
+    """True when the tool reports gripping: suction on, or a gripper nearer closed than open."""
+    arm = rig.arm
+    tool = arm.tool
+    if tool.gripper is not None:
+        closed = float(getattr(arm, "grip_closed", 0.0))
+        opened = float(getattr(arm, "grip_open", 90.0))
+        return abs(tool.gripper - closed) < abs(tool.gripper - opened)
+    return bool(tool.suction)
 
-    COMMON = (
-        Param(
-            "speed",
-            "float",
-            1.0,
-            "",
-            "fraction of the arm's maximum speed, 0 to 1",
-            exclusive_minimum=0.0,
-            maximum=1.0,
-        ),
-        Param(
-            "settle_s",
-            "float",
-            0.15,
-            "s",
-            "wait after a move before a frame counts",
-            minimum=0.0,
-            maximum=60.0,
-        ),
-    )
-    #: Parameters of skills that grip with the suction cup.
-    GRIP = (
-        Param(
-            "reach_slack_mm",
-            "float",
-            4.0,
-            "mm",
-            "grip this much higher at most when the touching point is out of reach",
-            minimum=0.0,
-            maximum=100.0,
-        ),
-    )
 
-    def speed(self) -> float:
-        """The ``speed`` parameter, clipped to (0, 1]."""
-        return float(min(1.0, max(0.01, self.param("speed"))))
+def move_out_of_view(skill: ArmSkill, point: np.ndarray) -> Procedure:
+    """Eye-to-hand: take the arm to where it hides ``point`` least (a refused move stays put)."""
+    clear = out_of_view(skill, point)
+    if clear is None:
+        return
+    with contextlib.suppress(ActionFailed):
+        yield Move(skill.rig, clear, speed=skill.speed(), label="out of view")
 
-    def settle(self) -> float:
-        """The ``settle_s`` parameter."""
-        return float(self.param("settle_s"))
 
-    def clearance(self) -> float | None:
-        """The lowest tool height while looking around (mm, the profile's
-        ``workcell.clearance_z_mm``); None when the profile sets no limit."""
-        return self.workcell.clearance_z_mm
+def verify_pick(
+    skill: ArmSkill,
+    tag: str,
+    marker: int,
+    spot: np.ndarray,
+    tolerance: float,
+    looked_away: bool = False,
+) -> Procedure:
+    """Check with the camera that marker ``marker`` (role ``tag``) left ``spot`` with the tool.
+
+    Raises :class:`SkillFailure` with the measured distances when it did not;
+    returns a one-line description of what was checked.
+    """
+    rig = skill.rig
+    in_hand = rig.camera.mount == EYE_IN_HAND
+    if in_hand:
+        after = yield from look_over(skill, spot, skill.workcell.look_height_mm, None, 2)
+    else:
+        after = yield Look(rig, skill.clock, frames=2, settle=skill.settle())
+    mine = next((s for s in after if s.id == marker), None)
+    if mine is not None:
+        off = mine.position - spot
+        flat, rise = float(np.linalg.norm(off[:2])), float(off[2])
+        if flat < tolerance and abs(rise) < tolerance:
+            skill.note("check", check="pick", ok=False, tag=tag, offset_mm=as_list(off))
+            raise SkillFailure(
+                f"{skill.name}: the {tag!r} tag is still at {fmt(mine.position)}, "
+                f"{flat:.1f} mm from where it was gripped: the grip failed"
+            )
+        if not in_hand:
+            tool = rig.arm.pose()[:3, 3]
+            to_tool = float(np.linalg.norm(mine.position[:2] - tool[:2]))
+            if rise < RISEN_MM or to_tool > 2.0 * tolerance:
+                skill.note("check", check="pick", ok=False, tag=tag, offset_mm=as_list(off))
+                raise SkillFailure(
+                    f"{skill.name}: the {tag!r} tag is at {fmt(mine.position)}, {rise:.1f} mm "
+                    f"above the spot and {to_tool:.1f} mm beside the tool: it did not come with it"
+                )
+            skill.note("check", check="pick", ok=True, tag=tag, rise_mm=round(rise, 1))
+            return f"the tag rose {rise:.0f} mm with the tool"
+    if not in_hand and not looked_away:
+        # hidden under the tool, or the arm hides the spot: carry it out of the view, look again
+        yield from move_out_of_view(skill, spot)
+        return (yield from verify_pick(skill, tag, marker, spot, tolerance, looked_away=True))
+    skill.note("check", check="pick", ok=True, tag=tag, how="spot looked at, tag gone")
+    return "the spot is empty"
+
+
+def verify_place(
+    skill: ArmSkill,
+    obj: str,
+    target: np.ndarray,
+    on_marker: bool,
+    tolerance: float,
+) -> Procedure:
+    """Check with the camera that an ``obj`` tag lies at ``target`` (on it when ``on_marker``).
+
+    Raises :class:`SkillFailure` with the measured distance when it does not;
+    returns a one-line description of what was checked.
+    """
+    rig = skill.rig
+    cell = skill.workcell
+    in_hand = rig.camera.mount == EYE_IN_HAND
+    if in_hand:
+        after = yield from look_over(skill, target, cell.look_height_mm, obj, 2)
+    else:
+        yield from move_out_of_view(skill, target)
+        after = yield Look(rig, skill.clock, want=obj, frames=2, settle=skill.settle())
+    seen = nearest(after, obj, target)
+    if seen is None:
+        if in_hand and on_marker:
+            skill.note("check", check="place", ok=False, tag=obj, seen=False)
+            raise SkillFailure(
+                f"{skill.name}: no {obj!r} tag in view over {fmt(target)} after letting go"
+            )
+        return skill.unverified(f"the {obj!r} tag is not in view after letting go")
+    off = seen.position - target
+    flat = float(np.linalg.norm(off[:2]))
+    limit = tolerance if on_marker else max(tolerance, cell.search_radius_mm)
+    ok = flat <= limit and (not on_marker or off[2] >= ON_TOP_MM)
+    skill.note("check", check="place", ok=ok, tag=obj, offset_mm=as_list(off), limit_mm=limit)
+    if not ok:
+        where = "on" if on_marker else "at"
+        raise SkillFailure(
+            f"{skill.name}: the {obj!r} tag is at {fmt(seen.position)}, {flat:.1f} mm from "
+            f"{fmt(target)} and {off[2]:+.1f} mm above it: not {where} the target "
+            f"(tolerance {limit:g} mm)"
+        )
+    return f"the {obj!r} tag is {flat:.0f} mm from the target"
+
+
+def skipped(value: Any) -> list[int]:
+    """Marker ids from a ``skip`` parameter's value (None or a list)."""
+    return [int(v) for v in value] if isinstance(value, (list, tuple)) else []
 
 
 class Pick(ArmSkill):
-    """Pick an object with the suction cup: locate its tag, approach, descend, grip, lift.
+    """Pick a tagged object after finding it with the camera; check it came with the tool.
 
-    With ``tag`` and a camera, the marker nearest to ``from`` (or seen from the
-    current pose) gives the position; otherwise ``from`` (a place, a pose or a
-    ``{key}``) does. After the lift, the camera looks back at the spot: a marker
-    still lying there is a failed grip (FAILURE).
+    ``tag``: the camera looks for that tag role around ``from`` (a place, a pose
+    or a ``{key}``; anywhere in view without it) within the profile's
+    ``workcell.search_radius_mm``, looking around when it is not over the hint,
+    and measures it again from above before gripping. Not seen: FAILURE naming
+    where it looked, and nothing moves down. After the lift the grip is checked
+    (module docstring). ``at``: the explicit choice to pick an untagged object at
+    a fixed place, blind; that pick is reported unverified.
+    Writes ``pose`` (where the marker was gripped, mm); a marker it failed on is
+    added to ``skip`` so a reactive tree can leave it.
     """
 
     PARAMS = (
         Param(
-            "tag", "str", "", "", "tag role of the object (empty: use `from` only)", kind="tag_role"
+            "tag",
+            "str",
+            "",
+            "",
+            "tag role of the object, looked for with the camera",
+            kind="tag_role",
         ),
         Param(
             "from",
             "any",
             None,
             "mm",
-            "place name, [x, y, z] or {key}: where the object is",
+            "place name, [x, y, z] or {key}: where to look for the tag (none: anywhere in view)",
+            kind="place",
+        ),
+        Param(
+            "at",
+            "any",
+            None,
+            "mm",
+            "untagged pick: place name, [x, y, z] or {key} where the object is gripped, blind",
             kind="place",
         ),
         Param(
@@ -232,18 +238,26 @@ class Pick(ArmSkill):
             minimum=0.0,
             maximum=1000.0,
         ),
+        Param("dwell_s", "float", 0.3, "s", "time for the tool to grip", minimum=0.0, maximum=60.0),
         Param(
-            "dwell_s", "float", 0.3, "s", "time for the suction to grip", minimum=0.0, maximum=60.0
+            "verify", "bool", True, "", "check with the camera that the object came with the tool"
         ),
-        Param("verify", "bool", True, "", "check with the camera that the object left its spot"),
         Param(
             "verify_tolerance_mm",
             "float",
             10.0,
             "mm",
             "a marker this close to the pick spot was not picked",
-            exclusive_minimum=0.0,
+            minimum=0.0,
             maximum=1000.0,
+        ),
+        Param(
+            "skip",
+            "any",
+            None,
+            "",
+            "in/out: marker ids to leave alone; a failed one is added",
+            io="inout",
         ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
         *ArmSkill.GRIP,
@@ -251,63 +265,100 @@ class Pick(ArmSkill):
     )
     RESOURCES = ("arm", "tool")
 
-    def procedure(self) -> Procedure:
-        tag = self.param("tag")
-        source = self.param("from")
-        target = None if source is None else self.point(source, f"{self.name}: from")
-        seen = None
-        if tag and self.rig.camera is not None and self.rig.tracker is not None:
-            cell = self.workcell
-            sightings = yield from look_over(self, target, cell.look_height_mm, tag)
-            seen = nearest(
-                sightings, tag, target, cell.search_radius_mm if target is not None else None
+    def __init__(self, name: str, **params: Any) -> None:
+        super().__init__(name, **params)
+        tag, source, at = params.get("tag"), params.get("from"), params.get("at")
+        if at is not None and (tag or source is not None):
+            raise ValueError(
+                "give either tag (with from: where to look for it) or at (an untagged object "
+                "picked blind at a fixed place), not both"
             )
-            if seen is not None:
-                target = seen.position
-            elif target is None:
-                raise SkillFailure(f"{self.name}: no {tag!r} tag in view")
-        if target is None:
-            raise SkillFailure(f"{self.name}: give `from` (a place or pose) or a `tag` to see")
-        yield from pick_steps(
-            self,
-            target,
-            self.param("approach_mm"),
-            self.workcell.grasp_offset_mm,
-            self.param("dwell_s"),
-        )
-        tool = self.rig.arm.tool
-        if tool.gripper is None and not tool.suction:
-            raise SkillFailure(f"{self.name}: the suction pump is off after gripping")
-        if seen is not None and self.param("verify"):
-            # look back at the spot: a marker still lying there was not picked
-            after = yield from look_over(self, target, self.workcell.look_height_mm, None, 2)
-            left = nearest(after, tag, target, self.param("verify_tolerance_mm"))
-            if left is not None and abs(left.position[2] - target[2]) < self.param(
-                "verify_tolerance_mm"
-            ):
-                raise SkillFailure(
-                    f"{self.name}: the {tag!r} tag is still at {fmt(target)}; the grip failed"
+        if at is None and not tag:
+            raise ValueError(
+                "give tag (the object's tag role, found with the camera; from: where to look) "
+                "or, for an untagged object, at: the place to pick it blind"
+            )
+
+    def procedure(self) -> Procedure:
+        if self.params.get("at") is not None:
+            target = self.point(self.param("at"), f"{self.name}: at")
+            yield from self.grip(target, None, None)
+            self.feedback_message = self.unverified("untagged object: no marker to check the grip")
+            return target
+        tag = self.param("tag")
+        if self.rig.camera is None or self.rig.tracker is None:
+            raise SkillFailure(
+                f"{self.name}: finding the {tag!r} tag needs a camera; "
+                "pick an untagged object at a fixed place with at:"
+            )
+        source = self.param("from")
+        hint = None if source is None else self.point(source, f"{self.name}: from")
+        radius = self.workcell.search_radius_mm
+        found = yield from locate(self, tag, hint, radius, skip=skipped(self.param("skip")))
+        if found.sighting is None:
+            where = f"within {radius:g} mm of {fmt(hint)}" if hint is not None else "in view"
+            raise SkillFailure(
+                f"{self.name}: no {tag!r} tag {where} (looked from {found.looks} camera poses)"
+            )
+        self.feedback_message = f"{tag!r} tag at {fmt(found.position)}"
+        return (yield from self.grip(found.position, tag, found.sighting))
+
+    def grip(self, target: np.ndarray, tag: str | None, seen: Sighting | None) -> Procedure:
+        """Grip at ``target`` and check the grip; a failure lets go on purpose and skips the marker."""
+        try:
+            yield from pick_steps(
+                self,
+                target,
+                self.param("approach_mm"),
+                self.workcell.grasp_offset_mm,
+                self.param("dwell_s"),
+            )
+            if not tool_engaged(self.rig):
+                raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
+            if tag and seen is not None and self.param("verify"):
+                self.feedback_message = yield from verify_pick(
+                    self, tag, seen.id, target, float(self.param("verify_tolerance_mm"))
                 )
+        except SkillFailure:
+            if seen is not None:
+                self.add_skip(seen.id)
+            yield from self.let_go("the pick failed")
+            raise
         self.output("pose", as_list(target))
         return target
 
+    def add_skip(self, marker: int) -> None:
+        """Add ``marker`` to the ``skip`` list on the blackboard."""
+        if isinstance(self.params.get("skip"), Binding):
+            self.output("skip", sorted({*skipped(self.param("skip")), marker}))
+
+    def let_go(self, why: str) -> Procedure:
+        """Open the tool on purpose (logged), so a failed grip leaves nothing half held."""
+        if not tool_engaged(self.rig):
+            return
+        self.note("released", why=why)
+        with contextlib.suppress(SkillFailure):
+            yield Suction(self.rig, False)
+
 
 class Place(ArmSkill):
-    """Put the held object down: approach, descend to the release height, suction off, lift.
+    """Put the held object down and check with the camera where it went.
 
-    ``at`` is a place, a pose or a ``{key}``; with ``tag`` and a camera the
-    marker of that role nearest to ``at`` is looked up again first, so a target
-    that moved a little is still hit; when it is not in view, ``at`` stands
-    (or, with ``require_tag``, the skill fails and nothing is released). On a
-    marker (``tag``) the tool lets go ``workcell.release_offset_mm`` above it;
-    without one, ``at`` is the release point itself.
+    With ``tag`` the target's marker is found around ``at`` (a place, a pose or
+    a ``{key}``) within ``workcell.search_radius_mm`` and measured again from
+    above; not seen: FAILURE, nothing released (the object stays held). The tool
+    lets go ``workcell.release_offset_mm`` above the marker. Without ``tag``,
+    ``at`` is the release point itself (a bin, a drop spot). With ``object`` (the
+    held object's tag role) the camera checks afterwards that it lies on the
+    target within ``place_tolerance_mm`` (near the place without ``tag``).
+    Writes ``pose``: where the tool let go (mm).
     """
 
     PARAMS = (
         Param(
             "at",
             "any",
-            doc="place name, [x, y, z] or {key}: where to put the object",
+            doc="place name, [x, y, z] or {key}: where to put the object, or to look for `tag`",
             unit="mm",
             kind="place",
         ),
@@ -316,7 +367,15 @@ class Place(ArmSkill):
             "str",
             "",
             "",
-            "tag role marking the target, looked up again before placing",
+            "tag role marking the target, found around `at` before letting go",
+            kind="tag_role",
+        ),
+        Param(
+            "object",
+            "str",
+            "",
+            "",
+            "tag role of the held object, to check where it went",
             kind="tag_role",
         ),
         Param(
@@ -328,15 +387,24 @@ class Place(ArmSkill):
             minimum=0.0,
             maximum=1000.0,
         ),
-        Param("require_tag", "bool", False, "", "fail when `tag` is not seen (else place at `at`)"),
         Param(
             "dwell_s",
             "float",
             0.3,
             "s",
-            "time for the suction to let go",
+            "time for the tool to let go",
             minimum=0.0,
             maximum=60.0,
+        ),
+        Param("verify", "bool", True, "", "check with the camera where the object went"),
+        Param(
+            "place_tolerance_mm",
+            "float",
+            20.0,
+            "mm",
+            "how far the object may rest from the target's marker",
+            minimum=0.0,
+            maximum=1000.0,
         ),
         Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
         *ArmSkill.COMMON,
@@ -345,23 +413,38 @@ class Place(ArmSkill):
 
     def procedure(self) -> Procedure:
         target = self.point(self.param("at"), f"{self.name}: at")
-        tag = self.param("tag")
+        tag, obj = self.param("tag"), self.param("object")
         cell = self.workcell
-        # on a marker the tool lets go the held object's height above it; a place is
-        # the release point itself
-        release = cell.release_offset_mm if tag else 0.0
-        if tag and self.rig.camera is not None and self.rig.tracker is not None:
-            sightings = yield from look_over(self, target, cell.look_height_mm, tag)
-            seen = nearest(sightings, tag, target, cell.search_radius_mm)
-            if seen is not None:
-                target = seen.position
-            elif self.param("require_tag"):
+        camera = self.rig.camera is not None and self.rig.tracker is not None
+        release = 0.0
+        if tag:
+            if not camera:
+                raise SkillFailure(f"{self.name}: finding the {tag!r} tag needs a camera")
+            radius = cell.search_radius_mm
+            found = yield from locate(self, tag, target, radius)
+            if found.sighting is None:
                 raise SkillFailure(
-                    f"{self.name}: no {tag!r} tag within {cell.search_radius_mm:g} mm of {fmt(target)}"
+                    f"{self.name}: no {tag!r} tag within {radius:g} mm of {fmt(target)} "
+                    f"(looked from {found.looks} camera poses); still holding the object"
                 )
+            target = found.position
+            release = cell.release_offset_mm
         yield from release_steps(
             self, target, self.param("approach_mm"), release, self.param("dwell_s")
         )
         released = target + UP * release
         self.output("pose", as_list(released))
+        if not self.param("verify"):
+            return released
+        if not obj:
+            self.feedback_message = self.unverified("no `object` tag given to check where it went")
+        elif not camera:
+            self.feedback_message = self.unverified("no camera to check where it went")
+        else:
+            self.feedback_message = yield from verify_place(
+                self, obj, target, bool(tag), float(self.param("place_tolerance_mm"))
+            )
         return released
+
+
+__all__ = ["Pick", "Place", "pick_steps", "release_steps", "verify_pick", "verify_place"]

@@ -7,8 +7,8 @@ import numpy as np
 from armtree import Param
 
 from .actions import Move
+from .arm_skill import ArmSkill
 from .base import Procedure, as_list
-from .manipulation import ArmSkill
 
 
 class MoveTo(ArmSkill):

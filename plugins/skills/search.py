@@ -15,9 +15,11 @@ import numpy as np
 
 from armtree import Param
 
-from .actions import Look, Move, Pause, Sighting, SkillFailure, Suction, fmt
+from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
+from .arm_skill import ArmSkill, above, camera_over, grip_point
 from .base import ActionFailed, Procedure, as_list
-from .manipulation import ArmSkill, above, camera_over, grip_point, release_steps
+from .eye import Sighting
+from .manipulation import release_steps
 from .survey import survey_points, sweep_angles
 
 

@@ -14,8 +14,8 @@ from armtree import Param
 from armtree.filters import PoseFilter
 
 from .actions import Look, Move, Pause, SkillFailure, fmt
+from .arm_skill import ArmSkill, camera_over
 from .base import Procedure, as_list
-from .manipulation import ArmSkill, camera_over
 
 #: The smoothed marker's key in the pose filter (one marker is followed).
 _TRACKED = 0

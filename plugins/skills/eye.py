@@ -1,0 +1,122 @@
+"""One reader of the rig's camera, shared by every skill and condition of a run.
+
+A camera hands each frame out once (``Camera.read`` returns None until the next
+one), and locating markers costs milliseconds a frame, so the behaviours of a
+tree must not each read and detect on their own: a condition ticked every tick
+would take the frame an action was waiting for, and render and detect twenty
+times a simulated second. :class:`Eye` reads a frame, locates its markers in the
+arm's base frame once, and keeps the newest :class:`View` for everyone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from armtree.perception import camera_in_base, marker_in_base
+from armtree.rig import Detection
+
+
+@dataclass
+class Sighting:
+    """A marker seen in one frame: its role and id, and its pose in the base frame (4x4 mm)."""
+
+    role: str
+    id: int
+    pose: np.ndarray
+    detection: Detection
+    timestamp: float
+
+    @property
+    def position(self) -> np.ndarray:
+        """The marker centre in the base frame, mm."""
+        return self.pose[:3, 3].copy()
+
+
+@dataclass
+class View:
+    """One frame's markers: when it was taken (s, run clock), and the tool pose it was seen from."""
+
+    index: int
+    timestamp: float
+    read_at: float
+    tool: np.ndarray
+    sightings: list[Sighting] = field(default_factory=list)
+    #: The camera's pose in the base frame (4x4 mm) and its view angles: half the image
+    #: width and height over the focal lengths (tangents).
+    camera: np.ndarray = field(default_factory=lambda: np.eye(4))
+    half_view: tuple[float, float] = (0.4, 0.3)
+
+    def footprint(self, z: float) -> tuple[float, float]:
+        """Width and height (mm) of the table seen at height ``z`` from a camera looking down."""
+        distance = max(0.0, float(self.camera[2, 3]) - z)
+        return 2.0 * distance * self.half_view[0], 2.0 * distance * self.half_view[1]
+
+    def of(self, role: str) -> list[Sighting]:
+        """The sightings of tag role ``role``."""
+        return [s for s in self.sightings if s.role == role]
+
+
+class Eye:
+    """The newest frame of a rig's camera and the markers in it, read and detected once."""
+
+    def __init__(self, rig: Any) -> None:
+        self.rig = rig
+        self.last: View | None = None
+        self.frames = 0
+
+    def newest(self) -> View | None:
+        """The view of a frame that arrived since the last read, else the last view (or None)."""
+        rig = self.rig
+        frame = rig.camera.read()
+        if frame is None:
+            return self.last
+        self.frames += 1
+        tool = rig.arm.pose() if rig.arm is not None else np.eye(4)
+        base_T_camera = camera_in_base(rig.camera.mount, rig.camera.extrinsics, tool)
+        seen: dict[int, Sighting] = {}
+        for det in rig.tracker.detect(frame):
+            if det.tvec is None:
+                continue
+            role = det.role
+            if role in ("", "unknown"):
+                spec = rig.role_of(det.id)
+                role = spec.role if spec is not None else "unknown"
+            pose = marker_in_base(base_T_camera, det.rvec, det.tvec)
+            seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
+        k = np.asarray(frame.camera_matrix, dtype=float)
+        h, w = frame.image.shape[:2]
+        half = (0.5 * w / k[0, 0], 0.5 * h / k[1, 1]) if k[0, 0] > 0 and k[1, 1] > 0 else (0.4, 0.3)
+        self.last = View(
+            frame.index,
+            frame.timestamp,
+            rig.clock.now(),
+            tool,
+            list(seen.values()),
+            base_T_camera,
+            half,
+        )
+        return self.last
+
+    def recent(self, max_age: float) -> View | None:
+        """A view read at most ``max_age`` seconds ago, reading a new frame only when the
+        last is older (conditions ticked every tick read a few frames a second, not twenty)."""
+        last = self.last
+        if last is not None and self.rig.clock.now() - last.read_at <= max_age + 1e-9:
+            return last
+        return self.newest()
+
+
+def eye_of(rig: Any) -> Eye:
+    """The rig's :class:`Eye`, made on first use and kept on the rig for the run."""
+    eye = getattr(rig, "_skills_eye", None)
+    if eye is None or eye.rig is not rig:
+        eye = Eye(rig)
+        # The Rig belongs to the runtime; this one attribute is the skills' frame cache.
+        rig._skills_eye = eye
+    return eye
+
+
+__all__ = ["Eye", "Sighting", "View", "eye_of"]

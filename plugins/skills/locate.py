@@ -1,0 +1,184 @@
+"""Finding a tag before acting on it: look where it should be, look around, look again closer.
+
+A place in a profile is where to look, not where a thing is (seed 004's
+"Loading a ducky" relied on static positions and frequent touch tests; here
+the camera decides). :func:`locate` brings the camera over the hint, looks
+around it within the profile's ``workcell.search_radius_mm`` when the tag is not
+in view, and measures the tag once more from above it, closer where the arm
+reaches, before anyone grips or releases there. mm, base frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from armtree.perception import EYE_IN_HAND
+
+from .actions import Look, Move
+from .arm_skill import ArmSkill, camera_over
+from .base import Procedure
+from .eye import Sighting, eye_of
+from .reach import reachable
+from .survey import survey_points
+
+#: Fewest points of a ring looked at around a hint when the tag is not in view over it.
+AROUND = 6
+#: Spacing of those points, as a fraction of the camera's view on the table.
+OVERLAP = 0.8
+#: Most camera poses a look-around may take.
+MAX_LOOKS = 24
+#: A closer look is this fraction of the survey's camera height.
+CLOSER = 0.6
+#: Frames averaged when a tag is measured again before acting on it.
+REFINE_FRAMES = 3
+
+
+@dataclass
+class Found:
+    """Where :func:`locate` found a tag (None) and from how many camera poses it looked."""
+
+    sighting: Sighting | None
+    looks: int
+
+    @property
+    def position(self) -> np.ndarray:
+        """The tag's measured position (mm); only when found."""
+        assert self.sighting is not None
+        return self.sighting.position
+
+
+def look_over(
+    skill: ArmSkill,
+    point: np.ndarray | None,
+    height: float,
+    want: str | None,
+    frames: int = 3,
+    average: bool = False,
+) -> Procedure:
+    """Bring the camera ``height`` mm above ``point`` (stay put if None) and look.
+
+    Eye-to-hand the arm does not move (the camera is not on it). Returns the list
+    of :class:`Sighting`, positions averaged over the frames when ``average``.
+    """
+    rig = skill.rig
+    if point is not None and rig.camera.mount == EYE_IN_HAND:
+        tool = camera_over(skill, point, height)
+        yield Move(rig, tool, speed=skill.speed(), label="look over")
+    look = Look(rig, skill.clock, want=want, frames=frames, settle=skill.settle(), average=average)
+    return (yield look)
+
+
+def nearest(
+    sightings: list[Sighting],
+    role: str,
+    near: np.ndarray | None,
+    radius: float | None = None,
+    skip: Iterable[int] = (),
+) -> Sighting | None:
+    """The sighting of ``role`` nearest to ``near`` (mm, in the xy plane), within ``radius``
+    if given, ignoring marker ids in ``skip``."""
+    skipped = set(skip)
+    cands = [s for s in sightings if s.role == role and s.id not in skipped]
+    if not cands:
+        return None
+    if near is None:
+        return cands[0]
+    dist = [float(np.linalg.norm(s.position[:2] - near[:2])) for s in cands]
+    best = int(np.argmin(dist))
+    if radius is not None and dist[best] > radius:
+        return None
+    return cands[best]
+
+
+def around(hint: np.ndarray, radius: float, view: tuple[float, float] | None) -> list[np.ndarray]:
+    """Points to bring the camera over when a tag is not in view over ``hint``.
+
+    Rings around the hint ``OVERLAP`` of the camera's smaller view size (``view``,
+    mm on the table; None: unknown) apart, until they cover the disc of ``radius``,
+    each ring's points as far apart; at most :data:`MAX_LOOKS`, nearest first.
+    """
+    spacing = OVERLAP * min(view) if view is not None and min(view) > 1.0 else CLOSER * radius
+    out: list[np.ndarray] = []
+    ring = 1
+    while ring * spacing < radius + 0.5 * spacing and len(out) < MAX_LOOKS:
+        r = min(ring * spacing, radius)
+        count = max(AROUND, math.ceil(2.0 * math.pi * r / spacing))
+        for a in np.linspace(0.0, 2.0 * math.pi, count, endpoint=False):
+            out.append(hint + np.array([r * math.cos(a), r * math.sin(a), 0.0]))
+        ring += 1
+    return out[:MAX_LOOKS]
+
+
+def out_of_view(skill: ArmSkill, point: np.ndarray) -> np.ndarray | None:
+    """Eye-to-hand: the reachable survey pose farthest from ``point`` (the arm there hides
+    it least); None without a survey or when none is reachable."""
+    cell = skill.workcell
+    if cell.survey is None or cell.table_z_mm is None:
+        return None
+    model = skill.rig.arm.model
+    here = skill.rig.arm.pose()[:3, 3]
+    poses = [
+        camera_over(skill, p, cell.look_height_mm)
+        for p in survey_points(cell.survey, float(cell.table_z_mm), here, 1)
+    ]
+    poses = [p for p in poses if reachable(model, p)]
+    if not poses:
+        return None
+    return max(poses, key=lambda p: float(np.linalg.norm(p[:2] - point[:2])))
+
+
+def locate(
+    skill: ArmSkill,
+    tag: str,
+    hint: np.ndarray | None,
+    radius: float,
+    skip: Iterable[int] = (),
+    refine: bool = True,
+) -> Procedure:
+    """Find tag role ``tag`` within ``radius`` mm of ``hint`` (anywhere in view if None).
+
+    Eye-in-hand: the camera looks over the hint, then over :func:`around` points;
+    eye-to-hand: from where the arm is, then with the arm at the survey pose
+    farthest from the hint. With ``refine`` the tag found is measured again over
+    its own position, closer where the arm reaches, averaging a few frames.
+    Returns a :class:`Found`.
+    """
+    rig, cell = skill.rig, skill.workcell
+    height = cell.look_height_mm
+    skip = tuple(skip)
+    in_hand = rig.camera.mount == EYE_IN_HAND
+    tries: list[np.ndarray | None] = [hint]
+    if not in_hand:
+        far = out_of_view(skill, hint) if hint is not None else None
+        tries = [None] if far is None else [None, far]
+    seen: Sighting | None = None
+    looks = 0
+    while tries:
+        point = tries.pop(0)
+        looks += 1
+        if in_hand or point is None:
+            sightings = yield from look_over(skill, point, height, tag, frames=2)
+        else:
+            yield Move(rig, point, speed=skill.speed(), label="out of view")
+            sightings = yield from look_over(skill, None, height, tag, frames=2)
+        seen = nearest(sightings, tag, hint, radius if hint is not None else None, skip)
+        if seen is not None:
+            break
+        if in_hand and hint is not None and looks == 1:
+            view = eye_of(rig).last
+            tries = around(hint, radius, None if view is None else view.footprint(float(hint[2])))
+    if seen is None or not refine:
+        return Found(seen, looks)
+    # measure again from over the tag itself (nearer the image centre, less distortion),
+    # closer where the arm reaches, averaging frames
+    closer = height * CLOSER if in_hand else height
+    again = yield from look_over(skill, seen.position, closer, None, REFINE_FRAMES, average=True)
+    best = nearest(again, tag, seen.position, radius / 2.0, skip)
+    return Found(best if best is not None else seen, looks + 1)
+
+
+__all__ = ["Found", "around", "locate", "look_over", "nearest", "out_of_view"]
