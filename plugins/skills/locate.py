@@ -97,19 +97,21 @@ def nearest(
 def around(hint: np.ndarray, radius: float, view: tuple[float, float] | None) -> list[np.ndarray]:
     """Points to bring the camera over when a tag is not in view over ``hint``.
 
-    Rings around the hint ``OVERLAP`` of the camera's smaller view size (``view``,
-    mm on the table; None: unknown) apart, until they cover the disc of ``radius``,
-    each ring's points as far apart; at most :data:`MAX_LOOKS`, nearest first.
+    The first ring is half the camera's smaller view size (``view``, mm on the
+    table; None: unknown) from the hint, so the hint stays in view, off the image
+    centre that a held object or the tool may hide; further rings ``OVERLAP`` of
+    the view apart until they cover the disc of ``radius``, each ring's points as
+    far apart; at most :data:`MAX_LOOKS`, nearest first.
     """
-    spacing = OVERLAP * min(view) if view is not None and min(view) > 1.0 else CLOSER * radius
+    size = min(view) if view is not None and min(view) > 1.0 else radius
+    spacing = OVERLAP * size
     out: list[np.ndarray] = []
-    ring = 1
-    while ring * spacing < radius + 0.5 * spacing and len(out) < MAX_LOOKS:
-        r = min(ring * spacing, radius)
+    r = 0.5 * size
+    while r < radius + 0.5 * spacing and len(out) < MAX_LOOKS:
         count = max(AROUND, math.ceil(2.0 * math.pi * r / spacing))
         for a in np.linspace(0.0, 2.0 * math.pi, count, endpoint=False):
             out.append(hint + np.array([r * math.cos(a), r * math.sin(a), 0.0]))
-        ring += 1
+        r += spacing
     return out[:MAX_LOOKS]
 
 
