@@ -1,9 +1,10 @@
 """What a run shows in the terminal: a live tree, plain status lines, or nothing; and the summary.
 
-* :class:`LiveView`: a rich Live rendering of the tree with each node's status,
-  redrawn at most ``max_hz`` times per wall-clock second however fast the
+* :class:`LiveView`: a rich Live rendering of the tree with each node's status
+  and feedback message (``self.feedback_message``), redrawn at most ``max_hz`` times per wall-clock second however fast the
   virtual clock ticks;
-* :class:`PlainView`: one line per status change, for logs and pipes;
+* :class:`PlainView`: one line per status change (with the node's feedback
+  message), for logs and pipes;
 * :class:`NullView`: ``--quiet``.
 """
 
@@ -70,11 +71,17 @@ class PlainView(NullView):
         self._print(f"run {run.tree.name}: {run.tick_hz:g} Hz on the {kind} clock")
 
     def update(self, run: Run, changes: Sequence[Change]) -> None:
-        """Print each change with the tick and the run time."""
+        """Print each change with the tick, the run time and the node's feedback message."""
         if not changes:
             return
         head = f"tick {run.tick_count} t={run.clock.now():.3f}s"
-        self._print("\n".join(f"{head} {path}: {old} -> {new}" for path, old, new in changes))
+        feedback = getattr(run, "feedback_message", None)
+        lines = []
+        for path, old, new in changes:
+            message = feedback(path) if feedback is not None and new != "INVALID" else ""
+            tail = f"  ({message})" if message else ""
+            lines.append(f"{head} {path}: {old} -> {new}{tail}")
+        self._print("\n".join(lines))
 
     def message(self, text: str) -> None:
         """Print an event line."""
@@ -157,7 +164,7 @@ def render_tree(
     label: Any = None,
     statuses: FinalStatuses | None = None,
 ) -> RichTree:
-    """A rich tree of ``root`` with each node's status symbol, name and type.
+    """A rich tree of ``root`` with each node's status symbol, name, type and feedback message.
 
     ``statuses`` (``{node.id: (status name, halted)}``, as from
     :meth:`armtree.runtime.Run.final_statuses`) stands in for INVALID, for
@@ -188,7 +195,16 @@ def _label(node: py_trees.behaviour.Behaviour, statuses: FinalStatuses | None = 
     text.append(f"  [{type(node).__name__}]", style="dim")
     if halted:
         text.append("  halted", style="magenta")
+    message = getattr(node, "feedback_message", "")
+    if message:
+        text.append(f"  {_one_line(str(message))}", style="italic")
     return text
+
+
+def _one_line(message: str, limit: int = 120) -> str:
+    """A feedback message as one line of at most ``limit`` characters, for the tree view."""
+    line = " ".join(message.split())
+    return line if len(line) <= limit else line[: limit - 1] + "…"
 
 
 def make_view(quiet: bool, stream: TextIO | None = None) -> NullView:

@@ -5,6 +5,9 @@ Records (every one has ``tick`` and ``t``, seconds on the run's clock):
 * ``{"kind": "start", "tree": ..., "seed": ..., "tick_hz": ..., "clock": "virtual"|"wall", ...}``
 * ``{"kind": "status", "node": "Root/Child", "from": "INVALID", "to": "RUNNING"}``
   for every status change of every node;
+* ``{"kind": "feedback", "node": "Root/Child", "status": "SUCCESS", "message": "..."}``
+  when a node's ``feedback_message`` changes: always with a status change, at
+  most once a second of run time while the status stays the same;
 * ``{"kind": "blackboard", "key": "/pose", "op": "WRITE", "client": ..., "value": ...}``
   for blackboard writes (py_trees' activity stream);
 * ``{"kind": "event", "event": "preempt"|"interrupt"|"exception"|"hook_error"|..., ...}``;

@@ -26,11 +26,14 @@ A run:
 from __future__ import annotations
 
 import contextlib
+import math
 import sys
 import time
 import traceback as tb_module
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import compress
+from operator import attrgetter, ne
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +63,9 @@ _LOGGED_ACTIVITIES = frozenset(
 _POLL_S = 0.05
 #: How often the run log is flushed during a run, in wall seconds.
 _FLUSH_S = 1.0
+#: Run-clock seconds between two feedback records of a node whose status stays the same.
+FEEDBACK_INTERVAL_S = 1.0
+_FEEDBACK = attrgetter("feedback_message")
 
 
 @dataclass
@@ -192,6 +198,10 @@ class Run:
         # (py_trees' halt resets nodes to INVALID) and whether it was halted from RUNNING.
         self._shown: list[str] = []
         self._halted: list[bool] = []
+        # Per node: the feedback message last written to the run log, and when.
+        self._index: dict[str, int] = {}
+        self._feedback: list[str] = []
+        self._feedback_t: list[float] = []
         self._hook_impls: dict[str, list[Any]] = {}
         self._hook_errors_reported: set[tuple[str, str]] = set()
         self._executed = False
@@ -374,6 +384,9 @@ class Run:
         self._last = tuple([n.status._value_ for n in self._nodes])
         self._shown = list(self._last)
         self._halted = [False] * len(self._nodes)
+        self._index = {path: i for i, path in enumerate(self._paths)}
+        self._feedback = [""] * len(self._nodes)
+        self._feedback_t = [-math.inf] * len(self._nodes)
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -502,6 +515,8 @@ class Run:
         # hashes are cached, so the run log diffs and looks up lines without bytecode.
         current = tuple([n.status._value_ for n in self._nodes])
         changes: Sequence[tuple[str, str, str]] = ()
+        if logging:
+            self._log_feedback(now, last, current)
         if current != last:
             self._last = current
             if logging:
@@ -522,6 +537,46 @@ class Run:
             if stream is not None and stream.data:
                 self._log_blackboard(stream.data, now)
                 stream.clear()
+
+    def _log_feedback(self, now: float, last: Sequence[str], current: Sequence[str]) -> None:
+        """Write a ``feedback`` record for each node whose ``feedback_message`` changed.
+
+        Always when the node's status changed in this tick; while its status stays
+        the same, at most once per :data:`FEEDBACK_INTERVAL_S` of run time, so a
+        countdown does not write a line every tick. Cleared messages are not written.
+        """
+        messages = list(map(_FEEDBACK, self._nodes))
+        logged = self._feedback
+        if messages == logged:
+            return
+        times = self._feedback_t
+        for i in compress(range(len(messages)), map(ne, messages, logged)):
+            message = messages[i]
+            if not isinstance(message, str):
+                message = str(message)
+            if not message:
+                logged[i] = message
+                continue
+            if last[i] == current[i] and now - times[i] < FEEDBACK_INTERVAL_S - 1e-9:
+                continue
+            logged[i], times[i] = messages[i], now
+            self.log.write(
+                {
+                    "kind": "feedback",
+                    "tick": self.tick_count,
+                    "t": now,
+                    "node": self._paths[i],
+                    "status": current[i],
+                    "message": message,
+                }
+            )
+
+    def feedback_message(self, path: str) -> str:
+        """The current ``feedback_message`` of the node at ``path`` ("" if none or unknown)."""
+        i = self._index.get(path) if self._nodes else None
+        if i is None:
+            return ""
+        return str(getattr(self._nodes[i], "feedback_message", "") or "")
 
     def _log_blackboard(self, items: list[Any], now: float) -> None:
         writes = self.tick_writes
