@@ -22,6 +22,7 @@ import py_trees
 
 from .errors import ConfigError
 from .hookspecs import hookimpl
+from .plugin_checks import Problem, deep_problems, installed_version
 from .plugin_manager import PluginManager, get_plugin_manager
 from .schema import build_schema
 from .tree import Tree
@@ -198,20 +199,33 @@ def _render_with_matplotlib(tree: Tree, out: Path) -> None:
 
 
 class Plugins:
-    """``armtree plugins``: every registered component, its plugin and its parameters."""
+    """``armtree plugins``: every registered component, its plugin and its parameters.
+
+    ``--check`` runs every check on them instead: the interface checks made when
+    the registry is built (refusing a component that does not fit), then the deep
+    ones (an arm's kinematic model built and checked, behaviours built with their
+    defaults); exit 0 when all pass, 2 otherwise.
+    """
 
     help = "list every registered component (kind, name, plugin, description, parameters)"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
-        """Add --kind to filter."""
+        """Add --kind to filter and --check."""
         parser.add_argument(
             "--kind",
             choices=("behaviour", "arm", "camera", "tracker", "planner", "command"),
             help="list only this kind",
         )
+        parser.add_argument(
+            "--check",
+            action="store_true",
+            help="check every component against its interface (exit 2 on a problem)",
+        )
 
     def run(self, args: argparse.Namespace) -> int:
-        """Print a table of the registry."""
+        """Print a table of the registry, or with --check the checks' verdicts."""
+        if args.check:
+            return self.check(args)
         from rich.console import Console
         from rich.markup import escape
         from rich.table import Table
@@ -236,6 +250,29 @@ class Plugins:
             # units are written [mm], which rich would take for markup
             table.add_row(*(escape(cell) for cell in cells))
         Console(width=max(Console().width, 160)).print(table)
+        return 0
+
+    def check(self, args: argparse.Namespace) -> int:
+        """Run the deep checks on every component (the registry has passed the others)."""
+        manager = _manager(args)
+        components = [c for c in manager.registry.all() if not args.kind or c.kind == args.kind]
+        problems: list[Problem] = []
+        notes: list[str] = []
+        for component in components:
+            problems.extend(deep_problems(component, notes))
+        plugins = sorted({c.plugin for c in components})
+        print(
+            f"armtree {installed_version()}: checked {len(components)} components "
+            f"of {len(plugins)} plugins"
+        )
+        for note in notes:
+            print(f"note: {note}")
+        for problem in problems:
+            print(problem.error().format())
+        if problems:
+            print(f"{len(problems)} problem(s) found")
+            return 2
+        print("ok: every component fits its interface")
         return 0
 
 

@@ -22,6 +22,7 @@ import pluggy
 from . import hookspecs
 from .constructor_params import declared_params
 from .errors import ConfigError, Mark
+from .plugin_checks import interface_problems, version_problem
 
 ENTRY_POINT_GROUP = "armtree"
 DISABLE_AUTOLOAD_ENV = "ARMTREE_DISABLE_PLUGIN_AUTOLOAD"
@@ -188,7 +189,14 @@ class PluginManager:
         return self
 
     def register(self, plugin: Any, name: str, distribution: str | None = None) -> None:
-        """Register one plugin object, turning pluggy's validation errors into ConfigErrors."""
+        """Register one plugin object, turning pluggy's validation errors into ConfigErrors.
+
+        A plugin that declares armtree versions it does not support
+        (``ARMTREE_REQUIRES``, or its distribution's requirement on armtree) is refused.
+        """
+        mismatch = version_problem(plugin, name, distribution)
+        if mismatch is not None:
+            raise mismatch
         try:
             self.pm.register(plugin, name=name)
             self.pm.check_pending()
@@ -207,9 +215,23 @@ class PluginManager:
 
     @property
     def registry(self) -> Registry:
-        """Every registered component, built on first use and after each new plugin."""
+        """Every registered component, built on first use and after each new plugin.
+
+        Raises one :class:`ConfigError` listing every component that does not fit
+        its interface (:func:`armtree.plugin_checks.interface_problems`).
+        """
         if self._registry is None:
-            self._registry = Registry(self._collect())
+            components = self._collect()
+            problems = [
+                problem.error()
+                for kind in components.values()
+                for component in kind.values()
+                for problem in interface_problems(component)
+            ]
+            if problems:
+                first = problems[0]
+                raise ConfigError(first.message, file=first.file, line=first.line, errors=problems)
+            self._registry = Registry(components)
         return self._registry
 
     def _collect(self) -> dict[str, dict[str, Component]]:
