@@ -1,4 +1,4 @@
-"""Built-in plugin: the core ``armtree`` subcommands (check, show, plugins, schema).
+"""Built-in plugin: the core ``armtree`` subcommands (check, show, plugins, schema, hooks, new-plugin).
 
 Each command has ``help``, ``configure(parser)`` and ``run(args) -> int``. The CLI
 hands over its plugin manager as ``args.manager`` (``--plugin`` and ``-p no:NAME``
@@ -21,9 +21,11 @@ from typing import Any
 import py_trees
 
 from .errors import ConfigError
+from .hook_reference import HooksCommand
 from .hookspecs import hookimpl
 from .plugin_checks import Problem, deep_problems, installed_version
 from .plugin_manager import PluginManager, get_plugin_manager
+from .scaffold import NewPluginCommand
 from .schema import build_schema
 from .tree import Tree
 from .tree_loader import load_tree
@@ -301,5 +303,12 @@ class Schema:
 
 @hookimpl
 def armtree_commands() -> dict[str, Any]:
-    """Register check, show, plugins and schema."""
-    return {"check": Check(), "show": Show(), "plugins": Plugins(), "schema": Schema()}
+    """Register check, show, plugins, schema, hooks and new-plugin."""
+    return {
+        "check": Check(),
+        "show": Show(),
+        "plugins": Plugins(),
+        "schema": Schema(),
+        "hooks": HooksCommand(),
+        "new-plugin": NewPluginCommand(),
+    }

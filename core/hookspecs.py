@@ -8,7 +8,12 @@ a ``plugins:`` list in a tree or profile. ``-p no:NAME`` blocks one; setting
 ``ARMTREE_DISABLE_PLUGIN_AUTOLOAD`` skips third-party entry points.
 
 A plugin implements only the hooks it needs. Argument names must match the
-specification (pluggy checks them when the plugin is registered).
+specification (pluggy checks them when the plugin is registered), and every
+component a registration hook returns is checked against the interface armtree
+calls it through when the registry is built (:mod:`armtree.plugin_checks`;
+``armtree plugins --check`` runs the deeper checks too). A plugin module may
+name the armtree versions it supports, ``ARMTREE_REQUIRES = ">=0.1,<0.2"``;
+a plugin that does not support the installed armtree is refused.
 """
 
 from __future__ import annotations
@@ -46,9 +51,12 @@ def armtree_behaviours() -> dict[str, Any]:
         docstring's first line is the description ``armtree plugins`` shows.
         The loader builds a node as ``factory(name, **params)`` with every
         declared parameter (defaults filled in, ``"{key}"`` as a
-        :class:`armtree.Binding`). A py_trees ``Decorator`` or ``Composite``
-        subclass (or any callable whose ``KIND`` is ``"decorator"`` or
-        ``"composite"``) also receives ``child=`` or ``children=``; only
+        :class:`armtree.Binding`). A plain :class:`py_trees.behaviour.Behaviour`
+        subclass without ``PARAMS`` works as it is: its parameters are its
+        constructor's (names, defaults, types from annotations; unannotated ones
+        take any YAML value), checked the same way. A py_trees ``Decorator`` or
+        ``Composite`` subclass (or any callable whose ``KIND`` is ``"decorator"``
+        or ``"composite"``) also receives ``child=`` or ``children=``; only
         :class:`armtree.Behaviour` subclasses accept bindings.
 
     Called once per plugin-manager, when the registry is first needed.

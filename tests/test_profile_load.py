@@ -15,9 +15,14 @@ from armtree.profile import parse_override
 from armtree.rig import TagSpec
 
 
-def _factory(doc: str, params: tuple[Param, ...] = ()):
+def _factory(doc: str, params: tuple[Param, ...] = (), planner: bool = False):
     def factory(config, context):
         return config
+
+    if planner:  # the rig builder gives a planner factory the arm's model and the scene too
+
+        def factory(config, context, model, scene):  # noqa: F811
+            return config
 
     factory.__doc__ = doc
     factory.PARAMS = params
@@ -50,7 +55,10 @@ class FakeComponents:
 
     @armtree.hookimpl
     def armtree_planners(self):
-        return {"prm": _factory("A planner."), "direct": _factory("Straight lines.")}
+        return {
+            "prm": _factory("A planner.", planner=True),
+            "direct": _factory("Straight lines.", planner=True),
+        }
 
 
 def manager() -> PluginManager:
