@@ -365,6 +365,8 @@ def _check_construction(component: Any, report: _Reporter) -> None:
         return
     try:
         behaviour = construct(factory, component.name, _defaults(component))
+    except (ValueError, ConfigError):
+        return  # it wants parameters its defaults leave out: a tree gives them
     except Exception as exc:  # noqa: BLE001 - reported as the plugin's problem
         report.add(
             factory,
