@@ -174,6 +174,7 @@ def interface_problems(component: Any) -> list[Problem]:
             for member, call_args, call in (
                 ("model", ("config",), "factory.model(config) -> KinematicModel"),
                 ("emulator", ("config", "clock"), "factory.emulator(config, clock) -> PtyEmulator"),
+                ("grips_with", ("config",), "factory.grips_with(config) -> 'suction' | 'gripper'"),
             ):
                 helper = getattr(factory, member, None)
                 if helper is None:
