@@ -191,3 +191,91 @@ def test_model_from_config_reads_tool_base_and_home():
     assert model.home.tolist() == [30.0]
     with pytest.raises(ConfigError):
         model_from_config({"dh": {"table": [{"a": 1}], "home": [1, 2]}})
+
+
+# -- a hobby arm holding its gripper vertical: tool_axis and the closed form ---------------
+
+HOBBY = None
+
+
+def hobby():
+    """sim_dh's five-axis arm (base yaw, three pitch joints, roll; gripper pointing down)."""
+    global HOBBY
+    if HOBBY is None:
+        from armtree.plugins.arms.dh.plugin import dh_factory
+        from armtree.profile import load_profile
+
+        HOBBY = dh_factory.model(load_profile("sim_dh").component("arm"))
+    return HOBBY
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(-85, 85),
+    st.floats(5, 155),
+    st.floats(-155, -5),
+)
+def test_hobby_arm_closed_form_contains_every_pointing_down_configuration(q1, q2, q3):
+    # for sim_dh's table the gripper points straight down when q2 + q3 + q4 = -90
+    model = hobby()
+    q = np.array([q1, q2, q3, -90.0 - q2 - q3, 0.0])
+    assume(bool(model.within_limits(q)))
+    tool = model.fk(q)
+    np.testing.assert_allclose(tool[:3, 2], [0, 0, -1], atol=1e-9)
+    sols = model.ik_all(tool[:3, 3])
+    good = sols[np.all(np.isfinite(sols), axis=-1)]
+    assert np.abs(good - q).max(axis=-1).min() < 1e-6
+    reached = model.fk(good)
+    np.testing.assert_allclose(
+        reached[:, :3, 3], np.broadcast_to(tool[:3, 3], (len(good), 3)), atol=1e-6
+    )
+    np.testing.assert_allclose(
+        reached[:, :3, 2], np.broadcast_to([0, 0, -1], (len(good), 3)), atol=1e-9
+    )
+    assert np.all(model.within_limits(good))
+
+
+def test_hobby_arm_closed_form_agrees_with_damped_least_squares():
+    model = hobby()
+    assert model.planar is not None and PUMA.planar is None and MOTOMAN.planar is None
+    points = np.random.default_rng(9).uniform([-100, -300, 0], [350, 300, 250], (150, 3))
+    closed = np.isfinite(model.ik_all(points)).all(-1).any(-1)
+    numeric = DHModel(
+        model.rows,
+        list(zip(model.lower, model.upper, strict=True)),
+        name="numeric",
+        tool_offset=model.tool_offset,
+        home=model.home,
+        tool_axis=[0, 0, -2],  # the same axis, unnormalised
+    )
+    numeric.planar = None
+    dls = numeric.ik_all(points)
+    found = np.isfinite(dls).all(-1)
+    assert 40 < closed.sum() < 110
+    np.testing.assert_array_equal(found.any(-1), closed)
+    axis = numeric.fk(dls[found])[:, :3, 2]
+    np.testing.assert_allclose(axis, np.broadcast_to([0, 0, -1], axis.shape), atol=1e-5)
+    # one solution per target, the nearest to the given joints
+    one = model.ik_batch(points, near=model.home)
+    assert np.array_equal(np.isfinite(one).all(-1), closed)
+
+
+def test_tool_axis_and_boxes_from_a_profile_are_checked():
+    base = {"table": [{"a": 0, "alpha": 0, "d": 50}, {"a": 100}]}
+    with pytest.raises(ConfigError, match="tool_axis"):
+        model_from_config({"dh": {**base, "tool_axis": [0, 0, 0]}})
+    with pytest.raises(ConfigError, match="tool_boxes_mm"):
+        model_from_config({"dh": {**base, "tool_boxes_mm": [{"size": [10, 10]}]}})
+    with pytest.raises(ConfigError, match="max_speed"):
+        model_from_config({"dh": {"table": [{"a": 0, "max_speed": -1}]}})
+    model = model_from_config(
+        {
+            "dh": {
+                **base,
+                "tool_boxes_mm": [{"name": "cup", "size": [10, 10, 30]}],
+                "link_width_mm": 20,
+            }
+        }
+    )
+    assert [b.name for b in model.boxes] == ["link0", "link1", "cup"]
+    assert model.boxes[0].size[0] == 20.0

@@ -24,6 +24,8 @@ import numpy as np
 from armtree.errors import ConfigError, Unreachable
 from armtree.kinematics import Joint, KinematicModel, LinkBox
 
+from .planar import PlanarWrist
+
 #: Configurations per block in batched FK: small enough for the temporaries to stay in cache.
 _CHUNK = 2048
 #: Iterations without a 0.1 % fall of the error after which an IK start is given up.
@@ -200,6 +202,8 @@ class DHModel(KinematicModel):
         self.tool_boxes = tuple(tool_boxes)
         self.boxes = self._make_boxes(self.link_width, self.tool_boxes)
         self.self_collision_pairs = self._collision_pairs()
+        #: The closed form of a base-yaw, three-pitch arm holding ``tool_axis``, when this is one.
+        self.planar = PlanarWrist.detect(self) if self.tool_axis is not None else None
 
     # ------------------------------------------------------------------ FK
 
@@ -356,7 +360,10 @@ class DHModel(KinematicModel):
         are reported once. ``orientation_weight`` (mm per radian) balances the
         two kinds of error in the damped step. The answers for the last few
         single targets are kept: a planner asks whether a target is reachable
-        and then for its solutions, one call after the other.
+        and then for its solutions, one call after the other. Position targets of
+        an arm :attr:`planar` describes are solved in closed form instead
+        (``(..., 4, n)``: two base turns by elbow up and down; its free joints,
+        a wrist roll, keep the first seed's values).
         """
         target = np.asarray(target, dtype=float)
         key = None
@@ -382,6 +389,9 @@ class DHModel(KinematicModel):
         orientation_weight: float,
     ) -> np.ndarray:
         full = target.shape[-2:] == (4, 4)
+        if not full and self.planar is not None and target.shape[-1] == 3:
+            free = self.home if seeds is None else np.atleast_2d(seeds)[0]
+            return self._closed_form(target, free)
         if not full and target.shape[-1] != 3:
             raise ValueError(
                 f"{self.name}: target must be (..., 3) or (..., 4, 4), got {target.shape}"
@@ -419,6 +429,12 @@ class DHModel(KinematicModel):
         target = np.asarray(target, dtype=float)
         full = target.shape[-2:] == (4, 4)
         lead = target.shape[:-2] if full else target.shape[:-1]
+        if not full and self.planar is not None:
+            ref = self.home if near is None else np.asarray(near, dtype=float)
+            sols = self._closed_form(target.reshape(-1, 3), ref)
+            dist = np.where(np.isfinite(sols).all(-1), np.abs(sols - ref).max(-1), np.inf)
+            best = np.take_along_axis(sols, np.argmin(dist, axis=1)[:, None, None], axis=1)[:, 0]
+            return best.reshape(*lead, self.dof)
         flat_t = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
         pool, pool_T = self._start_pool()
         # closeness of every pool start to every target: position, plus orientation (chordal)
@@ -457,6 +473,19 @@ class DHModel(KinematicModel):
             out[todo[found]] = q[found, np.argmax(ok[found], axis=1)]
             todo = todo[~found]
         return out.reshape(*lead, self.dof)
+
+    def _closed_form(self, target: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """:attr:`planar`'s solutions ``(..., 4, n)`` for positions ``(..., 3)``, each joint
+        turned by a whole turn into its limits where that fits; NaN where none does."""
+        assert self.planar is not None and self.tool_axis is not None
+        lead = target.shape[:-1]
+        q = self.planar.solve(target.reshape(-1, 3), self.tool_axis, np.asarray(free, float))
+        turns = q[None] + np.array([0.0, 360.0, -360.0])[:, None, None, None]
+        inside = (turns >= self.lower - 1e-9) & (turns <= self.upper + 1e-9)
+        pick = np.argmax(inside, axis=0)
+        q = np.take_along_axis(turns, pick[None], axis=0)[0]
+        q = np.where(self.within_limits(q)[..., None], q, np.nan)
+        return self._dedupe(q).reshape(*lead, q.shape[-2], self.dof)
 
     def _start_pool(self) -> tuple[np.ndarray, np.ndarray]:
         """IK starts (the seeds and 64 fixed random ones) and their tool poses, cached."""
