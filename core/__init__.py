@@ -2,20 +2,71 @@
 
 Public names (outside tests rely on them): :data:`hookimpl`, :data:`hookspec`,
 :class:`ConfigError`, :func:`load_tree`, :func:`load_profile`, :func:`run`.
+
+They are imported on first use (PEP 562): ``import armtree`` itself is cheap, so
+the command line can take over Ctrl-C before numpy, OpenCV and py_trees load.
 """
 
 from __future__ import annotations
 
-from .behaviour import Behaviour
-from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
-from .hookspecs import hookimpl, hookspec
-from .params import REQUIRED, Binding, Param
-from .profile import Profile, load_profile
-from .runtime import Run, RunResult, run
-from .tree import Tree
-from .tree_loader import load_tree
+import importlib
+
+# Not typing's: importing typing costs time before the command line holds Ctrl-C.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from typing import Any
+
+    from .behaviour import Behaviour
+    from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
+    from .hookspecs import hookimpl, hookspec
+    from .params import REQUIRED, Binding, Param
+    from .profile import Profile, load_profile
+    from .runtime import Run, RunResult, run
+    from .tree import Tree
+    from .tree_loader import load_tree
 
 __version__ = "0.1.0"
+
+#: Public name -> the submodule that defines it.
+_LAZY = {
+    "ConfigError": "errors",
+    "HardwareFault": "errors",
+    "PlanningError": "errors",
+    "Unreachable": "errors",
+    "Behaviour": "behaviour",
+    "hookimpl": "hookspecs",
+    "hookspec": "hookspecs",
+    "REQUIRED": "params",
+    "Binding": "params",
+    "Param": "params",
+    "Profile": "profile",
+    "load_profile": "profile",
+    "Run": "runtime",
+    "RunResult": "runtime",
+    "run": "runtime",
+    "Tree": "tree",
+    "load_tree": "tree_loader",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        # ``armtree.runtime`` and friends without an explicit import, as before.
+        try:
+            return importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})
+
 
 __all__ = [
     "REQUIRED",

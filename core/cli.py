@@ -291,4 +291,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from .console import armtree
+
+    sys.exit(armtree())

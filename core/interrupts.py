@@ -4,7 +4,9 @@ All of them end in :meth:`Interrupts.request`, which only records the reason and
 wakes the tick loop; the runtime halts the tree at the start of its next tick
 (so within one tick). A signal that arrives while a run is already stopping
 forces the process out at once (after a best-effort flush of the run log), so
-a second Ctrl-C never hangs.
+a second Ctrl-C never hangs. A first interrupt during a tick that does not return
+is taken up by the run's tick watchdog (:mod:`armtree.watchdog`), which leaves
+the tick so that the safe stop starts anyway.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Iterator
-from typing import TextIO
+from typing import Any, TextIO
 
 from .errors import HardwareFault
 
@@ -36,6 +38,8 @@ class Interrupts:
         self.reason: str | None = None
         self.fault: HardwareFault | None = None
         self.stopping = False
+        #: The run's :class:`~armtree.watchdog.TickWatchdog`, whose own SIGINT leaves a stuck tick.
+        self.watchdog: Any = None
         self.wake = threading.Event()
         self._lock = threading.Lock()
         self._force_exit = force_exit or _exit_now
@@ -56,6 +60,9 @@ class Interrupts:
         return True
 
     def _on_signal(self, signum: int, frame: object) -> None:
+        watchdog = self.watchdog
+        if watchdog is not None and signum == signal.SIGINT and watchdog.claim_signal():
+            return
         name = signal.Signals(signum).name
         if self.requested or self.stopping:
             self._force_exit()

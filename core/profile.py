@@ -17,7 +17,8 @@ the whole file before returning, collecting every problem into one
 * then the planning scene these make (:meth:`armtree.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
 * ``world`` (simulation only) is a mapping; ``plugins`` is a list of modules or
-  ``.py`` files loaded before validation;
+  ``.py`` files loaded before validation; ``watchdog: {tick_s: S}`` is the longest
+  a tick may take (wall seconds, default 120) before the run ends with exit 3;
 * last, every plugin's ``armtree_validate_profile`` hook (the built-in
   simulation checks ``world:`` there), its errors reported with the others.
 
@@ -34,16 +35,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from .errors import ConfigError, Mark
+from .errors import ConfigError, Mark, shown
 from .params import check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .resolve import available, resolve
 from .rig import TagSpec
 from .scene import Scene
+from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
-from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
+from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file
 
 #: Profile section -> component kind in the plugin registry.
 COMPONENT_SECTIONS: dict[str, str] = {
@@ -64,6 +64,7 @@ PROFILE_KEYS = (
     "workcell",
     "world",
     "plugins",
+    "watchdog",
 )
 #: Sections a profile must have.
 REQUIRED_SECTIONS = ("arm",)
@@ -101,13 +102,16 @@ def parse_override(text: str) -> Override:
     parts = tuple(key.split("."))
     if not sep or not key or any(not p.strip() for p in parts):
         raise ConfigError(
-            f"expected KEY=VALUE with a dotted KEY (e.g. arm.type=vicra), got {text!r}",
+            f"expected KEY=VALUE with a dotted KEY (e.g. arm.type=vicra), got {shown(text)}",
             file="--set",
         )
     try:
-        value = yaml.safe_load(raw) if raw.strip() else ""
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"value of {key} is not valid YAML: {exc}", file="--set") from None
+        value = _plain(load_yaml(raw, "--set")) if raw.strip() else ""
+    except ConfigError as exc:
+        where = f" (character {exc.column} of the value)" if exc.column else ""
+        raise ConfigError(
+            f"value of {key} is not valid YAML: {exc.message}{where}", file="--set"
+        ) from None
     return Override(tuple(p.strip() for p in parts), value, text)
 
 
@@ -323,7 +327,7 @@ def load_profile(
     if path is None:
         shipped = available("profile")
         raise error_at(
-            f"no hardware profile {str(path_or_name)!r} in the working directory"
+            f"no hardware profile {shown(str(path_or_name))} in the working directory"
             f"{' or next to the tree' if base else ''} or among the shipped profiles"
             f"{did_you_mean(Path(str(path_or_name)).stem, shipped)}",
             where,
@@ -477,13 +481,13 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
         if key not in PROFILE_KEYS:
             errors.append(
                 error_at(
-                    f"unknown profile section {key!r}{did_you_mean(str(key), PROFILE_KEYS)}",
+                    f"unknown profile section {shown(key)}{did_you_mean(str(key), PROFILE_KEYS)}",
                     data.key_mark(key),
                 )
             )
     for key in REQUIRED_SECTIONS:
         if key not in data:
-            errors.append(error_at(f"the profile has no {key!r} section", data.mark))
+            errors.append(error_at(f"the profile has no {shown(key)} section", data.mark))
     for key in ("profile", "description"):
         if key in data and not isinstance(data[key], str):
             errors.append(error_at(f"{key}: expected a string", data.value_mark(key)))
@@ -500,6 +504,7 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
     check("table", _check_table, data, errors)
     check("obstacles", _check_obstacles, data, errors)
     check("workcell", check_workcell, data, errors)
+    check("watchdog", _check_watchdog, data, errors)
     if data.get("world") is not None and not isinstance(data["world"], dict):
         errors.append(error_at("world: expected a mapping", data.value_mark("world")))
         invalid.add("world")
@@ -529,7 +534,7 @@ def _check_component(
     if not registry.has(kind, ctype):
         errors.append(
             error_at(
-                f"{section}: unknown {kind} type {ctype!r}{did_you_mean(ctype, registry.names(kind))}",
+                f"{section}: unknown {kind} type {shown(ctype)}{did_you_mean(ctype, registry.names(kind))}",
                 config.value_mark("type"),
             )
         )
@@ -551,7 +556,7 @@ def _check_component(
         if param is None:
             errors.append(
                 error_at(
-                    f"{section}: {ctype} has no parameter {key!r}{did_you_mean(str(key), params)}",
+                    f"{section}: {ctype} has no parameter {shown(key)}{did_you_mean(str(key), params)}",
                     config.key_mark(key),
                 )
             )
@@ -563,7 +568,9 @@ def _check_component(
     for name, param in params.items():
         if param.required and name not in config:
             errors.append(
-                error_at(f"{section}: {ctype} needs parameter {name!r} ({param.doc})", config.mark)
+                error_at(
+                    f"{section}: {ctype} needs parameter {shown(name)} ({param.doc})", config.mark
+                )
             )
 
 
@@ -572,7 +579,12 @@ def _from_override(mark: Mark | None) -> bool:
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer of hundreds of digits
+        return False
 
 
 def _is_id(v: Any) -> bool:
@@ -598,7 +610,7 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
             if key not in ("id", "ids", "size_mm", "family"):
                 errors.append(
                     error_at(
-                        f"tags.{role}: unknown key {key!r}{did_you_mean(str(key), ['id', 'ids', 'size_mm', 'family'])}",
+                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), ['id', 'ids', 'size_mm', 'family'])}",
                         spec.key_mark(key),
                     )
                 )
@@ -611,7 +623,7 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
             else:
                 errors.append(
                     error_at(
-                        f"tags.{role}.id: expected a marker id >= 0, got {spec['id']!r}",
+                        f"tags.{role}.id: expected a marker id >= 0, got {shown(spec['id'])}",
                         spec.value_mark("id"),
                     )
                 )
@@ -631,7 +643,7 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
                     else:
                         errors.append(
                             error_at(
-                                f"tags.{role}.ids: expected marker ids >= 0, got {v!r}",
+                                f"tags.{role}.ids: expected marker ids >= 0, got {shown(v)}",
                                 given.item_mark(i),
                             )
                         )
@@ -653,7 +665,7 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
         elif not _is_number(size) or size <= 0:
             errors.append(
                 error_at(
-                    f"tags.{role}.size_mm: expected a number > 0 (mm), got {size!r}",
+                    f"tags.{role}.size_mm: expected a number > 0 (mm), got {shown(size)}",
                     spec.value_mark("size_mm"),
                 )
             )
@@ -678,7 +690,8 @@ def _check_places(data: MarkedDict, errors: list[ConfigError]) -> None:
         if not _vector(xyz):
             errors.append(
                 error_at(
-                    f"places.{name}: expected [x, y, z] in mm, got {xyz!r}", places.value_mark(name)
+                    f"places.{name}: expected [x, y, z] in mm, got {shown(xyz)}",
+                    places.value_mark(name),
                 )
             )
 
@@ -691,7 +704,7 @@ def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
     if not isinstance(table, MarkedDict):
         errors.append(
             error_at(
-                f"table: expected {{z: MM}} (the table top's height, mm), got {table!r}",
+                f"table: expected {{z: MM}} (the table top's height, mm), got {shown(table)}",
                 data.value_mark("table"),
             )
         )
@@ -700,7 +713,7 @@ def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
         if key != "z":
             errors.append(
                 error_at(
-                    f"table: unknown key {key!r}; the table takes only z "
+                    f"table: unknown key {shown(key)}; the table takes only z "
                     "(its top's height, mm in the arm's base frame)",
                     table.key_mark(key),
                 )
@@ -709,7 +722,41 @@ def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
         errors.append(error_at("table: needs z (the table top's height, mm)", table.mark))
     elif not _is_number(table["z"]):
         errors.append(
-            error_at(f"table.z: expected a number (mm), got {table['z']!r}", table.value_mark("z"))
+            error_at(
+                f"table.z: expected a number (mm), got {shown(table['z'])}", table.value_mark("z")
+            )
+        )
+
+
+def _check_watchdog(data: MarkedDict, errors: list[ConfigError]) -> None:
+    """``watchdog: {tick_s: S}``: the longest a tick may take on the wall clock."""
+    section = data.get("watchdog")
+    if section is None:
+        return
+    if not isinstance(section, MarkedDict):
+        errors.append(
+            error_at(
+                "watchdog: expected {tick_s: SECONDS} (the longest one tick may take)",
+                data.value_mark("watchdog"),
+            )
+        )
+        return
+    for key in section:
+        if key != "tick_s":
+            errors.append(
+                error_at(
+                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), ['tick_s'])}",
+                    section.key_mark(key),
+                )
+            )
+    value = section.get("tick_s", DEFAULT_TICK_S)
+    if not _is_number(value) or not 0 < value <= MAX_TICK_S:
+        errors.append(
+            error_at(
+                f"watchdog.tick_s: expected a number of seconds > 0 and <= {MAX_TICK_S:g}, "
+                f"got {shown(value)}",
+                section.value_mark("tick_s"),
+            )
         )
 
 

@@ -50,10 +50,19 @@ def candidates(
 def resolve(
     name: str | Path, kind: str, base: Path | None = None, base_first: bool = False
 ) -> Path | None:
-    """The file ``name`` refers to, or ``None`` when no candidate exists."""
-    for path in candidates(name, kind, base, base_first):
-        if path.is_file():
-            return path.resolve()
+    """The file ``name`` refers to, or ``None`` when no candidate exists.
+
+    A name no file system could hold (empty, thousands of characters, a NUL byte)
+    is simply not found.
+    """
+    if not str(name).strip():
+        return None
+    try:
+        for path in candidates(name, kind, base, base_first):
+            if path.is_file():
+                return path.resolve()
+    except (OSError, ValueError):
+        return None
     return None
 
 

@@ -168,6 +168,15 @@ class ArmDriver(ABC):
         """True while a command sent to the arm is still under way (a paused run waits for it)."""
         return False
 
+    def request_stop(self) -> None:
+        """Ask for :meth:`stop` from another thread than the run's; returns at once.
+
+        The tick watchdog calls it while the run's thread is stuck. The default
+        runs :meth:`stop` on a short-lived thread; drivers with an I/O thread
+        stop from there.
+        """
+        threading.Thread(target=self.stop, name=f"stop {self.device}", daemon=True).start()
+
     def set_gripper(self, opening: float) -> MotionHandle:
         """Set the gripper opening (degrees of the gripper servo, or mm)."""
         handle = MotionHandle("gripper")
@@ -375,6 +384,12 @@ class Rig:
         if self.arm is not None:
             with contextlib.suppress(Exception):  # stopping must not fail the shutdown
                 self.arm.stop()
+
+    def request_stop(self) -> None:
+        """Ask the arm to stop without waiting (from a thread other than the run's)."""
+        if self.arm is not None:
+            with contextlib.suppress(Exception):
+                self.arm.request_stop()
 
     def close(self) -> None:
         """Stop and release everything; never raises."""

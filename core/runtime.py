@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import math
 import sys
+import threading
 import time
 import traceback as tb_module
 from collections.abc import Sequence
@@ -50,6 +51,14 @@ from .resources import Resources
 from .rig import Rig
 from .rig_builder import build_rig, uses_real_hardware
 from .runlog import RunLog, default_run_dir, jsonable
+from .watchdog import (
+    DEFAULT_TICK_S,
+    TickAbandoned,
+    TickWatchdog,
+    force_exit_later,
+    innermost_code,
+    running_behaviour,
+)
 
 EXIT_SUCCESS = 0
 EXIT_FAILURE = 1
@@ -143,6 +152,7 @@ class Run:
         close_rig: bool | None = None,
         debug: bool = False,
         settings: dict[str, Any] | None = None,
+        tick_limit: float | None = None,
     ) -> None:
         self.tree = tree
         self.root: py_trees.behaviour.Behaviour = tree.root
@@ -186,6 +196,7 @@ class Run:
         # so they are not built for it.
         self._view_changes = type(self.view).update is not NullView.update
         self._handle_signals = handle_signals
+        self._owns_process = False
         self._stop_key = stop_key
         self._record = record
         self._runs_dir = Path(runs_dir)
@@ -212,6 +223,12 @@ class Run:
         self._raiser: py_trees.behaviour.Behaviour | None = None
         self._running: list[str] | None = None
         self._key: StopKey | None = None
+        self.tick_limit = tick_limit if tick_limit is not None else _profile_tick_limit(profile)
+        self._watchdog: TickWatchdog | None = None
+        # Set when a tick was abandoned inside a component step: the rig is not stepped again.
+        self._rig_stuck = False
+        self._watchdog_closed = False
+        self._stopped = threading.Event()
 
     # ------------------------------------------------------------------
     # For behaviours and components
@@ -290,9 +307,10 @@ class Run:
         stop_key = self._key = StopKey() if self._stop_key else None
         try:
             with (
-                self.interrupts.signals(self._handle_signals),
+                self.interrupts.signals(self._handle_signals) as owns_signals,
                 stop_key if stop_key is not None else contextlib.nullcontext(),
             ):
+                self._owns_process = owns_signals
                 # A plugin may refuse the run here (a ConfigError: exit 2, nothing built).
                 self._manager_hook("armtree_run_opening", run=self)
                 self._open_log()
@@ -311,14 +329,22 @@ class Run:
                     self._index_nodes()
                     self._call_hook("armtree_run_started", run=self)
                     self.view.start(self)
-                    end = self._loop(stop_key)
+                    self._start_watchdog(owns_signals)
+                    try:
+                        end = self._loop(stop_key)
+                    finally:
+                        self._close_watchdog()
                 except _End as exc:
                     end = exc
                 except HardwareFault as exc:
                     end = _End("FAILURE", f"hardware fault: {exc}", EXIT_HARDWARE)
                     self._end_traceback = tb_module.format_exc()
+                except TickAbandoned:
+                    self._close_watchdog()
+                    end = self._interrupted()
                 result = self._finish(end, bt, wall0)
         finally:
+            self._stopped.set()
             self._cleanup()
         return result
 
@@ -390,6 +416,8 @@ class Run:
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
+        watchdog = self._watchdog
+        assert watchdog is not None
         virtual = clock.virtual
         interrupts = self.interrupts
         period = self.period
@@ -414,16 +442,19 @@ class Run:
             self.tick_count += 1
             tick_start = time.monotonic()
             now = clock.now()
+            watchdog.begin("a component step")
             if rig is not None:
                 try:
                     rig.step(now)
                 except Exception as exc:  # noqa: BLE001 - a component failed between ticks
                     return self._component_exception(exc)
+            watchdog.phase = "the tree's tick"
             try:
                 for _ in root.tick():
                     pass
             except Exception as exc:  # noqa: BLE001 - reported with the node it came from
                 return self._behaviour_exception(exc, "tick")
+            watchdog.end()
             self._track(now, logging)
             if tick_hooks:
                 self._call_hook("armtree_tick", run=self)
@@ -625,6 +656,11 @@ class Run:
         reason = self.interrupts.reason or "interrupt"
         fault = self.interrupts.fault
         self._running = self._running_leaves()
+        watchdog = self._watchdog
+        if watchdog is not None and watchdog.fired and watchdog.stuck_in:
+            # The node whose tick never returned is not RUNNING yet, but it is what ran.
+            stuck = f"{watchdog.stuck_in} (a tick that did not return)"
+            self._running = [stuck, *self._running]
         self.log.event(
             self.tick_count, self.clock.now(), "interrupt", reason=reason, running=self._running
         )
@@ -766,7 +802,7 @@ class Run:
             else:
                 self.interrupts.wake.clear()
                 self.interrupts.wake.wait(max(0.0, target - self.clock.now()))
-            if self.rig is not None:
+            if self.rig is not None and not self._rig_stuck:
                 try:
                     self.rig.step(self.clock.now())
                 except Exception:  # noqa: BLE001 - keep stopping
@@ -856,6 +892,63 @@ class Run:
                 )
         self.log.close()
 
+    # ------------------------------------------------------------------
+    # The tick watchdog
+    # ------------------------------------------------------------------
+
+    def _start_watchdog(self, owns_signals: bool) -> None:
+        self._watchdog = TickWatchdog(
+            self.tick_limit,
+            pending=lambda: self.interrupts.reason,
+            on_overrun=self._on_overrun,
+            stop_arm=self._request_arm_stop,
+            describe=self._describe_stuck,
+            use_signal=owns_signals,
+        )
+        self.interrupts.watchdog = self._watchdog
+        self._watchdog.start()
+
+    def _close_watchdog(self) -> None:
+        watchdog = self._watchdog
+        if watchdog is None or self._watchdog_closed:
+            return
+        self._watchdog_closed = True
+        stuck_in = watchdog.phase if watchdog.tick_started is not None else ""
+        watchdog.close()
+        if watchdog.fired:
+            self._rig_stuck = stuck_in == "a component step"
+            if self._owns_process:
+                # The stop may be stuck as well (a terminate that never returns): the
+                # process ends with the cause's code after the stop's own time.
+                code = EXIT_HARDWARE if self.interrupts.fault is not None else EXIT_INTERRUPTED
+                force_exit_later(self.stop_timeout + 3.0, code, self._last_words, self._stopped)
+
+    def _on_overrun(self, message: str) -> None:
+        self.interrupts.request("tick watchdog", HardwareFault(message, "tick watchdog"))
+
+    def _request_arm_stop(self) -> None:
+        rig = self.rig
+        if rig is None:
+            return
+        request = getattr(rig, "request_stop", None)
+        if callable(request):
+            request()
+        else:
+            threading.Thread(target=rig.stop, name="arm stop", daemon=True).start()
+
+    def _describe_stuck(self, frame: Any) -> str:
+        node = running_behaviour(frame, lambda o: isinstance(o, py_trees.behaviour.Behaviour))
+        if node is not None:
+            # Halted like a node that raised: it may have started something.
+            self._raiser = node
+            self._failed_node = self.path_of(node)
+            return self.where(node)
+        return innermost_code(frame)
+
+    def _last_words(self) -> None:
+        self.log.event(self.tick_count, self.clock.now(), "forced_exit")
+        self.log.close()
+
     def _force_exit(self) -> None:
         # Leave the terminal usable: echo back on, cursor shown.
         if self._key is not None:
@@ -909,6 +1002,15 @@ class Run:
                     text = f"plugin {impl.plugin_name!r}: {name} raised {type(exc).__name__}: {exc}"
                     self.view.message(text)
                     print(f"warning: {text} (the run goes on)", file=sys.stderr)
+
+
+def _profile_tick_limit(profile: Any) -> float:
+    """The profile's ``watchdog: {tick_s: S}``, else the default (wall seconds)."""
+    data = getattr(profile, "data", None)
+    section = data.get("watchdog") if isinstance(data, dict) else None
+    if isinstance(section, dict) and isinstance(section.get("tick_s"), (int, float)):
+        return float(section["tick_s"])
+    return DEFAULT_TICK_S
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:

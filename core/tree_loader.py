@@ -76,7 +76,7 @@ import py_trees
 from .behaviour import Behaviour
 from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
 from .constructor_params import declared_params, name_argument, takes_signature_params
-from .errors import ConfigError, Mark
+from .errors import ConfigError, Mark, shown
 from .params import REQUIRED, Binding, Param, check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile import OVERRIDE_SECTIONS, Override, Profile, load_profile, parse_overrides
@@ -89,6 +89,14 @@ TREE_KEYS = ("tree", "description", "rig", "tick_hz", "plugins", "params", "blac
 #: Keys of a ``subtree`` node.
 SUBTREE_KEYS = ("file", "with", "name", "namespace")
 DEFAULT_TICK_HZ = 20.0
+#: Tick rates a tree may ask for, Hz: slower would leave a tick for minutes, faster
+#: than any arm's status stream is work without information.
+TICK_HZ_RANGE = (0.1, 1000.0)
+#: Most nodes one tree may build, its subtrees included (ten subtrees of ten subtrees
+#: of ... would otherwise multiply without bound).
+MAX_NODES = 20_000
+#: Deepest chain of subtree includes.
+MAX_INCLUDE_DEPTH = 32
 
 #: Stands for a required file parameter that was not given, so that what depends on it
 #: is not reported a second time.
@@ -122,7 +130,7 @@ def load_tree(
     path = resolve(path_or_name, "tree")
     if path is None:
         raise ConfigError(
-            f"no tree {str(path_or_name)!r} in the working directory or among the shipped "
+            f"no tree {shown(str(path_or_name))} in the working directory or among the shipped "
             f"trees{did_you_mean(Path(str(path_or_name)).stem, available('tree'))}",
             file=str(path_or_name),
         )
@@ -171,6 +179,7 @@ class _Loader:
         self.reads: list[tuple[str, Mark | None, Mark | None]] = []
         self.writes: set[str] = set()
         self.blackboard: dict[str, Any] = {}
+        self.node_count = 0
 
     # ------------------------------------------------------------------ errors
 
@@ -266,14 +275,14 @@ class _Loader:
         for key in data:
             if key not in TREE_KEYS:
                 self.error(
-                    f"unknown tree key {key!r}{did_you_mean(str(key), TREE_KEYS)}",
+                    f"unknown tree key {shown(key)}{did_you_mean(str(key), TREE_KEYS)}",
                     data.key_mark(key),
                     ctx,
                 )
         for key in ("tree", "description", "rig"):
             if data.get(key) is not None and not isinstance(data[key], str):
                 self.error(
-                    f"{key}: expected a string, got {data[key]!r}", data.value_mark(key), ctx
+                    f"{key}: expected a string, got {shown(data[key])}", data.value_mark(key), ctx
                 )
         if data.get("blackboard") is not None and not isinstance(data["blackboard"], dict):
             self.error(
@@ -343,9 +352,12 @@ class _Loader:
         except ValueError as exc:
             self.error(f"tick_hz: {exc}", data.value_mark("tick_hz"), ctx)
             return DEFAULT_TICK_HZ
-        if hz <= 0:
+        low, high = TICK_HZ_RANGE
+        if not low <= hz <= high:
             self.error(
-                f"tick_hz: expected a rate > 0 Hz, got {value!r}", data.value_mark("tick_hz"), ctx
+                f"tick_hz: expected a rate from {low:g} to {high:g} Hz, got {shown(value)}",
+                data.value_mark("tick_hz"),
+                ctx,
             )
             return DEFAULT_TICK_HZ
         return hz
@@ -357,7 +369,7 @@ class _Loader:
         for key, value in values.items():
             if not isinstance(key, str) or not BINDING.match("{" + key + "}"):
                 self.error(
-                    f"blackboard: {key!r} is not a valid key (letters, digits, _ . /)",
+                    f"blackboard: {shown(key)} is not a valid key (letters, digits, _ . /)",
                     values.key_mark(key),
                     ctx,
                 )
@@ -389,7 +401,7 @@ class _Loader:
         for name, info in spec.items():
             if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_]\w*", name):
                 self.error(
-                    f"params: {name!r} is not a valid parameter name", spec.key_mark(name), ctx
+                    f"params: {shown(name)} is not a valid parameter name", spec.key_mark(name), ctx
                 )
                 continue
             if info is None:
@@ -423,7 +435,7 @@ class _Loader:
             if name not in declared:
                 mark = given_marks.key_mark(name) if given_marks is not None else where
                 self.error(
-                    f"{ctx.file.name} has no parameter {name!r}{did_you_mean(name, declared)}",
+                    f"{ctx.file.name} has no parameter {shown(name)}{did_you_mean(name, declared)}",
                     mark,
                 )
                 continue
@@ -438,7 +450,7 @@ class _Loader:
                     else f"--set {name}=VALUE"
                 )
                 self.error(
-                    f"{ctx.file.name} needs parameter {name!r}: give it with {how}",
+                    f"{ctx.file.name} needs parameter {shown(name)}: give it with {how}",
                     where or declared_at or _file_mark(ctx),
                 )
                 values[name] = MISSING
@@ -458,11 +470,21 @@ class _Loader:
         name: str | None = None,
     ) -> py_trees.behaviour.Behaviour | None:
         """Check one node and, when it and its children are valid, build it."""
+        self.node_count += 1
+        if self.node_count > MAX_NODES:
+            if self.node_count == MAX_NODES + 1:
+                self.error(
+                    f"the tree has more than {MAX_NODES:,} nodes with its subtrees included; "
+                    "is a subtree included inside itself many times over?",
+                    getattr(value, "mark", None) or mark,
+                    ctx,
+                )
+            return None
         if not isinstance(value, MarkedDict) or len(value) != 1:
-            shown = list(value) if isinstance(value, dict) else value
+            got = list(value) if isinstance(value, dict) else value
             self.error(
                 "a node is a mapping with exactly one key, its type (e.g. `success: {}` or "
-                f"`sequence: [...]`); got {shown!r}",
+                f"`sequence: [...]`); got {shown(got)}",
                 getattr(value, "mark", None) or mark,
                 ctx,
             )
@@ -476,7 +498,9 @@ class _Loader:
         if not isinstance(ntype, str) or not self.registry.has("behaviour", ntype):
             options = self.registry.names("behaviour") + ["subtree"]
             self.error(
-                f"unknown node type {ntype!r}{did_you_mean(str(ntype), options)}", type_mark, ctx
+                f"unknown node type {shown(ntype)}{did_you_mean(str(ntype), options)}",
+                type_mark,
+                ctx,
             )
             self.check_orphans(spec, spec_mark, ctx, parent)
             return None
@@ -508,7 +532,7 @@ class _Loader:
                 DECORATOR: "a mapping with child and its options",
                 LEAF: "a mapping of its parameters",
             }[kind]
-            self.error(f"{ntype} takes {what}; got {spec!r}", spec_mark, ctx)
+            self.error(f"{ntype} takes {what}; got {shown(spec)}", spec_mark, ctx)
             return None
         node_name = name or self.node_name(options, ntype, ctx)
         options.pop("name", None)
@@ -532,7 +556,7 @@ class _Loader:
         try:
             behaviour = construct(factory, node_name, params)
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor error is shown at the node
-            self.error(f"{ntype} {node_name!r}: {exc}", type_mark, ctx)
+            self.error(f"{ntype} {shown(node_name)}: {exc}", type_mark, ctx)
             return None
         self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark)
         self.adopt(behaviour, path, ntype, type_mark)
@@ -557,12 +581,14 @@ class _Loader:
             value = str(value)
         if not isinstance(value, str) or not value:
             self.error(
-                f"name: expected a non-empty string, got {raw!r}", options.value_mark("name"), ctx
+                f"name: expected a non-empty string, got {shown(raw)}",
+                options.value_mark("name"),
+                ctx,
             )
             return ntype
         if "/" in value:
             self.error(
-                f"name: {value!r} may not contain '/' (it separates paths)",
+                f"name: {shown(value)} may not contain '/' (it separates paths)",
                 options.value_mark("name"),
                 ctx,
             )
@@ -570,7 +596,7 @@ class _Loader:
 
     def build_children(self, spec: Any, mark: Mark | None, ctx: _Context, path: str) -> list | None:
         if not isinstance(spec, MarkedList):
-            self.error(f"children: expected a list of nodes, got {spec!r}", mark, ctx)
+            self.error(f"children: expected a list of nodes, got {shown(spec)}", mark, ctx)
             return None
         siblings: Counter = Counter()
         built = [
@@ -607,7 +633,7 @@ class _Loader:
                 if not hint and not declared:
                     hint = f"; {node.type} takes no parameters"
                 self.error(
-                    f"{node.type} has no parameter {key!r}{hint}", options.key_mark(key), ctx
+                    f"{node.type} has no parameter {shown(key)}{hint}", options.key_mark(key), ctx
                 )
                 continue
             value = _substitute(raw, ctx.params, ctx.namespace)
@@ -678,7 +704,7 @@ class _Loader:
         for key in spec:
             if key not in SUBTREE_KEYS:
                 self.error(
-                    f"subtree has no option {key!r}{did_you_mean(str(key), SUBTREE_KEYS)}",
+                    f"subtree has no option {shown(key)}{did_you_mean(str(key), SUBTREE_KEYS)}",
                     spec.key_mark(key),
                     ctx,
                 )
@@ -697,7 +723,7 @@ class _Loader:
         path = resolve(file, "tree", ctx.file.parent, base_first=True)
         if path is None:
             self.error(
-                f"subtree file {file!r} not found next to {ctx.file.name}, in the working "
+                f"subtree file {shown(file)} not found next to {ctx.file.name}, in the working "
                 f"directory or among the shipped trees{did_you_mean(Path(file).stem, available('tree'))}",
                 file_mark,
                 ctx,
@@ -707,6 +733,9 @@ class _Loader:
             cycle = " -> ".join(p.name for p in (*ctx.stack[ctx.stack.index(path) :], path))
             self.error(f"include cycle: {cycle}", file_mark, ctx)
             return None
+        if len(ctx.stack) >= MAX_INCLUDE_DEPTH:
+            self.error(f"subtrees nested more than {MAX_INCLUDE_DEPTH} files deep", file_mark, ctx)
+            return None
         data = self.parse(path)
         if data is None:
             return None
@@ -715,7 +744,7 @@ class _Loader:
             own = spec["namespace"]
             if not isinstance(own, str) or not re.fullmatch(r"[A-Za-z_]\w*", own):
                 self.error(
-                    f"subtree namespace: expected a name (letters, digits, _), got {own!r}",
+                    f"subtree namespace: expected a name (letters, digits, _), got {shown(own)}",
                     spec.value_mark("namespace"),
                     ctx,
                 )
@@ -746,7 +775,7 @@ class _Loader:
             for key in given:
                 if key not in used:
                     self.error(
-                        f"{path.name} does not use parameter {key!r} (no {{{key}}} in it)",
+                        f"{path.name} does not use parameter {shown(key)} (no {{{key}}} in it)",
                         given.key_mark(key),
                         ctx,
                     )
@@ -769,7 +798,7 @@ class _Loader:
         for key, mark, included_from in self.reads:
             if key not in self.writes:
                 message = (
-                    f"blackboard key {key!r} is read here but nothing writes it: bind an output "
+                    f"blackboard key {shown(key)} is read here but nothing writes it: bind an output "
                     f'parameter to "{{{key}}}", give it in blackboard:, or --set {key}=VALUE'
                 )
                 if included_from is not None:

@@ -197,7 +197,7 @@ CASES = [
         root: {success: {}}
         """,
         (1, 10),
-        "tick_hz: expected a rate > 0 Hz",
+        "tick_hz: expected a rate from 0.1 to 1000 Hz",
     ),
     (
         "no root",

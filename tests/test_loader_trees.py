@@ -436,7 +436,7 @@ def test_tick_rate_override(tmp_path):
         load(path, overrides=["tick_hz=-5"])
     assert (
         info.value.file == "--set tick_hz=-5"
-        and "tick_hz: expected a rate > 0 Hz" in info.value.message
+        and "tick_hz: expected a rate from 0.1 to 1000 Hz" in info.value.message
     )
 
 

@@ -127,6 +127,7 @@ class SerialArmDriver(ArmDriver):
         self._last_alive = -math.inf
         self._handles: list[MotionHandle] = []
         self._last_sent: object = None
+        self._stop_requested = threading.Event()
 
     # ------------------------------------------------------------------ subclass hooks
 
@@ -269,6 +270,16 @@ class SerialArmDriver(ArmDriver):
             return self.refused(f"move to {np.asarray(xyz).tolist()}", exc)
         return self.move_joints(q, speed)
 
+    def request_stop(self) -> None:
+        """Have the I/O thread call :meth:`stop` at its next turn; returns at once.
+
+        For the tick watchdog, whose run thread is stuck: the stop then goes out
+        from the thread that owns the port, within one read timeout.
+        """
+        self._stop_requested.set()
+        if self._thread is None or not self._thread.is_alive():
+            super().request_stop()
+
     def ensure_connected(self) -> HardwareFault | None:
         """Connect on first use; return the fault that prevents it, if any."""
         if self._fault is not None:
@@ -383,6 +394,10 @@ class SerialArmDriver(ArmDriver):
                     self.lose_link(f"link lost: {exc}")
                 return
             self._now = self._current_time()
+            if self._stop_requested.is_set():
+                self._stop_requested.clear()
+                with contextlib.suppress(Exception):
+                    self.stop()
             try:
                 if data:
                     if len(self._seen) < 512:
