@@ -1,7 +1,9 @@
 """Fixtures shared across test files.
 
-``sim_profile``: the sim tests (scene, world, camera) put markers into worlds of
-their own; the tracker and the tag roles those markers play are the same in each.
+The sim tests put markers into worlds: ``sim_profile`` gives a profile with the
+shared tracker and tag roles and any ``world:``; ``make_world`` builds the
+world of the physics tests (scoring, grasping, release) with an arm in it;
+``camera_profile`` is the scene the camera and plugin tests look at.
 """
 
 from __future__ import annotations
@@ -10,6 +12,10 @@ import copy
 from collections.abc import Callable
 
 import pytest
+from sim_fakes import FakeEmulator
+
+from armtree.plugins.sim.scene import parse_scene
+from armtree.plugins.sim.world import World
 
 #: The tracker and tag roles of the sim tests' worlds (ArUco 4x4_50, 25 mm markers).
 SIM_MARKERS = {
@@ -30,3 +36,57 @@ def sim_profile() -> Callable[[dict], dict]:
         return copy.deepcopy({**SIM_MARKERS, "world": world})
 
     return make
+
+
+#: The physics tests' table: a ducky, trash, a bin, a wall and a Duckybot that parks.
+WORLD_SCENE = {
+    "table": {"x": [-300, 400], "y": [-400, 400]},
+    "objects": {
+        "ducky": {"kind": "ducky", "at": [200, -100]},
+        "trash": {"kind": "trash", "at": [150, 150]},
+        "bin": {"kind": "bin", "at": [0, 250], "size": [90, 90, 35]},
+        "wall": {"kind": "obstacle", "at": [250, 100], "size": [40, 40, 150]},
+    },
+    "duckybots": {
+        "bot": {
+            "start": [220, -300, 90],
+            "size": [90, 70, 40],
+            "route": [
+                {"park": [220, 0, 90], "until": "loaded", "wait_s": 1.0},
+                {"drive_to": [220, 200]},
+            ],
+        }
+    },
+}
+
+#: What the camera tests look at: a ducky and trash near the arm, turned a little.
+CAMERA_SCENE = {
+    "table": {"x": [-300, 500], "y": [-400, 400]},
+    "objects": {
+        "ducky": {"kind": "ducky", "at": [230, -30], "yaw": 20},
+        "trash": {"kind": "trash", "at": [180, 40], "yaw": -15},
+    },
+}
+
+
+@pytest.fixture
+def make_world(sim_profile) -> Callable[..., tuple[World, FakeEmulator]]:
+    """A factory: the physics tests' world (seed 3) with these sections replaced, and its arm."""
+
+    def make(**world_changes) -> tuple[World, FakeEmulator]:
+        profile = sim_profile(WORLD_SCENE)
+        profile["world"].update(world_changes)
+        world = World(parse_scene(profile), seed=3)
+        emulator = FakeEmulator()
+        emulator.put([200, 0, 200])
+        world.attach_arm(emulator)
+        world.step(0.0)
+        return world, emulator
+
+    return make
+
+
+@pytest.fixture
+def camera_profile(sim_profile) -> dict:
+    """A fresh profile of the camera tests' scene."""
+    return sim_profile(CAMERA_SCENE)

@@ -113,3 +113,28 @@ class FakeEmulator(FirmwareEmulator):
         """Place the tool at ``xyz`` (mm) at once."""
         self.q = self.model.ik(np.asarray(xyz, dtype=float))
         self.target = self.q.copy()
+
+
+# The Dobot report's Logitech C270 (seed 004, Fig. 10).
+C270 = {
+    "mount": "eye_in_hand",
+    "width": 640,
+    "height": 480,
+    "fps": 30,
+    "intrinsics": {"fx": 810.06, "fy": 810.76, "cx": 325.40, "cy": 249.02},
+    "distortion": [0.01584, 0.37926, -0.00056, 0.00331, 0],
+}
+
+#: The sim tests' step (s): the default tick of a 20 Hz tree.
+DT = 0.05
+
+
+def run_world(world, emulator, seconds: float, t0: float | None = None) -> float:
+    """Step the emulator, then the world, every DT for ``seconds``; the time reached (s)."""
+    t = world.time if t0 is None else t0
+    end = t + seconds
+    while t < end - 1e-9:
+        t = round(t + DT, 9)
+        emulator.step(t)
+        world.step(t)
+    return t

@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from sim_fakes import FakeEmulator
+from sim_fakes import C270, FakeEmulator
 
 from armtree.clock import VirtualClock
 from armtree.errors import ConfigError
@@ -14,15 +14,6 @@ from armtree.plugins.sim.world import world_for
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.rig import RigContext
 
-# The Dobot report's Logitech C270 (seed 004, Fig. 10).
-C270 = {
-    "mount": "eye_in_hand",
-    "width": 640,
-    "height": 480,
-    "fps": 30,
-    "intrinsics": {"fx": 810.06, "fy": 810.76, "cx": 325.40, "cy": 249.02},
-    "distortion": [0.01584, 0.37926, -0.00056, 0.00331, 0],
-}
 STAND = {
     "mount": "eye_to_hand",
     "width": 640,
@@ -31,25 +22,18 @@ STAND = {
     "position": [200, 0, 600],
     "look_at": [200, 0, 0],
 }
-WORLD = {
-    "table": {"x": [-300, 500], "y": [-400, 400]},
-    "objects": {
-        "ducky": {"kind": "ducky", "at": [230, -30], "yaw": 20},
-        "trash": {"kind": "trash", "at": [180, 40], "yaw": -15},
-    },
-}
 PARAMS = cv2.aruco.DetectorParameters()
 PARAMS.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
 DETECTOR = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50), PARAMS)
 
 
 @pytest.fixture
-def rig(sim_profile):
+def rig(camera_profile):
     """A factory: clock, world, arm emulator (tool held at ``tool``) and sim camera."""
 
     def make(camera_config, seed=0, profile=None, tool=(183, -6, 200)):
         clock = VirtualClock()
-        profile = sim_profile(WORLD) if profile is None else profile
+        profile = camera_profile if profile is None else profile
         context = RigContext(profile=profile, clock=clock, seed=seed)
         world = world_for(context)
         emulator = FakeEmulator()
@@ -196,8 +180,8 @@ def test_bad_camera_config(change, message, rig):
         rig(dict(C270, **change))
 
 
-def test_hamming_marker_read_by_the_hamming_tracker(rig, sim_profile):
-    profile = sim_profile(WORLD)
+def test_hamming_marker_read_by_the_hamming_tracker(rig, camera_profile):
+    profile = camera_profile
     profile["tracker"] = {"type": "hamming"}
     profile["tags"] = {
         "ducky": {"id": 1234567, "size_mm": 25},

@@ -9,8 +9,8 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from sim_fakes import FakeEmulator
-from test_sim_camera import C270, PROFILE
+import pytest
+from sim_fakes import C270, FakeEmulator
 
 from armtree.clock import VirtualClock
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
@@ -20,24 +20,30 @@ from armtree.plugins.sim.world import SHARED_KEY
 from armtree.rig import Rig, RigContext
 
 
-def build(seed=0, record=None):
-    profile = copy.deepcopy(PROFILE)
-    profile["arm"] = {"type": "fake", "port": "sim"}
-    profile["camera"] = dict(C270, type="sim")
-    clock = VirtualClock()
-    context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record)
-    emulator = FakeEmulator()
-    emulator.put([183, -6, 200])
-    context.shared[EMULATOR_KEY] = emulator
-    context.steppers.append(emulator.step)
-    camera = sim_camera(profile["camera"], context)
-    rig = Rig(profile=profile, clock=clock, camera=camera)
-    plugin.armtree_rig_ready(rig=rig, context=context)
-    rig.steppers.extend(context.steppers)
-    return rig, context, emulator
+@pytest.fixture
+def build(camera_profile):
+    """A factory: a rig of the sim camera and a stand-in arm, readied by the sim plugin."""
+
+    def make(seed=0, record=None):
+        profile = copy.deepcopy(camera_profile)
+        profile["arm"] = {"type": "fake", "port": "sim"}
+        profile["camera"] = dict(C270, type="sim")
+        clock = VirtualClock()
+        context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record)
+        emulator = FakeEmulator()
+        emulator.put([183, -6, 200])
+        context.shared[EMULATOR_KEY] = emulator
+        context.steppers.append(emulator.step)
+        camera = sim_camera(profile["camera"], context)
+        rig = Rig(profile=profile, clock=clock, camera=camera)
+        plugin.armtree_rig_ready(rig=rig, context=context)
+        rig.steppers.extend(context.steppers)
+        return rig, context, emulator
+
+    return make
 
 
-def test_rig_ready_puts_the_arm_in_the_world_and_steps_it_after_the_emulator():
+def test_rig_ready_puts_the_arm_in_the_world_and_steps_it_after_the_emulator(build):
     rig, context, emulator = build()
     world = context.shared[SHARED_KEY]
     assert world.emulator is emulator
@@ -63,7 +69,7 @@ def fake_run(rig, directory, record):
     return SimpleNamespace(rig=rig, record_dir=directory, record_requested=record)
 
 
-def test_run_finished_writes_the_score_beside_the_log(tmp_path):
+def test_run_finished_writes_the_score_beside_the_log(tmp_path, build):
     rig, context, emulator = build()
     run = fake_run(rig, tmp_path, False)
     plugin.armtree_run_started(run=run)
@@ -78,7 +84,7 @@ def test_run_finished_writes_the_score_beside_the_log(tmp_path):
     assert not (tmp_path / "camera.mp4").exists(), "videos only when recording was asked for"
 
 
-def test_recording_writes_videos_png_and_score(tmp_path):
+def test_recording_writes_videos_png_and_score(tmp_path, build):
     rig, context, emulator = build(record=tmp_path)
     run = fake_run(rig, tmp_path, True)
     plugin.armtree_run_started(run=run)
@@ -109,12 +115,12 @@ def test_recording_writes_videos_png_and_score(tmp_path):
     assert tuple(png[v - 8, u - 8]) == (40, 205, 250)
 
 
-def test_a_body_inside_the_arm_at_start_is_a_config_error():
+def test_a_body_inside_the_arm_at_start_is_a_config_error(camera_profile):
     import pytest
 
     from armtree.errors import ConfigError
 
-    profile = copy.deepcopy(PROFILE)
+    profile = camera_profile
     profile["world"]["objects"]["post"] = {
         "kind": "obstacle",
         "at": [183, -6],

@@ -7,30 +7,30 @@ are never hit by the arm's own boxes; what it holds hangs lower and must still b
 from __future__ import annotations
 
 import pytest
-from test_sim_world import make_world, run
+from sim_fakes import run_world
 
 
-def carry_ducky_over_the_parked_bot(sink_mm: float):
+def carry_ducky_over_the_parked_bot(make_world, sink_mm: float):
     """Park the Duckybot, pick the ducky, lower it ``sink_mm`` into the bot's top."""
     world, emu = make_world()
-    run(world, emu, 15.0)
+    run_world(world, emu, 15.0)
     assert world.duckybots["bot"].parked
     ducky = world.bodies["ducky"]
     emu.put([200, -100, ducky.top])
     emu.suction = True
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert world.held == "ducky"
     bot = world.bodies["bot"]
     x, y = bot.pose[:2, 3]
     emu.put([x, y, bot.top + ducky.size[2] + 20])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.put([x, y, bot.top + ducky.size[2] - sink_mm])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     return world, emu, ducky, bot
 
 
-def test_held_object_pressed_into_a_body_below_the_tool_is_a_collision():
-    world, emu, _, _ = carry_ducky_over_the_parked_bot(sink_mm=6.0)
+def test_held_object_pressed_into_a_body_below_the_tool_is_a_collision(make_world):
+    world, emu, _, _ = carry_ducky_over_the_parked_bot(make_world, sink_mm=6.0)
     score = world.score()
     assert score["collision_count"] == 1, score["collisions"]
     hit = score["collisions"][0]
@@ -38,16 +38,16 @@ def test_held_object_pressed_into_a_body_below_the_tool_is_a_collision():
     assert emu.halted and "held ducky hit bot" in emu.halted[0]
 
 
-def test_held_object_above_a_body_is_no_collision():
-    world, _, _, _ = carry_ducky_over_the_parked_bot(sink_mm=-5.0)
+def test_held_object_above_a_body_is_no_collision(make_world):
+    world, _, _, _ = carry_ducky_over_the_parked_bot(make_world, sink_mm=-5.0)
     assert world.score()["collision_count"] == 0
 
 
 @pytest.mark.parametrize("sink_mm", [-5.0, 0.0, 2.0])
-def test_released_on_or_shallowly_inside_a_body_rests_on_it(sink_mm):
-    world, emu, ducky, bot = carry_ducky_over_the_parked_bot(sink_mm=sink_mm)
+def test_released_on_or_shallowly_inside_a_body_rests_on_it(sink_mm, make_world):
+    world, emu, ducky, bot = carry_ducky_over_the_parked_bot(make_world, sink_mm=sink_mm)
     emu.suction = False
-    run(world, emu, 0.5)
+    run_world(world, emu, 0.5)
     score = world.score()
     assert score["collision_count"] == 0, "within the collision tolerance: a touch"
     assert score["objects"]["ducky"]["on"] == "bot" and score["ducky_on_duckybot"]

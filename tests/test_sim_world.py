@@ -4,59 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sim_fakes import FakeEmulator
-
-from armtree.plugins.sim.scene import parse_scene
-from armtree.plugins.sim.world import World
-
-WORLD = {
-    "table": {"x": [-300, 400], "y": [-400, 400]},
-    "objects": {
-        "ducky": {"kind": "ducky", "at": [200, -100]},
-        "trash": {"kind": "trash", "at": [150, 150]},
-        "bin": {"kind": "bin", "at": [0, 250], "size": [90, 90, 35]},
-        "wall": {"kind": "obstacle", "at": [250, 100], "size": [40, 40, 150]},
-    },
-    "duckybots": {
-        "bot": {
-            "start": [220, -300, 90],
-            "size": [90, 70, 40],
-            "route": [
-                {"park": [220, 0, 90], "until": "loaded", "wait_s": 1.0},
-                {"drive_to": [220, 200]},
-            ],
-        }
-    },
-}
-
-DT = 0.05
-
-
-@pytest.fixture
-def make_world(sim_profile):
-    """A factory: the world (seed 3) with these sections replaced, and its arm at (200, 0, 200)."""
-
-    def make(**world_changes):
-        profile = sim_profile(WORLD)
-        profile["world"].update(world_changes)
-        world = World(parse_scene(profile), seed=3)
-        emulator = FakeEmulator()
-        emulator.put([200, 0, 200])
-        world.attach_arm(emulator)
-        world.step(0.0)
-        return world, emulator
-
-    return make
-
-
-def run(world, emulator, seconds, t0=None):
-    t = world.time if t0 is None else t0
-    end = t + seconds
-    while t < end - 1e-9:
-        t = round(t + DT, 9)
-        emulator.step(t)
-        world.step(t)
-    return t
+from sim_fakes import run_world
 
 
 def test_suction_picks_only_within_the_tolerance_and_carries_rigidly(make_world):
@@ -64,13 +12,13 @@ def test_suction_picks_only_within_the_tolerance_and_carries_rigidly(make_world)
     ducky = world.bodies["ducky"]
     emu.put([200, -100, ducky.top + 12])
     emu.suction = True
-    run(world, emu, 0.2)
+    run_world(world, emu, 0.2)
     assert world.held is None, "12 mm above the top face is too far for the cup"
     emu.suction = False
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.put([203, -98, ducky.top + 2])
     emu.suction = True
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert world.held == "ducky"
 
     def in_tool():
@@ -79,7 +27,7 @@ def test_suction_picks_only_within_the_tolerance_and_carries_rigidly(make_world)
 
     held = in_tool()
     emu.put([120, 40, 150])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert np.allclose(in_tool(), held), "carried rigidly in the tool frame"
     assert world.score()["held"] == "ducky"
 
@@ -89,13 +37,13 @@ def test_released_trash_falls_into_the_bin_and_scores(make_world):
     trash = world.bodies["trash"]
     emu.put([150, 150, trash.top])
     emu.suction = True
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.put([0, 250, 120])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.suction = False
-    run(world, emu, 0.05)
+    run_world(world, emu, 0.05)
     assert trash.falling and trash.bottom > 3.0, "it takes time to fall"
-    run(world, emu, 1.0)
+    run_world(world, emu, 1.0)
     score = world.score()
     assert not trash.falling
     assert trash.bottom == pytest.approx(3.0)  # the bin's floor (wall 3 mm)
@@ -107,23 +55,23 @@ def test_released_trash_falls_into_the_bin_and_scores(make_world):
 def test_ducky_dropped_on_the_parked_duckybot_leaves_with_it(make_world):
     world, emu = make_world()
     bot = world.duckybots["bot"]
-    run(world, emu, 15.0)
+    run_world(world, emu, 15.0)
     assert bot.parked, "the Duckybot waits at its loading spot"
     ducky = world.bodies["ducky"]
     emu.put([200, -100, ducky.top])
     emu.suction = True
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     top = world.bodies["bot"].top
     here = world.bodies["bot"].pose[:2, 3]
     emu.put([here[0], here[1], top + ducky.size[2] + 5])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.suction = False
     emu.put([here[0], here[1], 200])
-    run(world, emu, 0.5)
+    run_world(world, emu, 0.5)
     score = world.score()
     assert score["ducky_on_duckybot"] and score["duckies_on_duckybots"] == {"bot": ["ducky"]}
     assert ducky.bottom == pytest.approx(top)
-    run(world, emu, 10.0)
+    run_world(world, emu, 10.0)
     assert bot.phase in ("driving", "done") and bot.leg_index >= 1, "loaded: it leaves"
     assert world.bodies["bot"].pose[1, 3] > here[1] + 50
     assert np.allclose(ducky.pose[:2, 3], world.bodies["bot"].pose[:2, 3], atol=1.0)
@@ -134,11 +82,11 @@ def test_object_released_off_the_table_is_lost(make_world):
     ducky = world.bodies["ducky"]
     emu.put([200, -100, ducky.top])
     emu.suction = True
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.put([330, -100, 100])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     emu.suction = False
-    run(world, emu, 1.5)
+    run_world(world, emu, 1.5)
     assert world.score()["fell_off_table"] == ["ducky"]
 
 
@@ -147,16 +95,16 @@ def test_gripper_grasps_when_closing_around_an_object(make_world):
     ducky = world.bodies["ducky"]
     emu.gripper = 60.0
     emu.put([200, -100, ducky.bottom + 15])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert world.held is None
     emu.gripper = 31.0
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert world.held == "ducky"
     emu.put([200, -100, 100])
-    run(world, emu, 0.1)
+    run_world(world, emu, 0.1)
     assert ducky.bottom == pytest.approx(100 - 15)
     emu.gripper = 60.0
-    run(world, emu, 1.0)
+    run_world(world, emu, 1.0)
     assert world.held is None and ducky.bottom == pytest.approx(0.0, abs=1e-9)
 
 
@@ -164,7 +112,7 @@ def test_collision_is_recorded_once_and_halts_the_arm(make_world):
     world, emu = make_world()
     emu.put([200, 100, 60])
     emu.target = emu.model.ik(np.array([300, 100, 60.0]))
-    run(world, emu, 2.0)
+    run_world(world, emu, 2.0)
     score = world.score()
     assert score["collision_count"] == 1
     hit = score["collisions"][0]
@@ -177,7 +125,7 @@ def test_collision_without_halting_when_configured(make_world):
     world, emu = make_world(physics={"halt_on_collision": False})
     emu.put([200, 100, 60])
     emu.target = emu.model.ik(np.array([300, 100, 60.0]))
-    run(world, emu, 2.0)
+    run_world(world, emu, 2.0)
     score = world.score()
     assert score["collision_count"] >= 1, "the tool, then the boom, pass through the wall"
     assert {c["other"] for c in score["collisions"]} == {"wall"}
@@ -190,7 +138,7 @@ def test_touching_a_top_face_is_not_a_collision(make_world):
     ducky = world.bodies["ducky"]
     emu.put([200, -100, ducky.top + 30])
     emu.target = emu.model.ik(np.array([200, -100, ducky.top - 1.0]))
-    run(world, emu, 1.0)
+    run_world(world, emu, 1.0)
     assert world.score()["collision_count"] == 0
 
 
@@ -203,12 +151,12 @@ def script(world, emu):
     """A scripted pick-and-place used to compare runs."""
     ducky = world.bodies["ducky"]
     emu.target = emu.model.ik(np.array([200, -100, ducky.top]))
-    run(world, emu, 3.0)
+    run_world(world, emu, 3.0)
     emu.suction = True
     emu.target = emu.model.ik(np.array([50, 200, 120]))
-    run(world, emu, 4.0)
+    run_world(world, emu, 4.0)
     emu.suction = False
-    run(world, emu, 3.0)
+    run_world(world, emu, 3.0)
 
 
 def test_same_seed_same_world_state(make_world):
@@ -224,20 +172,20 @@ def test_same_seed_same_world_state(make_world):
 def test_missed_steps_under_load_at_the_configured_rate(make_world):
     faults = {"missed_steps": {"rate_per_s": 4.0, "max_amount": 1.5, "joints": [1, 2]}}
     world, emu = make_world(faults=faults)
-    run(world, emu, 5.0)
+    run_world(world, emu, 5.0)
     assert emu.injected == [], "an idle arm does not slip"
     emu.target = emu.model.ik(np.array([150.0, 150.0, 100.0]))
     emu.speed = 20.0
-    run(world, emu, 5.0)
+    run_world(world, emu, 5.0)
     slips = [opts for fault, opts in emu.injected if fault == "missed_steps"]
     assert 8 <= len(slips) <= 35
     assert all(o["joint"] in (1, 2) and abs(o["amount"]) <= 1.5 for o in slips)
     assert len(world.score()["missed_steps"]) == len(slips)
     again, emu2 = make_world(faults=faults)
-    run(again, emu2, 5.0)
+    run_world(again, emu2, 5.0)
     emu2.target = emu2.model.ik(np.array([150.0, 150.0, 100.0]))
     emu2.speed = 20.0
-    run(again, emu2, 5.0)
+    run_world(again, emu2, 5.0)
     assert emu2.injected == emu.injected, "the same slips for the same seed"
 
 
