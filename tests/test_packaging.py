@@ -38,3 +38,46 @@ def test_every_entry_point_module_exists():
         else:
             path = ROOT / folder / Path(*parts[1:])
         assert path.with_suffix(".py").is_file(), f"entry point {name} -> {target} has no module"
+
+
+def _requirement_blocks(text: str) -> dict[str, list[tuple[str, list[str]]]]:
+    """Each dependency list of pyproject.toml: its requirements with the comment lines above."""
+    blocks: dict[str, list[tuple[str, list[str]]]] = {}
+    name, comments = None, []
+    for raw in text.splitlines():
+        line = raw.strip()
+        if line.endswith("= [") and not line.startswith("#"):
+            name, comments = line.split("=")[0].strip(), []
+            blocks[name] = []
+        elif name and line.startswith("]"):
+            name = None
+        elif name and line.startswith("#"):
+            comments.append(line)
+        elif name and line.startswith('"'):
+            blocks[name].append((line.strip('",'), comments))
+            comments = []
+    return blocks
+
+
+def test_every_dependency_says_why_it_is_there():
+    blocks = _requirement_blocks((ROOT / "pyproject.toml").read_text())
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert [r for r, _ in blocks["dependencies"]] == config["project"]["dependencies"]
+    for extra, requirements in config["project"]["optional-dependencies"].items():
+        assert [r for r, _ in blocks[extra]] == requirements
+    bare = [
+        (block, requirement)
+        for block, requirements in blocks.items()
+        if block == "dependencies" or block in config["project"]["optional-dependencies"]
+        for requirement, comments in requirements
+        if not comments and not requirement.startswith(("setuptools", "wheel"))
+    ]
+    assert bare == [], "say in a comment above each of these why it is a dependency"
+
+
+def test_numba_is_not_a_dependency():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    every = config["project"]["dependencies"] + [
+        r for extra in config["project"]["optional-dependencies"].values() for r in extra
+    ]
+    assert not [r for r in every if r.lower().startswith(("numba", "llvmlite"))]

@@ -1,4 +1,4 @@
-"""The trackers' compiled loops: grey levels, the square-to-quad map, quad tidying, overlaps."""
+"""The trackers' whole-array kernels: grey levels, the square-to-quad map, quad tidying, overlaps."""
 
 import cv2
 import numpy as np
@@ -108,15 +108,15 @@ def test_of_overlapping_readings_the_cleaner_then_the_larger_is_kept():
     assert kept.tolist() == [1]
 
 
-def test_kernels_compile_where_nothing_can_be_cached(monkeypatch):
-    from numba.core import caching
-
-    def twice(x):
-        return 2 * x
-
-    assert isinstance(kernels.compiled(twice)._cache, caching.FunctionCache)
-    # no folder to cache in (a read-only container): numba refuses cache=True
-    monkeypatch.setattr(caching.CacheImpl, "_locator_classes", [])
-    uncached = kernels.compiled(twice)
-    assert uncached(21) == 42
-    assert not isinstance(uncached._cache, caching.FunctionCache)
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (6, 1), (2, 2)])
+def test_grey_at_on_images_one_pixel_thin(shape):
+    image = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
+    xs = np.array([-3.0, 0.0, 0.25, shape[1] - 1.0, shape[1] + 4.0, np.nan])
+    ys = np.array([0.5, -1.0, shape[0] - 1.0, 0.75, np.inf, 0.0])
+    got = kernels.grey_at(image, xs, ys)
+    assert got.shape == xs.shape
+    assert np.allclose(
+        got,
+        [bilinear(image, x, y) for x, y in zip(np.nan_to_num(xs, nan=0.0), ys, strict=True)],
+        atol=1e-9,
+    )

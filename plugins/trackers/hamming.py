@@ -2,8 +2,8 @@
 
 Pipeline per frame: grey, the profile's preprocessing (seed 004: threshold at
 40 % of full scale, slight blur), outer contours of dark regions that are
-convex quadrilaterals, the 9x9 cells read through each quad's homography (a
-compiled loop, :mod:`.kernels`), each cell compared with the midpoint of
+convex quadrilaterals, the 9x9 cells read through each quad's homography
+(:mod:`.kernels`, all candidates at once), each cell compared with the midpoint of
 the black border and the white quiet zone around it (planes fitted over the
 marker, so a marker half in shadow reads like one in full light), then
 Hamming(7,4) decoding of the four rotations at once. Corners are refined to sub-pixel
@@ -31,6 +31,7 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, check_config, finish_detection
 from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
+from .kernels import best_of_overlapping, clockwise_quads, read_markers, sample_cells
 from .preprocess import Preprocessing, threshold_image, to_gray
 from .refine import refine_corners
 
@@ -232,8 +233,6 @@ class HammingTracker(Tracker):
                 found.append(approx)
         if not found:
             return np.zeros((0, 4, 2), np.float32)
-        from .kernels import clockwise_quads  # numba on first use, see refine_corners
-
         quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
         return clockwise_quads(quads, float(self.min_side_px))
 
@@ -243,9 +242,6 @@ class HammingTracker(Tracker):
             return []
         if self.only_registered and not self.roles.table:
             return []
-        # numba on first use, see refine_corners
-        from .kernels import best_of_overlapping, read_markers, sample_cells
-
         levels = sample_cells(
             np.ascontiguousarray(gray), quads.astype(np.float64), _CELL_SAMPLES, _QUIET_SAMPLES
         )

@@ -1,173 +1,107 @@
-"""The trackers' per-point loops, compiled with numba: grey levels, edge fits, cell samples.
+"""The trackers' per-point work in whole-array numpy: grey levels, edge fits, cell reading.
 
-A frame holds a handful of markers, and each step of corner refinement and
-cell reading is a small computation on a few thousand points. As numpy
-calls, the count of calls, not their size, set the time (about 0.4 ms a
-frame, more than finding the markers); compiled loops do the same work in a
-few tens of microseconds. Functions are compiled on first use and cached
-on disk (``cache=True``): only the first run after an install pays the
-compilation (about 4 s for the aruco tracker's loops, 8 s for both
-trackers'); later runs load them in 0.4 s, numba's import included. The
-modules that call them import this one on first use, so commands that
-never look at a marker do not import numba.
+A frame holds a handful of markers and each step of corner refinement and
+cell reading is a small computation on a few thousand points. Each function
+here takes every marker (or candidate) of a frame at once, so the number of
+numpy calls per frame stays fixed whatever the number of markers: the cost
+of a call, not the size of its arrays, is what such small arrays pay for.
 
 Pixel coordinates are OpenCV's: x to the right, y down, pixel centres at
 integers. Images are ``uint8``, grey ``(H, W)`` or BGR ``(H, W, 3)``.
+Quads are ``(N, 4, 2)``, corner k followed by corner k + 1 around the square.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
-from typing import Any
-
-import numba
 import numpy as np
 
-
-def compiled(function: Callable[..., Any]) -> Any:
-    """``function`` compiled by numba (no GIL), its machine code cached on disk when it can be.
-
-    numba refuses to cache where neither the package's folder nor the user's
-    cache folder is writable (a read-only container, say); the function is
-    then compiled afresh in each process rather than failing to import.
-    """
-    try:
-        return numba.njit(cache=True, nogil=True)(function)
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        return numba.njit(nogil=True)(function)
+#: cv2.COLOR_BGR2GRAY's weights of the blue, green and red channels.
+_BGR = np.array([0.114, 0.587, 0.299])
 
 
-# cv2.COLOR_BGR2GRAY's weights (a tuple: numba freezes it into the compiled code)
-_BGR = (0.114, 0.587, 0.299)
+#: Corner k's neighbours around a quad: corner k + 1 and corner k - 1.
+_NEXT = np.array([1, 2, 3, 0])
+_PREVIOUS = np.array([3, 0, 1, 2])
 
 
-@compiled
-def grey_at(image: np.ndarray, x: float, y: float) -> float:
-    """Bilinear grey level of ``image`` at ``(x, y)``; edge pixels repeat beyond the image.
+def grey_at(image: np.ndarray, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+    """Bilinear grey levels of ``image`` at points ``(x, y)`` (any matching shapes, float64).
 
-    BGR pixels are weighed as ``cv2.cvtColor`` weighs them. A non-finite
-    coordinate reads the nearest edge, never memory outside the image.
+    Edge pixels repeat beyond the image, and a non-finite coordinate reads the
+    nearest edge (NaN the first row or column), never memory outside the
+    image. BGR pixels are weighed as ``cv2.cvtColor`` weighs them, unrounded.
+    Interpolation is exact (``cv2.remap`` quantises positions to 1/32 px).
     """
     h, w = image.shape[0], image.shape[1]
-    # written so that NaN fails the test and lands on the edge
-    if not x >= 0.0:
-        x = 0.0
-    elif x > w - 1.0:
-        x = w - 1.0
-    if not y >= 0.0:
-        y = 0.0
-    elif y > h - 1.0:
-        y = h - 1.0
-    x0, y0 = int(x), int(y)
-    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+    # NaN fails ">= 0" and lands on the first pixel; +inf is clipped to the last
+    x = np.where(np.greater_equal(x, 0.0), np.minimum(x, w - 1.0), 0.0)
+    y = np.where(np.greater_equal(y, 0.0), np.minimum(y, h - 1.0), 0.0)
+    # the top-left neighbour stays one pixel inside the far edges, so all four neighbours
+    # are pixels of the image; on the edge itself the far neighbour then weighs 1
+    x0 = np.minimum(x.astype(np.intp), max(w - 2, 0))
+    y0 = np.minimum(y.astype(np.intp), max(h - 2, 0))
     fx, fy = x - x0, y - y0
+    step_x, step_y = min(w - 1, 1), w * min(h - 1, 1)
+    corners = (y0 * w + x0)[..., None] + np.array([0, step_x, step_y, step_x + step_y])
     if image.ndim == 2:
-        top = image[y0, x0] * (1.0 - fx) + image[y0, x1] * fx
-        bottom = image[y1, x0] * (1.0 - fx) + image[y1, x1] * fx
-        return top * (1.0 - fy) + bottom * fy
-    level = 0.0
-    for channel in range(3):
-        top = image[y0, x0, channel] * (1.0 - fx) + image[y0, x1, channel] * fx
-        bottom = image[y1, x0, channel] * (1.0 - fx) + image[y1, x1, channel] * fx
-        level += _BGR[channel] * (top * (1.0 - fy) + bottom * fy)
-    return level
+        pixels = image.reshape(-1).take(corners).astype(np.float64)
+    else:
+        pixels = image.reshape(h * w, 3).take(corners.reshape(-1), axis=0).astype(np.float64)
+        pixels = (pixels @ _BGR).reshape(corners.shape)
+    top = pixels[..., 0] + fx * (pixels[..., 1] - pixels[..., 0])
+    bottom = pixels[..., 2] + fx * (pixels[..., 3] - pixels[..., 2])
+    return top + fy * (bottom - top)
 
 
-@compiled
-def _refine_quad(
+def _refine_pass(
     image: np.ndarray,
-    quad: np.ndarray,
+    quads: np.ndarray,
     cells: float,
     along: np.ndarray,
     across: np.ndarray,
     weights: np.ndarray,
     min_contrast: float,
-    out: np.ndarray,
-) -> float:
-    """One refinement pass of one quad ``(4, 2)`` into ``out``; returns the profiles' reach (px).
+) -> tuple[np.ndarray, np.ndarray]:
+    """One refinement pass of quads ``(M, 4)`` as complex ``x + iy``: refined corners, reach (px).
 
     See :mod:`.refine` for the method. Edge k runs from corner k to corner
-    k + 1; corner k is where edges k - 1 and k meet.
+    k + 1; corner k is where edges k - 1 and k meet. Points are complex
+    numbers so that each step is one numpy call for both coordinates.
     """
-    n_along, n_across = along.shape[0], across.shape[0]
-    side = 0.0
-    for k in range(4):
-        side += math.hypot(quad[(k + 1) % 4, 0] - quad[k, 0], quad[(k + 1) % 4, 1] - quad[k, 1])
-    side *= 0.25
-    reach = min(max(0.8 * side / cells, 0.8), 4.0)
-    centre = np.empty((4, 2))
-    direction = np.empty((4, 2))
-    fitted = np.zeros(4, dtype=np.bool_)
-    ex = np.empty(n_along)
-    ey = np.empty(n_along)
-    ok = np.empty(n_along, dtype=np.bool_)
-    profile = np.empty(n_across)
-    for k in range(4):
-        dx = quad[(k + 1) % 4, 0] - quad[k, 0]
-        dy = quad[(k + 1) % 4, 1] - quad[k, 1]
-        length = max(math.hypot(dx, dy), 1e-9)
-        # outward normal of a clockwise quad (y down)
-        nx, ny = dy / length * reach, -dx / length * reach
-        count = 0
-        for t in range(n_along):
-            bx, by = quad[k, 0] + along[t] * dx, quad[k, 1] + along[t] * dy
-            for s in range(n_across):
-                profile[s] = grey_at(image, bx + across[s] * nx, by + across[s] * ny)
-            dark = 0.5 * (profile[0] + profile[1])
-            contrast = 0.5 * (profile[n_across - 2] + profile[n_across - 1]) - dark
-            ok[t] = contrast > min_contrast
-            if not ok[t]:
-                continue
-            count += 1
-            # e = w - integral of the light fraction over [-w, w], in units of reach
-            light = 0.0
-            for s in range(n_across):
-                fraction = min(max((profile[s] - dark) / contrast, 0.0), 1.0)
-                light += weights[s] * fraction
-            e = 1.0 - light
-            ex[t], ey[t] = bx + e * nx, by + e * ny
-        if count < 4:
-            continue
-        mx = my = 0.0
-        for t in range(n_along):
-            if ok[t]:
-                mx += ex[t]
-                my += ey[t]
-        mx /= count
-        my /= count
-        # total-least-squares line: its direction is half the angle of sum((r_x + i r_y)^2)
-        cos2 = sin2 = 0.0
-        for t in range(n_along):
-            if ok[t]:
-                rx, ry = ex[t] - mx, ey[t] - my
-                cos2 += rx * rx - ry * ry
-                sin2 += 2.0 * rx * ry
-        angle = 0.5 * math.atan2(sin2, cos2)
-        centre[k, 0], centre[k, 1] = mx, my
-        direction[k, 0], direction[k, 1] = math.cos(angle), math.sin(angle)
-        fitted[k] = True
-    limit = 2.0 * side / cells  # a corner that jumps more than two cells is a failed fit
-    for k in range(4):
-        out[k, 0], out[k, 1] = quad[k, 0], quad[k, 1]
-        p = (k + 3) % 4
-        if not (fitted[k] and fitted[p]):
-            continue
-        denom = direction[p, 0] * direction[k, 1] - direction[p, 1] * direction[k, 0]
-        if abs(denom) < 1e-6:
-            continue
-        t_ = (
-            (centre[k, 0] - centre[p, 0]) * direction[k, 1]
-            - (centre[k, 1] - centre[p, 1]) * direction[k, 0]
-        ) / denom
-        x = centre[p, 0] + t_ * direction[p, 0]
-        y = centre[p, 1] + t_ * direction[p, 1]
-        if math.hypot(x - quad[k, 0], y - quad[k, 1]) < limit:
-            out[k, 0], out[k, 1] = x, y
-    return reach
+    edge = quads[:, _NEXT] - quads  # (M, 4)
+    lengths = np.abs(edge)
+    side = 0.25 * lengths.sum(axis=1)  # (M,)
+    reach = np.minimum(np.maximum(0.8 / cells * side, 0.8), 4.0)
+    # outward normal of a clockwise quad (y down), one reach long: -i times the edge
+    normal = edge * (-1j * reach[:, None] / np.maximum(lengths, 1e-9))
+    base = quads[..., None] + edge[..., None] * along  # (M, 4, T): points along each edge
+    points = base[..., None] + normal[..., None, None] * across  # (M, 4, T, S)
+    profile = grey_at(image, points.real, points.imag)  # a short profile across the edge
+    dark = 0.5 * (profile[..., 0] + profile[..., 1])
+    contrast = 0.5 * (profile[..., -2] + profile[..., -1]) - dark
+    ok = contrast > min_contrast  # (M, 4, T)
+    fraction = (profile - dark[..., None]) / np.where(ok, contrast, 1.0)[..., None]
+    # e = w - integral of the light fraction over [-w, w], in units of reach
+    light = np.minimum(np.maximum(fraction, 0.0), 1.0).reshape(-1, len(weights)) @ weights
+    e = 1.0 - light.reshape(ok.shape)
+    found = np.where(ok, base + e * normal[..., None], 0.0)
+    count = ok.sum(axis=-1)  # (M, 4)
+    mean = found.sum(axis=-1) / np.maximum(count, 1)
+    spread = np.where(ok, found - mean[..., None], 0.0)
+    # total-least-squares line: its direction is half the angle of sum((r_x + i r_y)^2)
+    squares = (spread * spread).sum(axis=-1)
+    direction = np.exp(0.5j * np.arctan2(squares.imag, squares.real))
+    # corner k: the line of edge k - 1 (through p along v) meets that of edge k
+    p, v = mean[:, _PREVIOUS], direction[:, _PREVIOUS]
+    denom = (v.conjugate() * direction).imag  # cross(v, u)
+    fitted = count >= 4
+    usable = fitted & fitted[:, _PREVIOUS] & (np.abs(denom) >= 1e-6)
+    corner = p + v * ((mean - p).conjugate() * direction).imag / np.where(usable, denom, 1.0)
+    limit = 2.0 / cells * side  # a corner that jumps more than two cells is a failed fit
+    usable &= np.abs(corner - quads) < limit[:, None]
+    return np.where(usable, corner, quads), reach
 
 
-@compiled
 def refine_quads(
     image: np.ndarray,
     quads: np.ndarray,
@@ -180,34 +114,22 @@ def refine_quads(
     min_contrast: float,
 ) -> np.ndarray:
     """Refined corners ``(N, 4, 2)`` of ``quads (N, 4, 2)``; see :func:`.refine.refine_corners`."""
-    out = np.empty((quads.shape[0], 4, 2))
-    current = np.empty((4, 2))
-    refined = np.empty((4, 2))
-    for m in range(quads.shape[0]):
-        cx = 0.25 * (quads[m, 0, 0] + quads[m, 1, 0] + quads[m, 2, 0] + quads[m, 3, 0])
-        cy = 0.25 * (quads[m, 0, 1] + quads[m, 1, 1] + quads[m, 2, 1] + quads[m, 3, 1])
-        for k in range(4):
-            ax, ay = quads[m, k, 0] - cx, quads[m, k, 1] - cy
-            push = inset * math.sqrt(2.0) / max(math.hypot(ax, ay), 1e-6)
-            current[k, 0], current[k, 1] = quads[m, k, 0] + push * ax, quads[m, k, 1] + push * ay
-        for _ in range(passes):
-            reach = _refine_quad(
-                image, current, cells, along, across, weights, min_contrast, refined
-            )
-            moved = 0.0
-            for k in range(4):
-                moved = max(
-                    moved, math.hypot(refined[k, 0] - current[k, 0], refined[k, 1] - current[k, 1])
-                )
-                current[k, 0], current[k, 1] = refined[k, 0], refined[k, 1]
-            # a profile that ended within the blur of the edge biases the fit: once more
-            if moved <= 0.3 * reach:
-                break
-        out[m] = current
-    return out
+    quads = np.asarray(quads, dtype=np.float64)
+    current = quads[..., 0] + 1j * quads[..., 1]
+    from_centre = current - current.mean(axis=1, keepdims=True)
+    current += from_centre * (inset * np.sqrt(2.0) / np.maximum(np.abs(from_centre), 1e-6))
+    active = np.arange(len(quads))
+    for _ in range(passes):
+        if len(active) == 0:
+            break
+        before = current[active]
+        refined, reach = _refine_pass(image, before, cells, along, across, weights, min_contrast)
+        current[active] = refined
+        # a profile that ended within the blur of the edge biases the fit: once more
+        active = active[np.abs(refined - before).max(axis=1) > 0.3 * reach]
+    return np.stack([current.real, current.imag], axis=-1)
 
 
-@compiled
 def sample_cells(
     image: np.ndarray, quads: np.ndarray, cell_uv: np.ndarray, quiet_uv: np.ndarray
 ) -> np.ndarray:
@@ -219,40 +141,39 @@ def sample_cells(
     (Heckbert 1989, square to quadrilateral). A cell's level is the mean of
     its points. A degenerate quad reads its first corner's level everywhere.
     """
+    quads = np.asarray(quads, dtype=np.float64)
     n_cells, per_cell = cell_uv.shape[0], cell_uv.shape[1]
-    out = np.empty((quads.shape[0], n_cells + quiet_uv.shape[0]))
-    for m in range(quads.shape[0]):
-        x0, y0 = quads[m, 0, 0], quads[m, 0, 1]
-        x1, y1 = quads[m, 1, 0], quads[m, 1, 1]
-        x2, y2 = quads[m, 2, 0], quads[m, 2, 1]
-        x3, y3 = quads[m, 3, 0], quads[m, 3, 1]
-        dx1, dx2, dx3 = x1 - x2, x3 - x2, x0 - x1 + x2 - x3
-        dy1, dy2, dy3 = y1 - y2, y3 - y2, y0 - y1 + y2 - y3
-        den = dx1 * dy2 - dx2 * dy1
-        if abs(den) < 1e-12:
-            out[m, :] = grey_at(image, x0, y0)
-            continue
-        g = (dx3 * dy2 - dx2 * dy3) / den
-        h = (dx1 * dy3 - dx3 * dy1) / den
-        a, b = x1 - x0 + g * x1, x3 - x0 + h * x3
-        d, e = y1 - y0 + g * y1, y3 - y0 + h * y3
-        for i in range(n_cells + quiet_uv.shape[0]):
-            total = 0.0
-            count = per_cell if i < n_cells else 1
-            for j in range(count):
-                if i < n_cells:
-                    u, v = cell_uv[i, j, 0], cell_uv[i, j, 1]
-                else:
-                    u, v = quiet_uv[i - n_cells, 0], quiet_uv[i - n_cells, 1]
-                w = g * u + h * v + 1.0
-                if abs(w) < 1e-12:
-                    w = 1e-12
-                total += grey_at(image, (a * u + b * v + x0) / w, (d * u + e * v + y0) / w)
-            out[m, i] = total / count
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = (quads[:, k].T[:, :, None] for k in range(4))
+    dx1, dx2, dx3 = x1 - x2, x3 - x2, x0 - x1 + x2 - x3
+    dy1, dy2, dy3 = y1 - y2, y3 - y2, y0 - y1 + y2 - y3
+    den = dx1 * dy2 - dx2 * dy1  # (N, 1)
+    degenerate = np.abs(den[:, 0]) < 1e-12
+    den = np.where(degenerate[:, None], 1.0, den)
+    g = (dx3 * dy2 - dx2 * dy3) / den
+    h = (dx1 * dy3 - dx3 * dy1) / den
+    one = np.ones_like(g)
+    homography = np.concatenate(
+        [x1 - x0 + g * x1, x3 - x0 + h * x3, x0, y1 - y0 + g * y1, y3 - y0 + h * y3, y0, g, h, one],
+        axis=1,
+    ).reshape(-1, 3, 3)
+    uv = np.concatenate([cell_uv.reshape(-1, 2), quiet_uv])
+    mapped = homography @ np.concatenate([uv.T, np.ones((1, len(uv)))])  # (N, 3, P)
+    w = mapped[:, 2]
+    w = np.where(np.abs(w) < 1e-12, 1e-12, w)
+    levels = grey_at(image, mapped[:, 0] / w, mapped[:, 1] / w)
+    split = n_cells * per_cell
+    out = np.concatenate(
+        [
+            levels[:, :split].reshape(-1, n_cells, per_cell).sum(axis=-1) / per_cell,
+            levels[:, split:],
+        ],
+        axis=1,
+    )
+    if degenerate.any():
+        out[degenerate] = grey_at(image, x0[degenerate], y0[degenerate])
     return out
 
 
-@compiled
 def read_markers(
     reading: np.ndarray,
     border: np.ndarray,
@@ -282,104 +203,59 @@ def read_markers(
     tracker's (see :class:`.hamming.HammingTracker`): registered ids first,
     then fewest corrections, then the smallest id.
     """
-    n = reading.shape[0]
     n_cells = (reading.shape[1] - 1) // 3
-    white = np.empty(n_cells, dtype=np.int64)
-    margin = np.empty(n_cells)
     n_data = turned.shape[1]
-    bits = int(round(math.sqrt(n_data)))
-    refused_key = bits + 1  # corrections that can never be allowed
+    bits = int(round(np.sqrt(n_data)))
+    rows = np.flatnonzero(reading[:, 3 * n_cells] >= min_contrast)
+    above = reading[rows, :n_cells] - reading[rows, n_cells : 2 * n_cells]
+    white = (above > 0.0).astype(np.int64)
+    margin = np.abs(above) / np.maximum(reading[rows, 2 * n_cells : 3 * n_cells], 1.0)
+    inner = white[:, turned[0]].sum(axis=1)
+    # hampy rejects all-black and all-white insides; so do we
+    plausible = (white[:, border].sum(axis=1) <= max_border_errors) & (inner > 0)
+    plausible &= inner < n_data
+    rows, white, margin = rows[plausible], white[plausible], margin[plausible]
+    # each candidate's data cells under the four turns, row by row: (N, 4, 7, 7)
+    shape = (len(rows), 4, bits, bits)
+    cells = white[:, turned].reshape(shape)
+    doubts = margin[:, turned].reshape(shape)
+    words = cells @ (1 << np.arange(bits - 1, -1, -1))  # (N, 4, 7), left bit most significant
+    ids = word_nibble[words] @ (1 << (4 * np.arange(bits - 1, -1, -1)))  # (N, 4)
+    corrected = word_errors[words].sum(axis=-1)
+    flip = word_flip[words]
+    # the margin of the cell each row's correction flips (any cell where none is flipped)
+    flipped_margin = doubts.reshape(-1)[np.arange(0, doubts.size, bits).reshape(flip.shape) + flip]
+    # two misread (doubtful) cells in a row decode to a wrong nibble by flipping a
+    # third, clearly read one: such a correction is refused
+    refused = (
+        (flip >= 0) & (doubts.min(axis=-1) < max_flip_margin) & (flipped_margin > max_flip_margin)
+    ).any(axis=-1)
+    # ids 0 and 2**28 - 1 are an all-black and an all-white inside
+    refused |= (ids == 0) | (ids == (1 << (4 * bits)) - 1)
+    corrected = np.where(refused, bits + 1, corrected)  # a count never allowed
+    if len(registered):  # sorted
+        at = np.minimum(np.searchsorted(registered, ids), len(registered) - 1)
+        is_registered = registered[at] == ids
+    else:
+        is_registered = np.zeros(ids.shape, dtype=bool)
+    valid = (corrected <= max_corrected_bits) & (is_registered | (not only_registered))
     no_key = 1 << 20
-    rows = np.empty(n, dtype=np.int64)
-    turns = np.empty(n, dtype=np.int64)
-    ids_out = np.empty(n, dtype=np.int64)
-    corrected_out = np.empty(n, dtype=np.int64)
-    ties_out = np.empty(n, dtype=np.int64)
-    keys = np.empty(4, dtype=np.int64)
-    ids = np.empty(4, dtype=np.int64)
-    corrections = np.empty(4, dtype=np.int64)
-    all_white = (1 << (4 * bits)) - 1
-    found = 0
-    for m in range(n):
-        if not reading[m, 3 * n_cells] >= min_contrast:
-            continue
-        for i in range(n_cells):
-            above = reading[m, i] - reading[m, n_cells + i]
-            white[i] = 1 if above > 0.0 else 0
-            margin[i] = abs(above) / max(reading[m, 2 * n_cells + i], 1.0)
-        border_white = 0
-        for i in range(border.shape[0]):
-            border_white += white[border[i]]
-        inner = 0
-        for i in range(n_data):
-            inner += white[turned[0, i]]
-        # hampy rejects all-black and all-white insides; so do we
-        if border_white > max_border_errors or inner == 0 or inner == n_data:
-            continue
-        for k in range(4):
-            marker_id = 0
-            corrected = 0
-            refused = False
-            for r in range(bits):
-                word = 0
-                doubt = 1e300
-                for c in range(bits):
-                    cell = turned[k, r * bits + c]
-                    word = 2 * word + white[cell]
-                    doubt = min(doubt, margin[cell])
-                marker_id = (marker_id << 4) | word_nibble[word]
-                corrected += word_errors[word]
-                flip = word_flip[word]
-                # two misread (doubtful) cells in a row decode to a wrong nibble by
-                # flipping a third, clearly read one: such a correction is refused
-                if (
-                    flip >= 0
-                    and doubt < max_flip_margin
-                    and margin[turned[k, r * bits + flip]] > max_flip_margin
-                ):
-                    refused = True
-            # ids 0 and 2**28 - 1 are an all-black and an all-white inside
-            if refused or marker_id == 0 or marker_id == all_white:
-                corrected = refused_key
-            ids[k] = marker_id
-            corrections[k] = corrected
-            is_registered = False
-            if registered.shape[0]:
-                at = np.searchsorted(registered, marker_id)
-                is_registered = at < registered.shape[0] and registered[at] == marker_id
-            valid = corrected <= max_corrected_bits and (is_registered or not only_registered)
-            unregistered_penalty = 0 if is_registered else bits + 2
-            keys[k] = unregistered_penalty + corrected if valid else no_key
-        best = keys.min()
-        if best == no_key:
-            continue
-        chosen = -1
-        ties = 0
-        for k in range(4):
-            if keys[k] == best:
-                ties += 1
-                if chosen < 0 or ids[k] < ids[chosen]:
-                    chosen = k
-        rows[found] = m
-        turns[found] = chosen
-        ids_out[found] = ids[chosen]
-        corrected_out[found] = corrections[chosen]
-        ties_out[found] = ties
-        found += 1
-    return rows[:found], turns[:found], ids_out[:found], corrected_out[:found], ties_out[:found]
+    keys = np.where(valid, np.where(is_registered, 0, bits + 2) + corrected, no_key)
+    best = keys.min(axis=1, initial=no_key)
+    tied = keys == best[:, None]
+    chosen = np.argmin(np.where(tied, ids, np.iinfo(np.int64).max), axis=1)
+    found = best < no_key
+    pick = np.arange(len(rows))[found], chosen[found]
+    return rows[found], chosen[found], ids[pick], corrected[pick], tied.sum(axis=1)[found]
 
 
-@compiled
-def _twice_signed_area(quad: np.ndarray) -> float:
-    """Twice the shoelace area of a quad ``(4, 2)``: positive when clockwise on screen (y down)."""
-    twice = 0.0
-    for k in range(4):
-        j = (k + 1) % 4
-        twice += quad[k, 0] * quad[j, 1] - quad[j, 0] * quad[k, 1]
-    return twice
+def twice_signed_area(quads: np.ndarray) -> np.ndarray:
+    """Twice the shoelace areas of quads ``(..., 4, 2)``: positive when clockwise on screen (y down)."""
+    quads = np.asarray(quads, dtype=np.float64)
+    following = quads[..., _NEXT, :]
+    return (quads[..., 0] * following[..., 1] - following[..., 0] * quads[..., 1]).sum(axis=-1)
 
 
-@compiled
 def best_of_overlapping(
     quads: np.ndarray, corrected: np.ndarray, ambiguous: np.ndarray
 ) -> np.ndarray:
@@ -389,51 +265,31 @@ def best_of_overlapping(
     the better reading wins: fewer bits corrected, then not ambiguous, then
     the larger.
     """
-    n = quads.shape[0]
-    area = np.empty(n)
-    cx = np.empty(n)
-    cy = np.empty(n)
-    rank = np.empty(n)
-    for i in range(n):
-        area[i] = 0.5 * abs(_twice_signed_area(quads[i]))
-        cx[i] = 0.25 * (quads[i, 0, 0] + quads[i, 1, 0] + quads[i, 2, 0] + quads[i, 3, 0])
-        cy[i] = 0.25 * (quads[i, 0, 1] + quads[i, 1, 1] + quads[i, 2, 1] + quads[i, 3, 1])
-    largest = area.max() if n else 0.0
-    for i in range(n):
-        # corrections, then ambiguity, then size; the area term stays below 1
-        rank[i] = 4.0 * corrected[i] + 2.0 * ambiguous[i] - area[i] / (largest + 1.0)
-    kept = np.zeros(n, dtype=np.bool_)
-    for i in np.argsort(rank, kind="mergesort"):
-        clear = True
-        for j in range(n):
-            if kept[j]:
-                gap2 = (cx[i] - cx[j]) ** 2 + (cy[i] - cy[j]) ** 2
-                if gap2 <= max(area[i], area[j]) / 4.0:
-                    clear = False
-                    break
-        kept[i] = clear
+    n = len(quads)
+    if n == 0:
+        return np.zeros(0, dtype=np.intp)
+    area = 0.5 * np.abs(twice_signed_area(quads))
+    centres = np.asarray(quads, dtype=np.float64).mean(axis=1)
+    # corrections, then ambiguity, then size; the area term stays below 1
+    rank = 4.0 * np.asarray(corrected) + 2.0 * np.asarray(ambiguous) - area / (area.max() + 1.0)
+    gap2 = ((centres[:, None, :] - centres[None, :, :]) ** 2).sum(axis=-1)
+    overlapping = gap2 <= np.maximum(area[:, None], area[None, :]) / 4.0
+    kept = np.zeros(n, dtype=bool)
+    for i in np.argsort(rank, kind="stable"):
+        kept[i] = not (overlapping[i] & kept).any()
     return np.flatnonzero(kept)
 
 
-@compiled
 def clockwise_quads(quads: np.ndarray, min_side: float) -> np.ndarray:
     """The quads ``(N, 4, 2)`` whose every side is at least ``min_side``, turned clockwise on screen.
 
     Clockwise with y down is a positive shoelace sum; a quad running the
     other way has its corners reversed.
     """
-    keep = np.zeros(quads.shape[0], dtype=np.bool_)
-    for m in range(quads.shape[0]):
-        shortest = np.inf
-        for k in range(4):
-            j = (k + 1) % 4
-            shortest = min(
-                shortest,
-                math.hypot(quads[m, j, 0] - quads[m, k, 0], quads[m, j, 1] - quads[m, k, 1]),
-            )
-        keep[m] = shortest >= min_side
-    out = quads[keep].copy()
-    for m in range(out.shape[0]):
-        if _twice_signed_area(out[m]) < 0.0:
-            out[m] = out[m, ::-1].copy()
+    corners = quads.astype(np.float64)
+    edges = corners[:, _NEXT] - corners
+    shortest = np.sqrt((edges * edges).sum(axis=-1).min(axis=1, initial=np.inf))
+    out = quads[shortest >= min_side]
+    backwards = twice_signed_area(out) < 0.0
+    out[backwards] = out[backwards, ::-1]
     return out

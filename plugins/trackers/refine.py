@@ -8,8 +8,8 @@ the profile's ends, the edge lies where the area under the normalised
 profile says a step would be (``e = w - integral of the light fraction``),
 which is exact for any symmetric blur and averages noise out. A line is
 fitted through each edge's points and the corners are the intersections of
-neighbouring lines. The loops run compiled (:mod:`.kernels`), with exact
-bilinear interpolation (``cv2.remap``'s is quantised to 1/32 px).
+neighbouring lines. Every marker's profiles are sampled at once (:mod:`.kernels`),
+with exact bilinear interpolation (``cv2.remap``'s is quantised to 1/32 px).
 
 The profiles reach ``0.8`` of a cell inwards (so they stay on the black
 border, whatever the bits inside) and as far outwards (into the quiet zone).
@@ -18,6 +18,8 @@ border, whatever the bits inside) and as far outwards (into the quiet zone).
 from __future__ import annotations
 
 import numpy as np
+
+from .kernels import refine_quads
 
 #: Points along each edge (avoiding the corners' rounded ends) and samples per profile.
 _T = np.linspace(0.15, 0.85, 10)
@@ -47,9 +49,6 @@ def refine_corners(
     quads = np.ascontiguousarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     if len(quads) == 0:
         return quads.astype(np.float32)
-    # numba is imported on first use: commands that never refine a corner skip its import
-    from .kernels import refine_quads
-
     out = refine_quads(
         np.ascontiguousarray(image),
         quads,
