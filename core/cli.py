@@ -59,6 +59,13 @@ def plugin_options(parser: argparse.ArgumentParser, suppress: bool = False) -> N
     )
 
 
+def add_set_option(parser: argparse.ArgumentParser, help: str) -> None:  # noqa: A002
+    """Add the repeatable ``--set KEY=VALUE`` option (collected in ``args.overrides``)."""
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE", help=help
+    )
+
+
 def blocked_names(values: Sequence[str] | None) -> list[str]:
     """The plugin names of ``-p no:NAME`` options; anything else is a usage error."""
     names = []

@@ -270,6 +270,9 @@ class Camera(ABC):
 class Tracker(ABC):
     """Finds markers in a frame."""
 
+    def start(self) -> None:  # noqa: B027 - optional: trackers with nothing to prepare
+        """Prepare for the first frame (load or compile what detection needs); the rig calls it."""
+
     @abstractmethod
     def detect(self, frame: Frame) -> list[Detection]:
         """Every marker in ``frame``, one detection per physical marker."""
@@ -350,9 +353,38 @@ class RigContext:
     closers: list[Callable[[], None]] = field(default_factory=list)
 
 
+#: The order a rig starts its components in (:meth:`Rig.start`); they are closed in reverse.
+#: The arm comes first so its link is up and it reports where it is before anything that
+#: rides on it (a tool, a camera head) moves; the camera after the head that points it;
+#: the tracker and planner, software, last. Closing in reverse releases the arm's link
+#: last, after :meth:`Rig.stop` has already told it to stop.
+START_ORDER: tuple[str, ...] = ("arm", "tool", "head", "camera", "tracker", "planner")
+
+
 @dataclass
 class Rig:
-    """The hardware a tree runs on, built from a profile. Handed to every behaviour."""
+    """The hardware a tree runs on, built from a profile. Handed to every behaviour.
+
+    Lifecycle (owned by the rig, driven by :func:`armtree.rig_builder.build_rig`):
+
+    1. *built*: every component's factory has run (no device opened by the
+       rig yet; an arm factory with ``port: sim`` has started its emulator,
+       registered in :attr:`closers`);
+    2. *started*: :meth:`start` starts the components present in
+       :data:`START_ORDER` (``arm.connect()``, then ``start()`` of each other
+       component that has one), after the profile has validated and the
+       ``armtree_rig_ready`` hook has wired them;
+    3. *closed*: :meth:`close` tells the arm to stop, closes every component
+       in reverse :data:`START_ORDER` (``close()``, where it has one, also for
+       one whose start failed), then runs :attr:`closers` newest first
+       (emulators, the simulated world, recorders).
+
+    A fault while starting closes what was built, in the same order, before
+    it propagates; :meth:`close` never raises and is safe to call twice.
+    ``tool`` and ``head`` are slots for plugins that drive a separate end
+    effector or a camera head (set them in ``armtree_rig_ready``); the
+    built-in arms drive their end effector themselves.
+    """
 
     profile: Any
     clock: Clock
@@ -360,12 +392,16 @@ class Rig:
     camera: Camera | None = None
     tracker: Tracker | None = None
     planner: Planner | None = None
+    tool: Any = None
+    head: Any = None
     tags: dict[str, TagSpec] = field(default_factory=dict)
     places: dict[str, list[float]] = field(default_factory=dict)
     #: Per-tick hooks of components that must advance with the run (the sim).
     steppers: list[Callable[[float], None]] = field(default_factory=list)
-    #: Things to close when the run ends, newest first.
+    #: Things to close when the run ends, newest first, after the components.
     closers: list[Callable[[], None]] = field(default_factory=list)
+    #: Names of the components :meth:`start` has started (or tried to), in order.
+    started: list[str] = field(default_factory=list)
 
     def role_of(self, marker_id: int) -> TagSpec | None:
         """The tag spec whose ids include ``marker_id``."""
@@ -373,6 +409,30 @@ class Rig:
             if marker_id in spec.ids:
                 return spec
         return None
+
+    def components(self) -> list[tuple[str, Any]]:
+        """``(name, component)`` of every component present, in :data:`START_ORDER`."""
+        found = ((name, getattr(self, name)) for name in START_ORDER)
+        return [(name, c) for name, c in found if c is not None]
+
+    def start(self) -> None:
+        """Start every component in :data:`START_ORDER`; on any error close the rig and re-raise.
+
+        The arm starts with ``connect()`` (raises :class:`HardwareFault` naming
+        its port), the others with ``start()`` when they have one (a camera
+        that does not open raises :class:`HardwareFault` naming its device).
+        """
+        try:
+            for name, component in self.components():
+                if name in self.started:
+                    continue
+                self.started.append(name)
+                begin = component.connect if name == "arm" else getattr(component, "start", None)
+                if callable(begin):
+                    begin()
+        except BaseException:
+            self.close()
+            raise
 
     def step(self, now: float) -> None:
         """Advance every stepping component to ``now`` (seconds); called once per tick."""
@@ -392,8 +452,17 @@ class Rig:
                 self.arm.request_stop()
 
     def close(self) -> None:
-        """Stop and release everything; never raises."""
+        """Stop the arm, close the components in reverse start order, then the closers.
+
+        Never raises; safe to call twice.
+        """
         self.stop()
+        for _name, component in reversed(self.components()):
+            closer = getattr(component, "close", None)
+            if callable(closer):
+                with contextlib.suppress(Exception):  # one broken close must not keep the rest
+                    closer()
+        self.started.clear()
         while self.closers:
             closer = self.closers.pop()
             with contextlib.suppress(Exception):

@@ -5,9 +5,11 @@ context)`` for the arm, camera and tracker, ``factory(config, context, model,
 scene)`` for the planner (``model`` is the arm driver's kinematic model,
 ``scene`` what :mod:`armtree.scene` makes of the profile's obstacles, or the raw
 ``obstacles`` list when that module is absent). Then the ``armtree_rig_ready``
-hook lets plugins wire components together, the arm is connected, and the
-context's steppers and closers move into the rig. If anything fails, whatever
-was already built is closed before the error propagates.
+hook lets plugins wire components together, the context's steppers and closers
+move into the rig, and :meth:`Rig.start` starts the components in
+:data:`armtree.rig.START_ORDER` (the arm connects, the camera opens). If
+anything fails, whatever was built is closed (:meth:`Rig.close`: components in
+reverse start order, then the closers) before the error propagates.
 """
 
 from __future__ import annotations
@@ -87,10 +89,11 @@ def build_rig(
     interrupt: Callable[[str, HardwareFault | None], None] | None = None,
     record_dir: Any = None,
 ) -> Rig:
-    """Build and connect every component the profile names; see the module docstring.
+    """Build and start every component the profile names; see the module docstring.
 
     Raises :class:`ConfigError` for an unknown component type and lets a
-    factory's :class:`HardwareFault` through, after closing what was built.
+    factory's or a start's :class:`HardwareFault` through, after closing what
+    was built.
     """
     file = profile_source(profile)
     context = RigContext(profile=profile, clock=clock, seed=seed, record_dir=record_dir)
@@ -117,20 +120,11 @@ def build_rig(
         rig.closers.extend(context.closers)
         context.steppers = rig.steppers
         context.closers = rig.closers
-        # Closers run newest first: the camera and the arm close before whatever
-        # their factories registered (an emulator, the simulated world).
-        if rig.camera is not None:
-            rig.closers.append(rig.camera.close)
-        if rig.arm is not None:
-            rig.closers.append(rig.arm.close)
-            rig.arm.connect()
     except BaseException:
         rig.closers.extend(c for c in context.closers if c not in rig.closers)
-        for component in (rig.camera, rig.arm):
-            if component is not None and component.close not in rig.closers:
-                rig.closers.append(component.close)
         rig.close()
         raise
+    rig.start()
     return rig
 
 

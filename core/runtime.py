@@ -472,6 +472,9 @@ class Run:
             if status == Status.SUCCESS:
                 return _End("SUCCESS", "", EXIT_SUCCESS)
             if status == Status.FAILURE:
+                if interrupts.fault is not None:
+                    # A device fault (a lost link) failed the tree: the fault is the cause.
+                    return self._interrupted()
                 return _End("FAILURE", self._failure_message())
             # Tick k starts at k periods; multiplying (not summing) keeps times exact-ish,
             # and rounding to a nanosecond keeps logs free of float noise.

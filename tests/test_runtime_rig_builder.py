@@ -27,9 +27,12 @@ PROFILE = {
 class FakePlugin:
     """Records what the builder does, in order."""
 
-    def __init__(self, fail_camera=False, interrupt_at=None, fail_connect=False):
+    def __init__(
+        self, fail_camera=False, interrupt_at=None, fail_connect=False, fail_camera_start=False
+    ):
         self.events = []
         self.fail_camera = fail_camera
+        self.fail_camera_start = fail_camera_start
         self.fail_connect = fail_connect
         self.interrupt_at = interrupt_at
         self.args = {}
@@ -69,6 +72,11 @@ class FakePlugin:
         plugin = self
 
         class Cam:
+            def start(self):
+                if plugin.fail_camera_start:
+                    raise HardwareFault("cannot open camera index 3", "3")
+                plugin.events.append("camera started")
+
             def close(self):
                 plugin.events.append("camera closed")
 
@@ -122,6 +130,7 @@ def test_build_rig_builds_components_in_order_and_wires_them():
         "planner built",
         ("rig ready", True, "planner"),
         "arm connected",
+        "camera started",
     ]
     config, context = plugin.args["arm"]
     assert config == PROFILE["arm"] and context.seed == 7 and context.clock is clock
@@ -133,7 +142,7 @@ def test_build_rig_builds_components_in_order_and_wires_them():
     rig.step(0.5)
     assert plugin.events[-1] == ("step", 0.5)
     rig.close()
-    assert plugin.events[-4:] == ["arm stopped", "arm closed", "camera closed", "emulator closed"]
+    assert plugin.events[-4:] == ["arm stopped", "camera closed", "arm closed", "emulator closed"]
 
 
 def test_unknown_component_type_is_a_config_error_with_a_suggestion():
@@ -185,7 +194,7 @@ def test_a_run_builds_its_own_rig_on_a_virtual_clock_and_closes_it():
     assert result.status == "SUCCESS"
     steps = [e[1] for e in plugin.events if isinstance(e, tuple) and e[0] == "step"]
     assert steps == pytest.approx([0.0, 0.05, 0.1], abs=1e-12)
-    assert plugin.events[-3:] == ["arm closed", "camera closed", "emulator closed"]
+    assert plugin.events[-3:] == ["camera closed", "arm closed", "emulator closed"]
 
 
 def test_a_component_interrupt_through_the_context_exits_3():
@@ -210,5 +219,44 @@ def test_a_run_whose_arm_does_not_connect_fails_with_exit_3_before_any_tick():
     result = run(tree, manager=manager_with(plugin), record=False)
     assert result.status == "FAILURE" and result.exit_code == 3 and result.ticks == 0
     assert "/dev/ttyUSB9: no such serial port" in result.message
-    assert plugin.events[-3:] == ["arm closed", "camera closed", "emulator closed"]
+    assert plugin.events[-3:] == ["camera closed", "arm closed", "emulator closed"]
     assert node.status == Status.INVALID
+
+
+def test_a_fault_while_starting_closes_what_started_in_reverse_order():
+    plugin = FakePlugin(fail_camera_start=True)
+    with pytest.raises(HardwareFault, match="camera index 3"):
+        build_rig(PROFILE, manager_with(plugin), VirtualClock())
+    i = plugin.events.index("arm connected")
+    assert plugin.events[i:] == [
+        "arm connected",
+        "arm stopped",
+        "camera closed",
+        "arm closed",
+        "emulator closed",
+    ]
+
+
+class Boom(py_trees.behaviour.Behaviour):
+    def update(self):
+        raise RuntimeError("boom")
+
+
+@pytest.mark.parametrize(
+    ("root", "status", "code"),
+    [
+        (lambda: py_trees.behaviours.Success("s"), "SUCCESS", 0),
+        (lambda: py_trees.behaviours.Failure("f"), "FAILURE", 1),
+        (lambda: Boom("boom"), "FAILURE", 1),
+    ],
+    ids=["success", "failure", "exception"],
+)
+def test_every_end_of_a_run_stops_the_components_in_reverse_start_order(root, status, code):
+    plugin = FakePlugin()
+    tree = Tree(name="t", root=root(), source=None, profile=PROFILE)
+    result = run(tree, manager=manager_with(plugin), record=False)
+    assert (result.status, result.exit_code) == (status, code)
+    started = plugin.events.index("camera started")
+    assert plugin.events.index("arm connected") < started
+    closes = [e for e in plugin.events if e in ("camera closed", "arm closed", "emulator closed")]
+    assert closes == ["camera closed", "arm closed", "emulator closed"]

@@ -4,8 +4,9 @@ and the fit of a profile whose arm ``--set arm.type=X`` swapped (:mod:`.fit`).
 ``emulate`` builds the arm plugin's firmware emulator with
 ``factory.emulator(config, clock)`` (the convention documented in
 :mod:`armtree.plugins.arms.common`) on the wall clock, prints the device path
-on its first line and serves until interrupted (Ctrl-C or SIGTERM), so any
-serial tool or vendor client can be pointed at it.
+on its first line and serves until interrupted (Ctrl-C or SIGTERM: exit 130,
+as for every interrupted armtree command), so any serial tool or vendor
+client can be pointed at it.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import yaml
 import armtree
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
+from armtree.interrupts import EXIT_INTERRUPTED
 from armtree.params import check_value
 
 from .fit import swap_misfits
@@ -35,6 +37,8 @@ class EmulateCommand:
     def __init__(self) -> None:
         #: Set to stop serving (SIGINT / SIGTERM set it too); for embedding and tests.
         self.stop = threading.Event()
+        #: The signal that stopped serving, if one did.
+        self.signalled: int | None = None
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add ``ARM``, ``--profile``, ``--seed`` and ``--set KEY=VALUE``."""
@@ -53,7 +57,7 @@ class EmulateCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        """Serve until stopped; exit 0, or 2 for an unknown arm or a mismatched profile."""
+        """Serve until stopped: exit 130 on a signal, 0 when :attr:`stop` is set; 2 for bad input."""
         manager = getattr(args, "manager", None)
         if manager is None:
             from armtree.plugin_manager import get_plugin_manager
@@ -78,11 +82,11 @@ class EmulateCommand:
             while not self.stop.wait(0.2):
                 pass
         except KeyboardInterrupt:
-            pass
+            self.signalled = signal.SIGINT
         finally:
             restore()
             emulator.close()
-        return 0
+        return EXIT_INTERRUPTED if self.signalled is not None else 0
 
     def _config(self, args: argparse.Namespace, manager: Any) -> dict[str, Any]:
         config: dict[str, Any] = {"type": args.arm}
@@ -111,12 +115,16 @@ class EmulateCommand:
             config[key] = value
         return config
 
+    def _on_signal(self, signum: int, frame: Any) -> None:
+        self.signalled = signum
+        self.stop.set()
+
     def _on_signals(self) -> Any:
         if threading.current_thread() is not threading.main_thread():
             return lambda: None
         previous = {}
         for sig in (signal.SIGINT, signal.SIGTERM):
-            previous[sig] = signal.signal(sig, lambda signum, frame: self.stop.set())
+            previous[sig] = signal.signal(sig, self._on_signal)
 
         def restore() -> None:
             for sig, handler in previous.items():

@@ -6,11 +6,15 @@ with a deadline: a device that does not open, or stops delivering frames for
 ``stall_timeout_s``, is a :class:`HardwareFault` naming it (raised by
 ``start()`` or ``read()``, and passed to the run's interrupt), never a hang.
 Stall times are wall-clock seconds (the device's time); frames are stamped
-with the run's clock.
+with the run's clock. The backend's own open and read timeouts are bounded by
+the same figures, so a stream that stops lets the capture thread end rather
+than block inside OpenCV, and :meth:`OpenCVCamera.close` leaves no thread behind.
+OpenCV's and FFmpeg's console warnings are silenced: the fault says what failed.
 """
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -26,6 +30,22 @@ from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
 from .intrinsics import IntrinsicsBySize
+
+# Read by OpenCV when FFmpeg is first used; -8 is FFmpeg's "quiet".
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+# Errors only: the V4L2 and FFmpeg open warnings repeat what the fault says.
+cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+
+
+def open_capture(device: int | str, open_timeout_s: float, read_timeout_s: float) -> Any:
+    """``cv2.VideoCapture(device)`` with the backend's open and read timeouts bounded (seconds)."""
+    params = [
+        cv2.CAP_PROP_OPEN_TIMEOUT_MSEC,
+        max(1, int(open_timeout_s * 1000)),
+        cv2.CAP_PROP_READ_TIMEOUT_MSEC,
+        max(1, int(read_timeout_s * 1000)),
+    ]
+    return cv2.VideoCapture(device, cv2.CAP_ANY, params)
 
 
 class OpenCVCamera(FrameSourceCamera):
@@ -45,7 +65,7 @@ class OpenCVCamera(FrameSourceCamera):
         mount: str = "eye_to_hand",
         extrinsics: np.ndarray | None = None,
         interrupt: Callable[[str, HardwareFault | None], None] | None = None,
-        capture_factory: Callable[[int | str], Any] = cv2.VideoCapture,
+        capture_factory: Callable[[int | str], Any] | None = None,
         wall: Callable[[], float] = time.monotonic,
     ) -> None:
         super().__init__(f"camera {device}", clock, intrinsics, mount, extrinsics)
@@ -114,22 +134,31 @@ class OpenCVCamera(FrameSourceCamera):
             self._thread.join(timeout=max(1.0, self.stall_timeout_s))
         # A thread stuck inside the driver keeps the device; it is a daemon and ends with us.
         if self._thread is None or not self._thread.is_alive():
-            cap, self._capture = self._capture, None
-            if cap is not None:
-                cap.release()
+            self._release(self._capture)
+
+    def _release(self, cap: Any) -> None:
+        with self._lock:
+            if cap is None or cap is not self._capture:
+                return
+            self._capture = None
+        cap.release()
 
     # -- the capture thread --------------------------------------------------
 
     def _run(self) -> None:
         try:
-            cap = self._capture_factory(self.device)
+            if self._capture_factory is None:
+                cap = open_capture(self.device, self.open_timeout_s, self.stall_timeout_s)
+            else:
+                cap = self._capture_factory(self.device)
         except Exception as exc:  # noqa: BLE001 - any backend error means the device is unusable
             self._fail(f"cannot open: {exc}")
             self._opened.set()
             return
-        self._capture = cap
+        with self._lock:
+            self._capture = cap
         if not cap.isOpened():
-            self._fail("cannot open (no such device, busy, or no permission)")
+            self._fail(f"cannot open {_expected(self.device)}")
             self._opened.set()
             return
         if self.width and self.height:
@@ -154,6 +183,7 @@ class OpenCVCamera(FrameSourceCamera):
             failures_since = failures_since or now
             if now - failures_since > self.stall_timeout_s:
                 self._fail(f"stopped delivering frames for {self.stall_timeout_s:g} s")
+                self._release(cap)
                 return
             self._stop.wait(0.01)
 
@@ -165,6 +195,15 @@ class OpenCVCamera(FrameSourceCamera):
             self._lock.notify_all()
         if self._interrupt is not None:
             self._interrupt(f"camera {self.device}: {message}", self._fault)
+
+
+def _expected(device: int | str) -> str:
+    """What the device was expected to be, for the fault's message."""
+    if isinstance(device, int):
+        return f"camera index {device} (no such camera, busy, or no permission; /dev/video* lists them)"
+    if "://" in device:
+        return "the stream (is the server running and the URL right? expected e.g. an MJPEG stream)"
+    return "the device or file (no such device, busy, no permission, or not a video)"
 
 
 def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:

@@ -173,9 +173,7 @@ def _check(config: dict[str, Any]) -> None:
 def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
     """A simulated camera rendering the profile's world (eye-in-hand or eye-to-hand)."""
     _check(config)
-    camera = SimCamera(config, context)
-    camera.start()
-    return camera
+    return SimCamera(config, context)
 
 
 sim_camera.PARAMS = (

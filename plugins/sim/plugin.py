@@ -83,6 +83,14 @@ def armtree_cameras() -> dict[str, Any]:
 
 
 @armtree.hookimpl
+def armtree_commands() -> dict[str, Any]:
+    """``armtree serve-sim``: the world served as a bench (arm on a pty, camera over HTTP)."""
+    from .serve import ServeSimCommand  # imports this module
+
+    return {"serve-sim": ServeSimCommand}
+
+
+@armtree.hookimpl
 def armtree_validate_profile(profile: Any) -> list[armtree.ConfigError]:
     """Check ``world:`` as building the rig would, before anything is built.
 

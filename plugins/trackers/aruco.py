@@ -189,6 +189,12 @@ class ArucoTracker(Tracker):
         self.parameters.minMarkerPerimeterRate = 4.0 * self.min_side_px / max(shape[:2])
         self.detector.setDetectorParameters(self.parameters)
 
+    def start(self) -> None:
+        """Detect once in a made-up frame, so the first real frame costs what later ones do."""
+        from .markers import warm_up  # markers imports this module
+
+        warm_up(self, FAMILY, self.dictionary_name)
+
     def detect(self, frame: Frame) -> list[Detection]:
         """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known."""
         image = frame.image

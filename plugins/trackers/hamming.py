@@ -177,6 +177,12 @@ class HammingTracker(Tracker):
 
     # -- the Tracker contract -------------------------------------------------
 
+    def start(self) -> None:
+        """Detect once in a made-up frame, so the first real frame costs what later ones do."""
+        from .markers import warm_up
+
+        warm_up(self, FAMILY)
+
     def detect(self, frame: Frame) -> list[Detection]:
         """Every Hamming marker in ``frame``; poses when its size and intrinsics are known."""
         gray = to_gray(frame.image)

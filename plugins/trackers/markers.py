@@ -12,9 +12,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
+
+from armtree.rig import Frame
 
 from . import hamming_code
 from .aruco import get_dictionary
@@ -182,3 +185,17 @@ def write_sheet(
     else:
         figures[0].savefig(str(path), dpi=dpi)
     return len(pages)
+
+
+def warm_up(tracker: Any, family: str, dictionary: str = "4x4_50") -> None:
+    """Run ``tracker`` once on a frame holding one marker (id 1) of its family.
+
+    What the first detection loads or compiles is then done when the rig starts,
+    not inside the first tick that sees a marker (on the wall clock such a tick
+    would starve the serial link's thread).
+    """
+    image = np.full((480, 640, 3), 200, np.uint8)
+    marker = marker_image(family, 1, 120, dictionary)  # id 1: both families read it
+    image[180 : 180 + marker.shape[0], 260 : 260 + marker.shape[1]] = marker[..., None]
+    k = np.array([[640.0, 0.0, 319.5], [0.0, 640.0, 239.5], [0.0, 0.0, 1.0]])
+    tracker.detect(Frame(image=image, timestamp=0.0, camera_matrix=k, distortion=np.zeros(5)))

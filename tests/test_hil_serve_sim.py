@@ -1,0 +1,137 @@
+"""Hardware in the loop without hardware: ``armtree serve-sim`` and a real-hardware profile.
+
+``serve-sim sim_dobot`` serves the world (the Dobot V1.0 firmware emulator on a
+pty, the camera as MJPEG over HTTP); ``run-tree load_ducky.yaml --rig
+dobot_v1.yaml`` points the shipped real-hardware profile at them and runs the
+hardware code path (pyserial on a tty, OpenCV capture of a stream, the wall
+clock). Real processes and real signals throughout: the run succeeds and the
+served world agrees; Ctrl-C on the run exits 130; Ctrl-C on serve-sim mid-run
+loses the run's link (exit 3) and serve-sim exits 130 with the world's score.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+BIN = Path(sys.executable).parent
+pytestmark = pytest.mark.skipif(
+    not (BIN / "armtree").exists(), reason="the armtree console scripts are not installed here"
+)
+
+
+class Bench:
+    """``armtree serve-sim PROFILE`` as a subprocess, with its port and camera URL."""
+
+    def __init__(self, profile: str, cwd: Path) -> None:
+        self.proc = subprocess.Popen(
+            [str(BIN / "armtree"), "serve-sim", profile],
+            cwd=cwd,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        lines = {}
+        for _ in range(3):
+            line = self.proc.stdout.readline()
+            key, _, value = line.partition(": ")
+            lines[key] = value.strip()
+        self.port, self.url, self.hint = lines["arm port"], lines["camera"], lines["run"]
+
+    def interrupt(self) -> tuple[int, str]:
+        self.proc.send_signal(signal.SIGINT)
+        out, _ = self.proc.communicate(timeout=20)
+        return self.proc.returncode, out
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.communicate()
+
+
+def start_run(bench: Bench, tree: str, rig: str, record: Path, cwd: Path) -> subprocess.Popen:
+    args = [str(BIN / "run-tree"), tree, "--rig", rig, "--quiet", "--record", str(record)]
+    args += ["--set", f"arm.port={bench.port}", "--set", f"camera.device={bench.url}"]
+    return subprocess.Popen(
+        args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def wait_for_ticks(record: Path, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Until the run log shows the tree running (the rig is built and ticks are going)."""
+    log = record / "run.jsonl"
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, f"the run ended early: {proc.communicate()}"
+        if log.exists() and '"kind": "status"' in log.read_text():
+            return
+        time.sleep(0.1)
+    raise AssertionError("the run never started ticking")
+
+
+def result_record(record: Path) -> dict:
+    lines = (record / "run.jsonl").read_text().splitlines()
+    return next(json.loads(x) for x in reversed(lines) if '"kind": "result"' in x)
+
+
+@pytest.mark.slow
+def test_load_ducky_on_dobot_v1_profile_against_served_sim_world(tmp_path):
+    bench = Bench("sim_dobot", tmp_path)
+    try:
+        assert bench.port.startswith("/dev/pts/")
+        assert bench.url.startswith("http://127.0.0.1:") and bench.url.endswith("/camera.mjpg")
+        assert "--rig dobot_v1.yaml" in bench.hint
+
+        # 1. The whole task through the hardware code path.
+        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "ok", tmp_path)
+        out, err = run.communicate(timeout=150)
+        assert run.returncode == 0, out + err
+        assert "result: SUCCESS" in out
+        result = result_record(tmp_path / "ok")
+        assert result["status"] == "SUCCESS" and result["seconds"] > 5.0, "ticked in real time"
+        start = json.loads((tmp_path / "ok" / "run.jsonl").read_text().splitlines()[0])
+        assert start["clock"] == "wall"
+
+        # 2. Ctrl-C on the run: halted within a tick, exit 130, log flushed.
+        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "int", tmp_path)
+        wait_for_ticks(tmp_path / "int", run)
+        run.send_signal(signal.SIGINT)
+        out, err = run.communicate(timeout=20)
+        assert run.returncode == 130, out + err
+        assert result_record(tmp_path / "int")["status"] == "INTERRUPTED"
+
+        # 3. Ctrl-C on serve-sim mid-run: the run loses its link (exit 3), serve-sim
+        #    exits 130 and scores the world, where run 1 left the ducky on the Duckybot.
+        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "lost", tmp_path)
+        wait_for_ticks(tmp_path / "lost", run)
+        code, served = bench.interrupt()
+        assert code == 130
+        assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served
+        out, err = run.communicate(timeout=20)
+        assert run.returncode == 3, out + err
+        assert bench.port in err and "link lost" in err
+        assert result_record(tmp_path / "lost")["exit_code"] == 3
+    finally:
+        bench.kill()
+        for proc in [run] if "run" in locals() else []:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+
+
+def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
+    done = subprocess.run(
+        [str(BIN / "armtree"), "serve-sim", "dobot_v1.yaml"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=dict(os.environ),
+    )
+    assert done.returncode == 2
+    assert "dobot_v1.yaml" in done.stderr and "port: sim" in done.stderr
