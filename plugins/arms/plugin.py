@@ -1,5 +1,6 @@
 """Commands and checks shared by the arm plugins: ``armtree emulate ARM [--profile P]``,
-and the fit of a profile whose arm ``--set arm.type=X`` swapped (:mod:`.fit`).
+``armtree detect-port``, and the fit of a profile whose arm ``--set arm.type=X``
+swapped (:mod:`.fit`).
 
 ``emulate`` builds the arm plugin's firmware emulator with
 ``factory.emulator(config, clock)`` (the convention documented in
@@ -146,5 +147,7 @@ def armtree_validate_profile(profile: Any) -> list[ConfigError]:
 
 @armtree.hookimpl
 def armtree_commands() -> dict[str, Any]:
-    """Register ``armtree emulate``."""
-    return {"emulate": EmulateCommand}
+    """Register ``armtree emulate`` and ``armtree detect-port``."""
+    from .detect import DetectPortCommand
+
+    return {"emulate": EmulateCommand, "detect-port": DetectPortCommand}

@@ -23,6 +23,7 @@ import contextlib
 import errno
 import math
 import os
+import stat
 import threading
 import time
 from collections.abc import Callable
@@ -48,6 +49,13 @@ def open_serial_port(port: str, baud: int, read_timeout: float = 0.01) -> serial
             "use 'port: sim' for the simulation)",
             port,
         )
+    kind = _not_a_tty(port)
+    if kind:
+        raise HardwareFault(
+            f"not a serial port: it is {kind}; expected the arm's serial device "
+            "(/dev/ttyUSB0, /dev/ttyACM0; `armtree detect-port` lists them)",
+            port,
+        )
     ser = serial.Serial()
     ser.port = port
     ser.baudrate = baud
@@ -70,10 +78,31 @@ def open_serial_port(port: str, baud: int, read_timeout: float = 0.01) -> serial
             ) from exc
         if code == errno.ENOENT:
             raise HardwareFault("no such serial port", port) from exc
+        if code == errno.ENOTTY or "Inappropriate ioctl" in text:
+            raise HardwareFault(
+                "not a serial port: a device that is not a terminal (expected the arm's "
+                "serial device, e.g. /dev/ttyUSB0; `armtree detect-port` lists them)",
+                port,
+            ) from exc
         raise HardwareFault(f"cannot open the serial port: {text}", port) from exc
     except (OSError, ValueError) as exc:
         raise HardwareFault(f"not a serial port: {exc}", port) from exc
     return ser
+
+
+def _not_a_tty(port: str) -> str | None:
+    """What ``port`` is when it cannot be a serial port (a file, a directory), from its mode."""
+    try:
+        mode = os.stat(port).st_mode
+    except OSError:
+        return None  # let opening it say why
+    if stat.S_ISREG(mode):
+        return "a regular file"
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if not stat.S_ISCHR(mode):
+        return "not a character device"
+    return None
 
 
 class SerialArmDriver(ArmDriver):
@@ -327,7 +356,13 @@ class SerialArmDriver(ArmDriver):
         if self.handshake_done() and self._fault is None:
             self._connected = True
             return
-        fault = self._fault or HardwareFault(self._no_answer_message(), self.device)
+        fault = HardwareFault(self._no_answer_message(), self.device)
+        if self._fault is not None and self._ser is not None:
+            # The protocol gave up during the handshake (no reply, a bad one): say
+            # what answered instead, then what the protocol noticed.
+            fault = HardwareFault(f"{fault.message} ({self._fault.message})", self.device)
+        elif self._fault is not None:
+            fault = self._fault
         self.close()
         self._fault = fault
         raise fault

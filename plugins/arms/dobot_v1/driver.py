@@ -16,6 +16,7 @@ from __future__ import annotations
 import collections
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -102,6 +103,21 @@ class DobotV1Driver(SerialArmDriver):
                 # seed 004, second safeguard: the next command waits for the move before it
                 if self._queue and (not self._inflight or self._queue[0].key == ("stop",)):
                     self._send(self._queue.popleft())
+
+    def close(self) -> None:
+        """Send a stop still waiting for its status frame (≤ 0.5 s, wall clock), then release the port.
+
+        The rig stops the arm and closes it straight after; without the wait a stop
+        queued behind this interval's command would never reach the arm.
+        """
+        deadline = time.monotonic() + 0.5
+        # On a virtual clock nothing steps the emulator while closing: no frame would come.
+        while self.connected and not self.clock.virtual and time.monotonic() < deadline:
+            with self._lock:
+                if not any(p.key == ("stop",) for p in self._queue):
+                    break
+            time.sleep(0.005)
+        super().close()
 
     def _send_if_free(self) -> None:
         """Write the head of the queue now if this status interval has no command yet.
