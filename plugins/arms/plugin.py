@@ -1,6 +1,6 @@
 """Commands and checks shared by the arm plugins: ``armtree emulate ARM [--profile P]``,
-``armtree detect-port``, and the fit of a profile whose arm ``--set arm.type=X``
-swapped (:mod:`.fit`).
+``armtree detect-port``, ``armtree jog``, and the fit of a profile whose arm
+``--set arm.type=X`` swapped (:mod:`.fit`).
 
 ``emulate`` builds the arm plugin's firmware emulator with
 ``factory.emulator(config, clock)`` (the convention documented in
@@ -147,7 +147,8 @@ def armtree_validate_profile(profile: Any) -> list[ConfigError]:
 
 @armtree.hookimpl
 def armtree_commands() -> dict[str, Any]:
-    """Register ``armtree emulate`` and ``armtree detect-port``."""
+    """Register ``armtree emulate``, ``armtree detect-port`` and ``armtree jog``."""
     from .detect import DetectPortCommand
+    from .jog import JogCommand
 
-    return {"emulate": EmulateCommand, "detect-port": DetectPortCommand}
+    return {"emulate": EmulateCommand, "detect-port": DetectPortCommand, "jog": JogCommand}
