@@ -18,8 +18,13 @@ from armtree.plugins.sim.camera import camera_extrinsics
 from armtree.resolve import available
 
 REAL = ("dobot_v1", "dobot_v1_opendobot", "dobot_magician", "vicra", "dh_ssc32")
-TWINS = {"dobot_v1": "sim_dobot", "dobot_v1_opendobot": "sim_dobot", "vicra": "sim_vicra"}
-TWINS["dh_ssc32"] = "sim_dh"
+TWINS = {
+    "dobot_v1": "sim_dobot",
+    "dobot_v1_opendobot": "sim_dobot",
+    "dobot_magician": "sim_magician",
+    "vicra": "sim_vicra",
+    "dh_ssc32": "sim_dh",
+}
 TREES = ("load_ducky", "clean_up", "pick_and_place", "touch_tag", "track")
 
 

@@ -6,7 +6,8 @@ dobot_v1.yaml`` points the shipped real-hardware profile at them and runs the
 hardware code path (pyserial on a tty, OpenCV capture of a stream, the wall
 clock). Real processes and real signals throughout: the run succeeds and the
 served world agrees; Ctrl-C on the run exits 130; Ctrl-C on serve-sim mid-run
-loses the run's link (exit 3) and serve-sim exits 130 with the world's score.
+loses the run's link (exit 3) and serve-sim exits 130 with the world's score. The Magician
+profile runs the same task against ``serve-sim sim_magician``.
 """
 
 import json
@@ -135,3 +136,19 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
     )
     assert done.returncode == 2
     assert "dobot_v1.yaml" in done.stderr and "port: sim" in done.stderr
+
+
+@pytest.mark.slow
+def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path):
+    bench = Bench("sim_magician", tmp_path)
+    try:
+        assert "--rig dobot_magician.yaml" in bench.hint
+        run = start_run(bench, "load_ducky.yaml", "dobot_magician.yaml", tmp_path / "ok", tmp_path)
+        out, err = run.communicate(timeout=150)
+        assert run.returncode == 0, out + err
+        assert result_record(tmp_path / "ok")["status"] == "SUCCESS"
+        code, served = bench.interrupt()
+        assert code == 130
+        assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served
+    finally:
+        bench.kill()
