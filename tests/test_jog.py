@@ -38,6 +38,9 @@ def rig_file(tmp_path):
     text = text.replace(
         "planner: {type: prm, milestones: 1000, neighbours: 5}", "planner: {type: direct}"
     )
+    # The emulator shares this process (and, in CI, two busy cores) with the UI: a long
+    # link timeout keeps a slow scheduler from passing for a lost link.
+    text = text.replace("  baud: 9600\n", "  baud: 9600\n  link_timeout: 5\n")
     path = tmp_path / "rig.yaml"
     path.write_text(text)
     return path
