@@ -24,8 +24,8 @@ _NEXT = np.array([1, 2, 3, 0])
 _PREVIOUS = np.array([3, 0, 1, 2])
 
 
-def grey_at(image: np.ndarray, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
-    """Bilinear grey levels of ``image`` at points ``(x, y)`` (any matching shapes, float64).
+def grey_at(image: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Bilinear grey levels ``(...)`` of ``image`` at ``points (..., 2)``, x then y (float64).
 
     Edge pixels repeat beyond the image, and a non-finite coordinate reads the
     nearest edge (NaN the first row or column), never memory outside the
@@ -33,24 +33,24 @@ def grey_at(image: np.ndarray, x: np.ndarray | float, y: np.ndarray | float) -> 
     Interpolation is exact (``cv2.remap`` quantises positions to 1/32 px).
     """
     h, w = image.shape[0], image.shape[1]
-    # NaN fails ">= 0" and lands on the first pixel; +inf is clipped to the last
-    x = np.where(np.greater_equal(x, 0.0), np.minimum(x, w - 1.0), 0.0)
-    y = np.where(np.greater_equal(y, 0.0), np.minimum(y, h - 1.0), 0.0)
+    # fmax and fmin drop a NaN for the bound: NaN lands on the first pixel
+    points = np.fmin(np.fmax(points, 0.0), (w - 1.0, h - 1.0))
     # the top-left neighbour stays one pixel inside the far edges, so all four neighbours
     # are pixels of the image; on the edge itself the far neighbour then weighs 1
-    x0 = np.minimum(x.astype(np.intp), max(w - 2, 0))
-    y0 = np.minimum(y.astype(np.intp), max(h - 2, 0))
-    fx, fy = x - x0, y - y0
+    first = np.minimum(points.astype(np.intp), (max(w - 2, 0), max(h - 2, 0)))
+    fraction = points - first
     step_x, step_y = min(w - 1, 1), w * min(h - 1, 1)
-    corners = (y0 * w + x0)[..., None] + np.array([0, step_x, step_y, step_x + step_y])
+    corners = (first[..., 1] * w + first[..., 0])[..., None] + np.array(
+        [0, step_x, step_y, step_x + step_y]
+    )
     if image.ndim == 2:
         pixels = image.reshape(-1).take(corners).astype(np.float64)
     else:
         pixels = image.reshape(h * w, 3).take(corners.reshape(-1), axis=0).astype(np.float64)
         pixels = (pixels @ _BGR).reshape(corners.shape)
-    top = pixels[..., 0] + fx * (pixels[..., 1] - pixels[..., 0])
-    bottom = pixels[..., 2] + fx * (pixels[..., 3] - pixels[..., 2])
-    return top + fy * (bottom - top)
+    pixels = pixels.reshape(*corners.shape[:-1], 2, 2)  # [..., row, column]
+    rows = pixels[..., 0] + fraction[..., None, 0] * (pixels[..., 1] - pixels[..., 0])
+    return rows[..., 0] + fraction[..., 1] * (rows[..., 1] - rows[..., 0])
 
 
 def _refine_pass(
@@ -76,7 +76,8 @@ def _refine_pass(
     normal = edge * (-1j * reach[:, None] / np.maximum(lengths, 1e-9))
     base = quads[..., None] + edge[..., None] * along  # (M, 4, T): points along each edge
     points = base[..., None] + normal[..., None, None] * across  # (M, 4, T, S)
-    profile = grey_at(image, points.real, points.imag)  # a short profile across the edge
+    # a short profile across the edge; complex128 viewed as (x, y) pairs of float64
+    profile = grey_at(image, points.view(np.float64).reshape(*points.shape, 2))
     dark = 0.5 * (profile[..., 0] + profile[..., 1])
     contrast = 0.5 * (profile[..., -2] + profile[..., -1]) - dark
     ok = contrast > min_contrast  # (M, 4, T)
@@ -151,16 +152,16 @@ def sample_cells(
     den = np.where(degenerate[:, None], 1.0, den)
     g = (dx3 * dy2 - dx2 * dy3) / den
     h = (dx1 * dy3 - dx3 * dy1) / den
-    one = np.ones_like(g)
     homography = np.concatenate(
-        [x1 - x0 + g * x1, x3 - x0 + h * x3, x0, y1 - y0 + g * y1, y3 - y0 + h * y3, y0, g, h, one],
+        [x1 - x0 + g * x1, y1 - y0 + g * y1, g, x3 - x0 + h * x3, y3 - y0 + h * y3, h, x0, y0],
         axis=1,
-    ).reshape(-1, 3, 3)
+    )  # (N, 8): the 3x3 matrix's columns, its last element 1
     uv = np.concatenate([cell_uv.reshape(-1, 2), quiet_uv])
-    mapped = homography @ np.concatenate([uv.T, np.ones((1, len(uv)))])  # (N, 3, P)
-    w = mapped[:, 2]
-    w = np.where(np.abs(w) < 1e-12, 1e-12, w)
-    levels = grey_at(image, mapped[:, 0] / w, mapped[:, 1] / w)
+    mapped = uv[:, 0, None] * homography[:, None, 0:3] + uv[:, 1, None] * homography[:, None, 3:6]
+    mapped[..., :2] += homography[:, None, 6:8]
+    mapped[..., 2] += 1.0  # (N, P, 3): x w, y w, w
+    w = mapped[..., 2:]
+    levels = grey_at(image, mapped[..., :2] / np.where(np.abs(w) < 1e-12, 1e-12, w))
     split = n_cells * per_cell
     out = np.concatenate(
         [
@@ -170,7 +171,7 @@ def sample_cells(
         axis=1,
     )
     if degenerate.any():
-        out[degenerate] = grey_at(image, x0[degenerate], y0[degenerate])
+        out[degenerate] = grey_at(image, quads[degenerate, :1])
     return out
 
 
