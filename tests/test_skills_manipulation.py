@@ -156,17 +156,62 @@ def test_place_without_an_object_tag_says_it_did_not_check():
     assert status is Status.SUCCESS and node.feedback_message.startswith("unverified: ")
 
 
-def test_halted_pick_while_holding_keeps_the_object():
-    rig = make_rig([ducky()], ticks=2)
+class RunLog:
+    """Collects the events a skill writes to the run log."""
+
+    enabled = True
+
+    def __init__(self):
+        self.events = []
+
+    def event(self, tick, t, event, **data):
+        self.events.append((event, data))
+
+
+class Runtime:
+    """What a skill reads of the runtime: its log and tick count."""
+
+    def __init__(self):
+        self.log = RunLog()
+        self.tick_count = 0
+
+    def claim(self, behaviour, names):
+        return None
+
+
+def pick_until(rig, runtime, until, ticks=200):
+    """A pick of the ducky, ticked until ``until(rig)`` holds (or ``ticks`` ran out)."""
     node = Pick("pick", tag="ducky", **{"from": "ducky_pickup"})
-    node.setup(rig=rig, clock=rig.clock)
-    for _ in range(200):
+    node.setup(rig=rig, clock=rig.clock, runtime=runtime)
+    for _ in range(ticks):
         node.tick_once()
         rig.clock.advance(0.05)
         rig.step(rig.clock.now())
-        if rig.world.held is not None and rig.arm._motion is not None:
+        if until(rig):
             break
+    return node
+
+
+def test_halted_pick_while_holding_keeps_the_object_and_logs_it():
+    rig = make_rig([ducky()], ticks=2)
+    runtime = Runtime()
+    node = pick_until(
+        rig, runtime, lambda r: r.world.held is not None and r.arm._motion is not None
+    )
     assert rig.world.held is not None
     node.stop(Status.INVALID)
     rig.step(rig.clock.now())
     assert rig.arm.suction and rig.world.held is not None and rig.arm.stops >= 1
+    halted = [data for event, data in runtime.log.events if event == "halted"]
+    assert halted and halted[0]["tool"] == "suction on, holding what it holds"
+    assert halted[0]["step"].startswith("lift")
+
+
+def test_halted_pick_before_the_grip_holds_nothing_and_logs_it():
+    rig = make_rig([ducky()], ticks=2)
+    runtime = Runtime()
+    node = pick_until(rig, runtime, lambda r: False, ticks=10)
+    node.stop(Status.INVALID)
+    assert not rig.arm.suction and rig.world.held is None
+    halted = [data for event, data in runtime.log.events if event == "halted"]
+    assert halted and halted[0]["tool"] == "suction off, holding nothing"

@@ -182,8 +182,10 @@ def test_load_ducky_fails_clearly_without_a_duckybot(tmp_path, manager):
         "load_ducky.yaml", write_profile(tmp_path, [[0, *PLACES["ducky_pickup"]]]), manager
     )
     assert result.status == "FAILURE"
-    assert result.failed_node.endswith("Search for the duckybot")
-    assert "no 'duckybot' tag seen" in feedback(rig.tree, "Search for the duckybot")
+    assert result.failed_node.endswith(
+        "Search for the duckybot/Trash first, then look on/Sweep for the duckybot"
+    )
+    assert "no 'duckybot' tag seen from" in feedback(rig.tree, "Sweep for the duckybot")
     assert not rig.arm.suction
 
 

@@ -35,7 +35,6 @@ from armtree.perception import EYE_IN_HAND
 from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point
 from .base import ActionFailed, Procedure, as_list
-from .eye import Sighting
 from .locate import locate, look_over, nearest, out_of_view
 
 #: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
@@ -97,12 +96,13 @@ def move_out_of_view(skill: ArmSkill, point: np.ndarray) -> Procedure:
 def verify_pick(
     skill: ArmSkill,
     tag: str,
-    marker: int,
+    marker: int | None,
     spot: np.ndarray,
     tolerance: float,
     looked_away: bool = False,
 ) -> Procedure:
-    """Check with the camera that marker ``marker`` (role ``tag``) left ``spot`` with the tool.
+    """Check with the camera that marker ``marker`` (role ``tag``; None: the one of that
+    role nearest ``spot``) left ``spot`` with the tool.
 
     Raises :class:`SkillFailure` with the measured distances when it did not;
     returns a one-line description of what was checked.
@@ -113,7 +113,10 @@ def verify_pick(
         after = yield from look_over(skill, spot, skill.workcell.look_height_mm, None, 2)
     else:
         after = yield Look(rig, skill.clock, frames=2, settle=skill.settle())
-    mine = next((s for s in after if s.id == marker), None)
+    if marker is None:
+        mine = nearest(after, tag, spot, 4.0 * tolerance)
+    else:
+        mine = next((s for s in after if s.id == marker), None)
     if mine is not None:
         off = mine.position - spot
         flat, rise = float(np.linalg.norm(off[:2])), float(off[2])
@@ -190,45 +193,10 @@ def skipped(value: Any) -> list[int]:
     return [int(v) for v in value] if isinstance(value, (list, tuple)) else []
 
 
-class Pick(ArmSkill):
-    """Pick a tagged object after finding it with the camera; check it came with the tool.
+class Gripping(ArmSkill):
+    """A skill that grips: the shared grip, its check, and letting go of a failed grip."""
 
-    ``tag``: the camera looks for that tag role around ``from`` (a place, a pose
-    or a ``{key}``; anywhere in view without it) within the profile's
-    ``workcell.search_radius_mm``, looking around when it is not over the hint,
-    and measures it again from above before gripping. Not seen: FAILURE naming
-    where it looked, and nothing moves down. After the lift the grip is checked
-    (module docstring). ``at``: the explicit choice to pick an untagged object at
-    a fixed place, blind; that pick is reported unverified.
-    Writes ``pose`` (where the marker was gripped, mm); a marker it failed on is
-    added to ``skip`` so a reactive tree can leave it.
-    """
-
-    PARAMS = (
-        Param(
-            "tag",
-            "str",
-            "",
-            "",
-            "tag role of the object, looked for with the camera",
-            kind="tag_role",
-        ),
-        Param(
-            "from",
-            "any",
-            None,
-            "mm",
-            "place name, [x, y, z] or {key}: where to look for the tag (none: anywhere in view)",
-            kind="place",
-        ),
-        Param(
-            "at",
-            "any",
-            None,
-            "mm",
-            "untagged pick: place name, [x, y, z] or {key} where the object is gripped, blind",
-            kind="place",
-        ),
+    GRASP = (
         Param(
             "approach_mm",
             "float",
@@ -265,6 +233,98 @@ class Pick(ArmSkill):
     )
     RESOURCES = ("arm", "tool")
 
+    def grip(self, target: np.ndarray, tag: str | None, marker: int | None) -> Procedure:
+        """Grip at ``target`` and check the grip; a failure lets go on purpose and skips the marker."""
+        try:
+            yield from pick_steps(
+                self,
+                target,
+                self.param("approach_mm"),
+                self.workcell.grasp_offset_mm,
+                self.param("dwell_s"),
+            )
+            if not tool_engaged(self.rig):
+                raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
+            if not tag:
+                self.feedback_message = self.unverified("no tag to check the grip with")
+            elif self.rig.camera is None or self.rig.tracker is None:
+                self.feedback_message = self.unverified("no camera to check the grip with")
+            elif self.param("verify"):
+                self.feedback_message = yield from verify_pick(
+                    self, tag, marker, target, float(self.param("verify_tolerance_mm"))
+                )
+        except SkillFailure:
+            if marker is not None:
+                self.add_skip(marker)
+            yield from self.let_go("the grip failed")
+            raise
+        self.output("pose", as_list(target))
+        return target
+
+    def add_skip(self, marker: int) -> None:
+        """Add ``marker`` to the ``skip`` list on the blackboard."""
+        if isinstance(self.params.get("skip"), Binding):
+            self.output("skip", sorted({*skipped(self.param("skip")), int(marker)}))
+
+    def let_go(self, why: str) -> Procedure:
+        """Open the tool on purpose (logged), so a failed grip leaves nothing half held."""
+        if not tool_engaged(self.rig):
+            return
+        self.note("released", why=why)
+        with contextlib.suppress(SkillFailure):
+            yield Suction(self.rig, False)
+
+
+class Pick(Gripping):
+    """Pick a tagged object after finding it with the camera; check it came with the tool.
+
+    ``tag``: the camera looks for that tag role around ``from`` (a place, a pose
+    or a ``{key}``; anywhere in view without it) within the profile's
+    ``workcell.search_radius_mm``, looking around when it is not over the hint,
+    and measures it again from above before gripping. Not seen: FAILURE naming
+    where it looked, and nothing moves down. After the lift the grip is checked
+    (module docstring). ``at``: the explicit choice to pick an untagged object at
+    a fixed place, blind; that pick is reported unverified.
+    Writes ``pose`` (where the marker was gripped, mm); a marker it failed on (or
+    ``marker``, the one a condition saw, when it is not found) is added to ``skip``
+    so a reactive tree can leave it.
+    """
+
+    PARAMS = (
+        Param(
+            "tag",
+            "str",
+            "",
+            "",
+            "tag role of the object, looked for with the camera",
+            kind="tag_role",
+        ),
+        Param(
+            "from",
+            "any",
+            None,
+            "mm",
+            "place name, [x, y, z] or {key}: where to look for the tag (none: anywhere in view)",
+            kind="place",
+        ),
+        Param(
+            "at",
+            "any",
+            None,
+            "mm",
+            "untagged pick: place name, [x, y, z] or {key} where the object is gripped, blind",
+            kind="place",
+        ),
+        Param(
+            "marker",
+            "any",
+            None,
+            "",
+            "the marker id a condition saw (a {key}), skipped if not found",
+        ),
+        *Gripping.GRASP,
+    )
+
     def __init__(self, name: str, **params: Any) -> None:
         super().__init__(name, **params)
         tag, source, at = params.get("tag"), params.get("from"), params.get("at")
@@ -282,9 +342,7 @@ class Pick(ArmSkill):
     def procedure(self) -> Procedure:
         if self.params.get("at") is not None:
             target = self.point(self.param("at"), f"{self.name}: at")
-            yield from self.grip(target, None, None)
-            self.feedback_message = self.unverified("untagged object: no marker to check the grip")
-            return target
+            return (yield from self.grip(target, None, None))
         tag = self.param("tag")
         if self.rig.camera is None or self.rig.tracker is None:
             raise SkillFailure(
@@ -296,52 +354,108 @@ class Pick(ArmSkill):
         radius = self.workcell.search_radius_mm
         found = yield from locate(self, tag, hint, radius, skip=skipped(self.param("skip")))
         if found.sighting is None:
+            expected = self.param("marker")
+            if expected is not None:
+                self.add_skip(int(expected))
             where = f"within {radius:g} mm of {fmt(hint)}" if hint is not None else "in view"
             raise SkillFailure(
                 f"{self.name}: no {tag!r} tag {where} (looked from {found.looks} camera poses)"
             )
         self.feedback_message = f"{tag!r} tag at {fmt(found.position)}"
-        return (yield from self.grip(found.position, tag, found.sighting))
+        return (yield from self.grip(found.position, tag, found.sighting.id))
 
-    def grip(self, target: np.ndarray, tag: str | None, seen: Sighting | None) -> Procedure:
-        """Grip at ``target`` and check the grip; a failure lets go on purpose and skips the marker."""
-        try:
-            yield from pick_steps(
-                self,
-                target,
-                self.param("approach_mm"),
-                self.workcell.grasp_offset_mm,
-                self.param("dwell_s"),
+
+class Grasp(Gripping):
+    """Grip the object at ``at`` (usually a ``{key}`` a look wrote): approach, descend,
+    close the tool, lift, and check the grip with the camera when ``tag`` is given.
+
+    The fine-grained half of ``pick``: it does not look for the object first.
+    """
+
+    PARAMS = (
+        Param(
+            "at",
+            "any",
+            doc="place name, [x, y, z] or {key}: the object's marker (mm)",
+            unit="mm",
+            kind="place",
+        ),
+        Param("tag", "str", "", "", "tag role of the object, to check the grip", kind="tag_role"),
+        Param("marker", "any", None, "", "its marker id (a {key}), skipped when the grip fails"),
+        *Gripping.GRASP,
+    )
+
+    def procedure(self) -> Procedure:
+        target = self.point(self.param("at"), f"{self.name}: at")
+        marker = self.param("marker")
+        return (
+            yield from self.grip(target, self.param("tag"), None if marker is None else int(marker))
+        )
+
+
+class PuttingDown(ArmSkill):
+    """A skill that lets go: the shared release and its check."""
+
+    RELEASE = (
+        Param(
+            "object",
+            "str",
+            "",
+            "",
+            "tag role of the held object, to check where it went",
+            kind="tag_role",
+        ),
+        Param(
+            "approach_mm",
+            "float",
+            60.0,
+            "mm",
+            "height above the target to approach from",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "dwell_s", "float", 0.3, "s", "time for the tool to let go", minimum=0.0, maximum=60.0
+        ),
+        Param("verify", "bool", True, "", "check with the camera where the object went"),
+        Param(
+            "place_tolerance_mm",
+            "float",
+            20.0,
+            "mm",
+            "how far the object may rest from the target's marker",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
+        *ArmSkill.COMMON,
+    )
+    RESOURCES = ("arm", "tool")
+
+    def put_down(self, target: np.ndarray, on_marker: bool) -> Procedure:
+        """Let go over ``target`` (``workcell.release_offset_mm`` above a marker, at a place
+        itself) and check where the object went."""
+        release = self.workcell.release_offset_mm if on_marker else 0.0
+        yield from release_steps(
+            self, target, self.param("approach_mm"), release, self.param("dwell_s")
+        )
+        released = target + UP * release
+        self.output("pose", as_list(released))
+        obj = self.param("object")
+        if not self.param("verify"):
+            return released
+        if not obj:
+            self.feedback_message = self.unverified("no `object` tag given to check where it went")
+        elif self.rig.camera is None or self.rig.tracker is None:
+            self.feedback_message = self.unverified("no camera to check where it went")
+        else:
+            self.feedback_message = yield from verify_place(
+                self, obj, target, on_marker, float(self.param("place_tolerance_mm"))
             )
-            if not tool_engaged(self.rig):
-                raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
-            if tag and seen is not None and self.param("verify"):
-                self.feedback_message = yield from verify_pick(
-                    self, tag, seen.id, target, float(self.param("verify_tolerance_mm"))
-                )
-        except SkillFailure:
-            if seen is not None:
-                self.add_skip(seen.id)
-            yield from self.let_go("the pick failed")
-            raise
-        self.output("pose", as_list(target))
-        return target
-
-    def add_skip(self, marker: int) -> None:
-        """Add ``marker`` to the ``skip`` list on the blackboard."""
-        if isinstance(self.params.get("skip"), Binding):
-            self.output("skip", sorted({*skipped(self.param("skip")), marker}))
-
-    def let_go(self, why: str) -> Procedure:
-        """Open the tool on purpose (logged), so a failed grip leaves nothing half held."""
-        if not tool_engaged(self.rig):
-            return
-        self.note("released", why=why)
-        with contextlib.suppress(SkillFailure):
-            yield Suction(self.rig, False)
+        return released
 
 
-class Place(ArmSkill):
+class Place(PuttingDown):
     """Put the held object down and check with the camera where it went.
 
     With ``tag`` the target's marker is found around ``at`` (a place, a pose or
@@ -370,57 +484,16 @@ class Place(ArmSkill):
             "tag role marking the target, found around `at` before letting go",
             kind="tag_role",
         ),
-        Param(
-            "object",
-            "str",
-            "",
-            "",
-            "tag role of the held object, to check where it went",
-            kind="tag_role",
-        ),
-        Param(
-            "approach_mm",
-            "float",
-            60.0,
-            "mm",
-            "height above the target to approach from",
-            minimum=0.0,
-            maximum=1000.0,
-        ),
-        Param(
-            "dwell_s",
-            "float",
-            0.3,
-            "s",
-            "time for the tool to let go",
-            minimum=0.0,
-            maximum=60.0,
-        ),
-        Param("verify", "bool", True, "", "check with the camera where the object went"),
-        Param(
-            "place_tolerance_mm",
-            "float",
-            20.0,
-            "mm",
-            "how far the object may rest from the target's marker",
-            minimum=0.0,
-            maximum=1000.0,
-        ),
-        Param("pose", "any", None, "mm", "output: where the object was released", io="out"),
-        *ArmSkill.COMMON,
+        *PuttingDown.RELEASE,
     )
-    RESOURCES = ("arm", "tool")
 
     def procedure(self) -> Procedure:
         target = self.point(self.param("at"), f"{self.name}: at")
-        tag, obj = self.param("tag"), self.param("object")
-        cell = self.workcell
-        camera = self.rig.camera is not None and self.rig.tracker is not None
-        release = 0.0
+        tag = self.param("tag")
         if tag:
-            if not camera:
+            if self.rig.camera is None or self.rig.tracker is None:
                 raise SkillFailure(f"{self.name}: finding the {tag!r} tag needs a camera")
-            radius = cell.search_radius_mm
+            radius = self.workcell.search_radius_mm
             found = yield from locate(self, tag, target, radius)
             if found.sighting is None:
                 raise SkillFailure(
@@ -428,23 +501,41 @@ class Place(ArmSkill):
                     f"(looked from {found.looks} camera poses); still holding the object"
                 )
             target = found.position
-            release = cell.release_offset_mm
-        yield from release_steps(
-            self, target, self.param("approach_mm"), release, self.param("dwell_s")
-        )
-        released = target + UP * release
-        self.output("pose", as_list(released))
-        if not self.param("verify"):
-            return released
-        if not obj:
-            self.feedback_message = self.unverified("no `object` tag given to check where it went")
-        elif not camera:
-            self.feedback_message = self.unverified("no camera to check where it went")
-        else:
-            self.feedback_message = yield from verify_place(
-                self, obj, target, bool(tag), float(self.param("place_tolerance_mm"))
-            )
-        return released
+        return (yield from self.put_down(target, bool(tag)))
 
 
-__all__ = ["Pick", "Place", "pick_steps", "release_steps", "verify_pick", "verify_place"]
+class Release(PuttingDown):
+    """Let go of the held object over ``at`` and check where it went: the fine-grained
+    half of ``place`` (it does not look for the target first). ``on_marker``: ``at``
+    is a target's marker (a ``{key}`` a look wrote), so the tool lets go
+    ``workcell.release_offset_mm`` above it; else ``at`` is the release point."""
+
+    PARAMS = (
+        Param(
+            "at",
+            "any",
+            doc="place name, [x, y, z] or {key}: where to let go",
+            unit="mm",
+            kind="place",
+        ),
+        Param("on_marker", "bool", False, "", "`at` is a marker to put the object on"),
+        *PuttingDown.RELEASE,
+    )
+
+    def procedure(self) -> Procedure:
+        target = self.point(self.param("at"), f"{self.name}: at")
+        return (yield from self.put_down(target, bool(self.param("on_marker"))))
+
+
+__all__ = [
+    "Grasp",
+    "Gripping",
+    "Pick",
+    "Place",
+    "PuttingDown",
+    "Release",
+    "pick_steps",
+    "release_steps",
+    "verify_pick",
+    "verify_place",
+]

@@ -6,23 +6,39 @@ from typing import Any
 
 import armtree
 
-from .manipulation import Pick, Place
+from .conditions import ArmIdle, AtPlace, Holding, Misplaced, TagNear, TagVisible
+from .manipulation import Grasp, Pick, Place, Release
 from .motion import Home, MoveTo
 from .search import CleanUp, Search
 from .servo import VisualServo
+from .steps import Approach, LookFor, SearchStep, Sweep
 from .track import Track
 
 
 @armtree.hookimpl
 def armtree_behaviours() -> dict[str, Any]:
-    """search, track, clean_up, pick, place, visual_servo, move_to and home."""
+    """Conditions (tag_visible, tag_near, misplaced, holding, at_place, arm_idle), fine-grained actions
+    (look, approach, grasp, release, sweep, search_step, move_to, home, track,
+    visual_servo) and the composites built from them (search, clean_up, pick, place)."""
     return {
+        "tag_visible": TagVisible,
+        "tag_near": TagNear,
+        "misplaced": Misplaced,
+        "holding": Holding,
+        "at_place": AtPlace,
+        "arm_idle": ArmIdle,
+        "look": LookFor,
+        "approach": Approach,
+        "grasp": Grasp,
+        "release": Release,
+        "sweep": Sweep,
+        "search_step": SearchStep,
         "move_to": MoveTo,
         "home": Home,
+        "track": Track,
+        "visual_servo": VisualServo,
         "search": Search,
         "clean_up": CleanUp,
-        "track": Track,
         "pick": Pick,
         "place": Place,
-        "visual_servo": VisualServo,
     }

@@ -156,7 +156,8 @@ SCAN_PARAMS = (
         minimum=1,
         maximum=100,
     ),
-    Param("frames", "int", 2, "", "frames to read at each scan pose", minimum=1, maximum=100),
+    # one frame per pose: on a sweep each spot is in view from about three poses
+    Param("frames", "int", 1, "", "frames to read at each scan pose", minimum=1, maximum=100),
 )
 
 
