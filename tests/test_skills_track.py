@@ -76,3 +76,15 @@ def test_track_goes_back_when_following_hides_the_marker():
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert (rig.arm.actual_pose() @ TOOL_T_CAMERA)[2, 3] >= 140.0
+
+
+def test_with_a_fixed_camera_the_arm_stays_put_while_the_marker_moves():
+    # eye-to-hand: following would only put the tool between the camera and the marker
+    bot = moving_bot()
+    rig = make_rig([bot], mount="eye_to_hand")
+    start = rig.arm.actual_pose()[:3, 3].copy()
+    node = Track("track", tag="duckybot", pose=Binding("bot"), still_s=2.0)
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    np.testing.assert_allclose(rig.arm.actual_pose()[:3, 3], start, atol=1e-9)
+    assert np.linalg.norm(np.array(node.bb.get("bot")) - bot.position) < 15.0

@@ -12,6 +12,7 @@ import numpy as np
 
 from armtree import Param
 from armtree.filters import PoseFilter
+from armtree.perception import EYE_IN_HAND
 
 from .actions import Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import ArmSkill, camera_over
@@ -35,6 +36,8 @@ class Track(ArmSkill):
     ``{key}``) is true; FAILURE when it was missed in ``lost_frames`` frames in a row.
     If following hid the marker (the tool in the view, the edge of the image), the
     camera goes back to where it last saw it and does not try that position again.
+    A fixed (eye-to-hand) camera is not moved by the arm, so the arm stays where it is:
+    following would only put the tool between the camera and the marker.
     """
 
     PARAMS = (
@@ -128,6 +131,7 @@ class Track(ArmSkill):
         # which it was not (the tool or the view's edge hid it): go back, don't retry
         seen_from: np.ndarray | None = None
         blind: np.ndarray | None = None
+        follow = self.rig.camera.mount == EYE_IN_HAND
         while not self.param("until"):
             if anchor is not None:
                 yield Pause(self.clock, float(self.param("period_s")))
@@ -141,7 +145,7 @@ class Track(ArmSkill):
                 away = seen_from is not None and np.linalg.norm(here - seen_from) > float(
                     self.param("deadband_mm")
                 )
-                if missed >= BLIND_AFTER and away:
+                if follow and missed >= BLIND_AFTER and away:
                     blind = here
                     yield Move(self.rig, seen_from, speed=self.speed(), label="back")
                 continue
@@ -157,6 +161,8 @@ class Track(ArmSkill):
             if still_s > 0 and now - anchor_t >= still_s:
                 self.feedback_message = f"{tag!r} still at {fmt(estimate)}"
                 return estimate
+            if not follow:
+                continue
             wanted = camera_over(self, estimate, height)
             if blind is not None and np.linalg.norm(wanted - blind) < BLIND_RADIUS_MM:
                 continue
