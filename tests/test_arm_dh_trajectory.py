@@ -160,3 +160,16 @@ def test_streamed_set_points_are_whole_pulses_in_the_board_range(sim):
         request = S.parse_request(line.decode())
         assert request.errors == 0 and request.time_ms is not None
         assert all(S.PULSE_MIN <= p <= S.PULSE_MAX for p, _ in request.moves.values())
+
+
+def test_a_servo_slip_lasts_until_the_servo_is_next_commanded(sim):
+    # hobby servos hold position in their own loop: a slip does not pile up like lost steps
+    model = sim.arm.model
+    sim.tick(2)
+    sim.emu.inject("missed_steps", joint=1, amount=2.0)
+    sim.tick(5)
+    assert sim.emu.true_joints()[1] - model.home[1] == pytest.approx(2.0, abs=1e-6)
+    goal = model.ik(np.array([220.0, -150.0, 40.0]), near=model.home)
+    times, true = follow(sim, sim.arm.move_joints(goal))
+    np.testing.assert_allclose(true[-1], goal, atol=0.1)
+    assert np.abs(np.diff(true[:, 1])).max() < 2.0, "it moved from where it was, no jump"

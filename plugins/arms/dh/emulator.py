@@ -9,6 +9,11 @@ the new one linearly so that they all arrive together, after ``T`` ms, at the
 ``STOP<ch>`` freezes a channel; ``VER`` prints the version. Nothing else is
 ever answered. Joint angles come from the pulses through each joint's servo
 map (seed 001). Units: degrees / mm, microseconds, seconds on the run's clock.
+
+A hobby servo holds its position with its own feedback loop, so a slip (the
+``missed_steps`` fault: a load or a knock turning the horn) does not pile up as
+a stepper's lost steps do: the joint stays off by it until the servo is next
+commanded, and then moves from where it really is to the new target.
 """
 
 from __future__ import annotations
@@ -148,6 +153,11 @@ class SSC32Emulator(PtyEmulator):
 
     def _group_move(self, req: S.Request, t: float) -> None:
         now = self.pulses(t)
+        # a commanded servo starts from where it really is: its slip is taken up by the move
+        for j, m in enumerate(self.servos):
+            if m.channel in req.moves and self.joints.missed[j]:
+                now[m.channel] += self.joints.missed[j] / m.slope
+                self.joints.missed[j] = 0.0
         targets = {
             ch: float(np.clip(p, S.PULSE_MIN, S.PULSE_MAX))
             for ch, (p, _) in req.moves.items()
