@@ -25,6 +25,7 @@ OVERHEAD_SIZE = 640
 _KIND_COLORS = {
     "ducky": (40, 205, 250),
     "trash": (90, 110, 130),
+    "block": (60, 90, 200),
     "obstacle": (120, 70, 40),
     "bin": (60, 110, 50),
     "spot": (200, 200, 215),

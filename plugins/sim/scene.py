@@ -30,6 +30,7 @@ from .geometry import footprint_overlap, point_in_polygon, rot_z
 KINDS: dict[str, dict[str, Any]] = {
     "ducky": {"size": (32.0, 32.0, 30.0), "color": (40, 205, 250), "role": "ducky"},
     "trash": {"size": (30.0, 30.0, 20.0), "color": (90, 110, 130), "role": "trash"},
+    "block": {"size": (30.0, 30.0, 25.0), "color": (60, 90, 200), "role": "block"},
     "obstacle": {"size": (60.0, 60.0, 80.0), "color": (120, 70, 40), "role": "obstacle"},
     "bin": {"size": (90.0, 90.0, 35.0), "color": (60, 110, 50), "role": None},
     "spot": {"size": (50.0, 50.0, 0.0), "color": (200, 200, 215), "role": None},

@@ -27,7 +27,7 @@ from .renderer import Drawable
 from .scene import MarkerSpec, ObjectSpec, SceneSpec, parse_scene
 
 #: Kinds an end effector can lift.
-MOVABLE = ("ducky", "trash")
+MOVABLE = ("ducky", "trash", "block")
 #: Gravity, mm/s^2.
 GRAVITY = 9810.0
 #: Where an object that falls off the table ends up, below the table top (mm).

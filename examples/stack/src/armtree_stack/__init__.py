@@ -1,0 +1,1 @@
+"""Stack tagged blocks with armtree's pick and place behaviours."""
