@@ -3,60 +3,23 @@ tests run there (they run its tree on the simulation and let the world judge it)
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from package_install import pip_install, run_package_tests
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
-pytestmark = pytest.mark.slow
+# Each test installs a package and runs its suite in a subprocess: on a loaded machine
+# that outlasts the suite's default 120 s per test.
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
 
 @pytest.mark.parametrize("example", ["stack", "uarm_swift_pro"])
 def test_an_example_installs_and_its_tests_pass(tmp_path, example):
     site = tmp_path / "site"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "-q",
-            "--no-deps",
-            "--no-build-isolation",
-            "--no-index",
-            "--target",
-            str(site),
-            str(EXAMPLES / example),
-        ],
-        check=True,
-        capture_output=True,
-        timeout=600,
-    )
-    env = dict(os.environ, PYTHONPATH=str(site))
-    env.pop("ARMTREE_DISABLE_PLUGIN_AUTOLOAD", None)
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pytest",
-            "-q",
-            "-p",
-            "no:cacheprovider",
-            "-p",
-            "no:xdist",
-            "--rootdir",
-            str(EXAMPLES / example),
-            str(EXAMPLES / example / "tests"),
-        ],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    pip_install(site, EXAMPLES / example)
+    # From another folder, so the tests import the installed package, not its source.
+    proc = run_package_tests(EXAMPLES / example, site, cwd=tmp_path)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     assert " passed" in proc.stdout and "skipped" not in proc.stdout

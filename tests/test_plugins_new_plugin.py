@@ -9,42 +9,25 @@ through ``run-tree``'s entry function on the simulation and check the world.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
+from package_install import pip_install, run_package_tests
 
 from armtree.cli import main
 from armtree.scaffold import KINDS, plugin_names, render_package
 
-pytestmark = pytest.mark.slow
+# Each test installs a package and runs its suite in a subprocess: on a loaded machine
+# that outlasts the suite's default 120 s per test.
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
 
 def install(kind: str, root: Path) -> tuple[Path, Path]:
     """Generate the ``kind`` package under ``root`` and pip-install it; (package, site)."""
     assert main(["new-plugin", f"made_{kind}", "--kind", kind, "--dir", str(root)]) == 0
     package, site = root / f"armtree-made-{kind}", root / "site"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "-q",
-            "--no-deps",
-            "--no-build-isolation",
-            "--no-index",
-            "--target",
-            str(site),
-            str(package),
-        ],
-        check=True,
-        capture_output=True,
-        timeout=600,
-    )
+    pip_install(site, package)
     return package, site
 
 
@@ -52,16 +35,7 @@ def install(kind: str, root: Path) -> tuple[Path, Path]:
 def test_a_generated_package_installs_and_its_tests_and_tree_pass(tmp_path, kind, capsys):
     package, site = install(kind, tmp_path)
     capsys.readouterr()
-    env = dict(os.environ, PYTHONPATH=str(site))
-    env.pop("ARMTREE_DISABLE_PLUGIN_AUTOLOAD", None)
-    proc = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist"],
-        cwd=package,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    proc = run_package_tests(package, site, cwd=package)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     assert " passed" in proc.stdout and "skipped" not in proc.stdout
 
