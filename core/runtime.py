@@ -176,6 +176,8 @@ class Run:
             self.clock = VirtualClock()
         self.tick_count = 0
         self.overruns = 0
+        #: On a wall clock, how late each tick started against its schedule (seconds).
+        self.tick_lateness: list[float] = []
         self.interrupts = Interrupts(force_exit=self._force_exit)
         #: Pause, step, resume, stop and speed, from any thread (page, keys, tests).
         self.control = RunControl(self.interrupts)
@@ -442,6 +444,8 @@ class Run:
             self.tick_count += 1
             tick_start = time.monotonic()
             now = clock.now()
+            if not virtual:
+                self.tick_lateness.append(now - next_t)
             watchdog.begin("a component step")
             if rig is not None:
                 try:
@@ -849,6 +853,12 @@ class Run:
             reason=self.interrupts.reason,
             traceback=self._end_traceback,
         )
+        lateness = lateness_ms(self.tick_lateness)
+        if lateness:
+            result.details["tick start"] = (
+                f"{lateness['p50']:.2f} ms late (p50), {lateness['p99']:.2f} ms (p99), "
+                f"{lateness['max']:.1f} ms (max) after schedule; {result.overruns} overruns"
+            )
         self.view.stop(self)
         self._call_hook("armtree_run_finished", run=self, result=result)
         record = {
@@ -865,6 +875,8 @@ class Run:
             "exit_code": result.exit_code,
             "running": result.running,
         }
+        if lateness:
+            record["tick_lateness_ms"] = lateness
         self.log.write(record)
         self.log.flush()
         return result
@@ -1014,6 +1026,18 @@ def _profile_tick_limit(profile: Any) -> float:
     if isinstance(section, dict) and isinstance(section.get("tick_s"), (int, float)):
         return float(section["tick_s"])
     return DEFAULT_TICK_S
+
+
+def lateness_ms(lateness: Sequence[float]) -> dict[str, float]:
+    """p50, p99 and max (ms) of tick-start lateness in seconds; empty for no ticks."""
+    if not lateness:
+        return {}
+    ms = sorted(1000.0 * max(0.0, x) for x in lateness)
+
+    def pct(q: float) -> float:
+        return ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
+
+    return {"p50": pct(0.50), "p99": pct(0.99), "max": ms[-1], "ticks": float(len(ms))}
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:

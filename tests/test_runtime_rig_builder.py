@@ -1,5 +1,7 @@
 """Building the rig from a profile through the plugin registry, and runs that build their own."""
 
+import json
+
 import py_trees
 import pytest
 from py_trees.common import Status
@@ -260,3 +262,17 @@ def test_every_end_of_a_run_stops_the_components_in_reverse_start_order(root, st
     assert plugin.events.index("arm connected") < started
     closes = [e for e in plugin.events if e in ("camera closed", "arm closed", "emulator closed")]
     assert closes == ["camera closed", "arm closed", "emulator closed"]
+
+
+def test_a_wall_clock_run_reports_how_late_its_ticks_started(tmp_path):
+    node = py_trees.behaviours.TickCounter(name="c", duration=5, completion_status=Status.SUCCESS)
+    tree = Tree(name="t", root=node, source=None, profile=None)
+    r = Run(tree, realtime=True, record=tmp_path, handle_signals=False, stop_key=False)
+    result = r.execute()
+    assert result.status == "SUCCESS" and len(r.tick_lateness) == result.ticks == 6
+    assert all(late > -0.005 for late in r.tick_lateness), "no tick starts early"
+    assert "(p99)" in result.details["tick start"]
+    record = [json.loads(line) for line in (tmp_path / "run.jsonl").read_text().splitlines()][-1]
+    late = record["tick_lateness_ms"]
+    assert late["ticks"] == 6 and 0.0 <= late["p50"] <= late["p99"] <= late["max"]
+    assert result.seconds >= 5 * 0.05 - 1e-3, "ticks were paced on the wall clock"

@@ -29,6 +29,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from armtree.cli import add_set_option
 from armtree.clock import WallClock
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
@@ -82,6 +84,7 @@ class SimBench:
         camera_port: int = 0,
         quality: int = 90,
         keep_frame_times: bool = False,
+        stamp_frames: bool = False,
     ) -> None:
         arm = profile.component("arm") or {}
         camera = profile.component("camera") or {}
@@ -98,6 +101,7 @@ class SimBench:
         self.server = MjpegServer(host, camera_port, quality)
         self.stats = BenchStats()
         self.keep_frame_times = keep_frame_times
+        self.stamp_frames = stamp_frames
         self.port_path: str | None = None
         self.camera: SimCamera | None = None
         self._stepper: WorldStepper | None = None
@@ -147,7 +151,8 @@ class SimBench:
             began = time.monotonic()
             frame = camera.read()
             if frame is not None:
-                self.server.publish(frame.image)
+                image = stamp(frame.image, frame.index) if self.stamp_frames else frame.image
+                self.server.publish(image)
                 published = time.monotonic()
                 stats.frames += 1
                 stats.render_ms.append((published - began) * 1000.0)
@@ -185,6 +190,34 @@ class SimBench:
         return score
 
 
+#: Frame-index stamp: bits of STAMP_PX x STAMP_PX pixels along the image's top left.
+STAMP_BITS = 24
+STAMP_PX = 6
+
+
+def stamp(image: np.ndarray, index: int) -> np.ndarray:
+    """A copy of ``image`` with ``index`` drawn as black/white blocks in its top-left row.
+
+    For latency measurements only (``--stamp-frames``): the receiving side reads the
+    index back with :func:`read_stamp` and matches it to the render time.
+    """
+    out = image.copy()
+    for bit in range(STAMP_BITS):
+        level = 255 if (index >> bit) & 1 else 0
+        out[:STAMP_PX, bit * STAMP_PX : (bit + 1) * STAMP_PX] = level
+    return out
+
+
+def read_stamp(image: np.ndarray) -> int:
+    """The frame index :func:`stamp` drew into ``image`` (after JPEG, by block means)."""
+    index = 0
+    for bit in range(STAMP_BITS):
+        block = image[1 : STAMP_PX - 1, bit * STAMP_PX + 1 : (bit + 1) * STAMP_PX - 1]
+        if float(np.mean(block)) > 127.0:
+            index |= 1 << bit
+    return index
+
+
 def real_profile_for(arm: dict[str, Any]) -> str | None:
     """The shipped real-hardware profile for a sim profile's arm section, if there is one."""
     kind = arm.get("type")
@@ -215,6 +248,16 @@ class ServeSimCommand:
         parser.add_argument(
             "--json", action="store_true", help="print the final score as JSON as well"
         )
+        parser.add_argument(
+            "--frame-log",
+            metavar="FILE",
+            help="write each frame's index and render/publish times (JSON lines) at the end",
+        )
+        parser.add_argument(
+            "--stamp-frames",
+            action="store_true",
+            help="draw each frame's index in its top-left corner (for latency measurements)",
+        )
 
     def run(self, args: argparse.Namespace) -> int:
         """Serve until Ctrl-C or SIGTERM; print the score; exit 130 (2 for bad input)."""
@@ -232,7 +275,13 @@ class ServeSimCommand:
         profile = load_profile(args.profile, args.overrides, manager=manager)
         try:
             bench = SimBench(
-                profile, manager, seed=args.seed, camera_port=args.camera_port, quality=args.quality
+                profile,
+                manager,
+                seed=args.seed,
+                camera_port=args.camera_port,
+                quality=args.quality,
+                keep_frame_times=bool(args.frame_log),
+                stamp_frames=args.stamp_frames,
             )
         except OSError as exc:
             raise ConfigError(f"--camera-port {args.camera_port}: {exc.strerror or exc}") from None
@@ -267,6 +316,11 @@ class ServeSimCommand:
         )
         if args.json:
             print(json.dumps(score, default=str), flush=True)
+        if args.frame_log:
+            with open(args.frame_log, "w") as log:
+                for index, began, published in bench.stats.frame_times:
+                    log.write(json.dumps({"index": index, "render": began, "sent": published}))
+                    log.write("\n")
         return EXIT_INTERRUPTED
 
 
@@ -286,4 +340,12 @@ def _route_signals(stop: Any) -> Any:
     return restore
 
 
-__all__ = ["REAL_PROFILES", "BenchStats", "ServeSimCommand", "SimBench", "real_profile_for"]
+__all__ = [
+    "REAL_PROFILES",
+    "BenchStats",
+    "ServeSimCommand",
+    "SimBench",
+    "read_stamp",
+    "real_profile_for",
+    "stamp",
+]
