@@ -152,3 +152,15 @@ def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path)
         assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served
     finally:
         bench.kill()
+
+
+def test_a_stamped_frame_index_survives_jpeg():
+    import cv2
+    import numpy as np
+
+    from armtree.plugins.sim.serve import read_stamp, stamp
+
+    image = np.random.default_rng(3).integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    for index in (0, 1, 4095, 2**24 - 1):
+        ok, jpeg = cv2.imencode(".jpg", stamp(image, index), [cv2.IMWRITE_JPEG_QUALITY, 90])
+        assert ok and read_stamp(cv2.imdecode(jpeg, cv2.IMREAD_COLOR)) == index
