@@ -152,3 +152,19 @@ def test_detect_port_probe_names_the_arm_an_emulated_port_answers_as(profile):
         emu.close()
     assert answers == [profile], tried
     assert set(tried) == set(PROBES)
+
+
+def test_armtree_detect_port_probe_on_the_command_line(dobot):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).parent / "armtree"
+    if not exe.exists():
+        pytest.skip("the armtree console script is not installed in this environment")
+    args = [str(exe), "detect-port", "--probe", "--timeout", "0.5", "--json", dobot.path]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    (port,) = json.loads(done.stdout)
+    assert port["device"] == dobot.path and port["answers"] == ["dobot_v1"]
+    assert port["tried"]["dobot_magician"].startswith("wrong protocol"), port["tried"]
