@@ -95,10 +95,16 @@ class Jogger:
         xyz[AXES[axis]] += sign * self.step
         return self._start(lambda: self.arm.move_to(xyz), f"{axis} -> {xyz[AXES[axis]]:.1f} mm")
 
+    def tool_engaged(self) -> bool:
+        """True when the tool grips: suction on, or a gripper nearer closed than open."""
+        from armtree.plugins.skills.manipulation import tool_engaged  # the skills' own test
+
+        return tool_engaged(self.rig)
+
     def toggle_tool(self) -> MotionHandle | None:
-        """Suction on if it was off, and off if it was on."""
-        on = not self.arm.tool.suction
-        return self._start(lambda: self.arm.set_suction(on), f"suction {'on' if on else 'off'}")
+        """Grip (suction on, gripper closed) if the tool is free, release it if it grips."""
+        on = not self.tool_engaged()
+        return self._start(lambda: self.arm.set_suction(on), "grip" if on else "release")
 
     def home(self) -> MotionHandle | None:
         """Go to the arm's home configuration."""
@@ -229,7 +235,7 @@ def build_app(rig: Rig, save_to: Path, refresh_hz: float = 20.0) -> Any:
             xyz = rig.arm.pose()[:3, 3]
             for axis, v in zip("xyz", xyz, strict=True):
                 pose.add_row(axis, f"{v:8.1f}")
-            pose.add_row("suction", "on" if rig.arm.tool.suction else "off")
+            pose.add_row("tool", "grips" if jogger.tool_engaged() else "free")
             table = self.query_one("#detections", DataTable)
             table.clear()
             for d in self.detections:
