@@ -81,6 +81,7 @@ def result_record(record: Path) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(400)  # three runs in real time: ~60 s on an idle machine, more when busy
 def test_load_ducky_on_dobot_v1_profile_against_served_sim_world(tmp_path):
     bench = Bench("sim_dobot", tmp_path)
     try:
@@ -139,6 +140,7 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(300)  # a whole run in real time
 def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path):
     bench = Bench("sim_magician", tmp_path)
     try:
