@@ -49,8 +49,9 @@ def test_every_shipped_tree_validates_on_a_real_profile(name):
 @pytest.mark.parametrize(("real", "sim"), sorted(TWINS.items()))
 def test_a_real_profile_has_its_simulated_twins_geometry(real, sim):
     r, s = armtree.load_profile(real), armtree.load_profile(sim)
+    fix = f"{sim} changed: copy the change into hardware/{real}.yaml"
     for section in ("places", "tags", "workcell"):
-        assert r.data[section] == s.data[section], section
+        assert r.data[section] == s.data[section], f"{section}: {fix}"
     rc, sc = r.component("camera"), s.component("camera")
     assert (rc["mount"], rc["intrinsics"], rc["distortion"]) == (
         sc["mount"],
@@ -60,7 +61,7 @@ def test_a_real_profile_has_its_simulated_twins_geometry(real, sim):
     np.testing.assert_allclose(rc["extrinsics"], camera_extrinsics(dict(sc)), atol=1e-9)
     link = ("port", "connect_timeout", "firmware", "baud", "board")  # the link, not geometry
     arm_r = {k: v for k, v in r.component("arm").items() if k not in link}
-    assert arm_r == {k: v for k, v in s.component("arm").items() if k not in link}
+    assert arm_r == {k: v for k, v in s.component("arm").items() if k not in link}, f"arm: {fix}"
 
 
 def test_the_profiles_ship_and_armtree_check_accepts_them(tmp_path):

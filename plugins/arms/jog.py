@@ -49,6 +49,8 @@ class Jogger:
     message: str = ""
     handle: MotionHandle | None = None
     recorded: list[str] = field(default_factory=list)
+    #: What the jog last asked of the tool (grip or release).
+    gripping: bool = False
 
     @property
     def step(self) -> float:
@@ -95,16 +97,16 @@ class Jogger:
         xyz[AXES[axis]] += sign * self.step
         return self._start(lambda: self.arm.move_to(xyz), f"{axis} -> {xyz[AXES[axis]]:.1f} mm")
 
-    def tool_engaged(self) -> bool:
-        """True when the tool grips: suction on, or a gripper nearer closed than open."""
-        from armtree.plugins.skills.manipulation import tool_engaged  # the skills' own test
-
-        return tool_engaged(self.rig)
-
     def toggle_tool(self) -> MotionHandle | None:
-        """Grip (suction on, gripper closed) if the tool is free, release it if it grips."""
-        on = not self.tool_engaged()
-        return self._start(lambda: self.arm.set_suction(on), "grip" if on else "release")
+        """Grip (suction on, or a gripper closed) if the jog last released, else release.
+
+        ``set_suction`` drives whichever the arm grips with; the first press grips.
+        """
+        on = not self.gripping
+        handle = self._start(lambda: self.arm.set_suction(on), "grip" if on else "release")
+        if handle is not None:
+            self.gripping = on
+        return handle
 
     def home(self) -> MotionHandle | None:
         """Go to the arm's home configuration."""
@@ -235,7 +237,7 @@ def build_app(rig: Rig, save_to: Path, refresh_hz: float = 20.0) -> Any:
             xyz = rig.arm.pose()[:3, 3]
             for axis, v in zip("xyz", xyz, strict=True):
                 pose.add_row(axis, f"{v:8.1f}")
-            pose.add_row("tool", "grips" if jogger.tool_engaged() else "free")
+            pose.add_row("tool", "grip" if jogger.gripping else "released")
             table = self.query_one("#detections", DataTable)
             table.clear()
             for d in self.detections:
