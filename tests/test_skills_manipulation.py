@@ -215,3 +215,18 @@ def test_halted_pick_before_the_grip_holds_nothing_and_logs_it():
     assert not rig.arm.suction and rig.world.held is None
     halted = [data for event, data in runtime.log.events if event == "halted"]
     assert halted and halted[0]["tool"] == "suction off, holding nothing"
+
+
+def test_a_release_point_just_out_of_reach_moves_within_reach_by_a_few_mm():
+    held = Marker(0, np.zeros(3), held=True)
+    rig = make_rig([held])
+    rig.world.held = held
+    rig.arm.suction = True
+    node = Place("drop", at=[326.0, 0.0, 20.0])  # the fake arm reaches r <= 320 mm
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert 314.0 <= np.hypot(*held.dropped_at[:2]) <= 320.0 + 1e-6
+    far = Place("drop2", at=[345.0, 0.0, 20.0])
+    rig.world.held, held.held, rig.arm.suction = held, True, True
+    status, _ = run(far, rig)
+    assert status is Status.FAILURE and "refused" in far.feedback_message

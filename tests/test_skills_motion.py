@@ -114,3 +114,29 @@ def test_a_stalled_motion_times_out_and_stops_the_arm():
     assert status is Status.FAILURE and "did not finish in time" in node.feedback_message
     assert rig.arm.stops >= 1
     assert ticks * 0.05 < 30.0
+
+
+def test_home_on_the_reference_uses_the_arms_own_homing_and_repeats_it_until_homed():
+    rig = make_rig()
+    homings = []
+    rig.arm.homed = False
+
+    def home():
+        homings.append(rig.clock.now())
+        rig.arm.homed = len(homings) >= 2  # the first homing misses an end stop
+        return rig.arm.move_joints(rig.arm.model.home)
+
+    rig.arm.home = home
+    rig.arm.q = np.array([30.0, 150.0, 20.0])
+    status, _ = run(Home("home", reference=True), rig)
+    assert status is Status.SUCCESS and len(homings) == 2
+    assert np.allclose(rig.arm.q, rig.arm.model.home)
+
+
+def test_home_on_the_reference_fails_when_the_arm_never_reports_homed():
+    rig = make_rig()
+    rig.arm.homed = False
+    rig.arm.home = lambda: rig.arm.move_joints(rig.arm.model.home)
+    node = Home("home", reference=True)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "did not report homed" in node.feedback_message

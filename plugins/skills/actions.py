@@ -182,6 +182,57 @@ class Move(Action):
             self.rig.arm.stop()
 
 
+class ArmHome(Action):
+    """The arm's own homing (``ArmDriver.home``: end stops where it has them); done when it ends.
+
+    A driver that reports ``homed`` False afterwards (an end stop not seen, a step
+    slipped on the way) is homed again, :data:`TRIES` times in all. Each try is
+    allowed :data:`TIMEOUT` seconds, after which the arm is stopped and the step fails.
+    """
+
+    #: Seconds a homing may take (a SCARA's carriage crawling to its end stop).
+    TIMEOUT = 60.0
+    #: Homings tried before the step fails.
+    TRIES = 3
+
+    def __init__(self, rig: Any) -> None:
+        self.rig = rig
+        self.handle: MotionHandle | None = None
+        self._deadline = 0.0
+        self._tries = 0
+
+    def describe(self) -> str:
+        """What this step does, for messages."""
+        return "home on the arm's own reference"
+
+    def start(self) -> None:
+        self._tries += 1
+        self._deadline = self.rig.clock.now() + self.TIMEOUT
+        self.handle = self.rig.arm.home()
+
+    def poll(self) -> State:
+        assert self.handle is not None
+        if self.handle.done:
+            homed = getattr(self.rig.arm, "homed", True)
+            if self.handle.status is MotionStatus.DONE and homed:
+                return State.DONE
+            if self._tries < self.TRIES:
+                self.start()
+                return State.RUNNING
+            why = self.handle.error or self.handle.status.value
+            if self.handle.status is MotionStatus.DONE:
+                why = "the arm did not report homed"
+            return self.fail(f"homing failed after {self._tries} tries: {why}")
+        if self.rig.clock.now() > self._deadline:
+            self.stop()
+            return self.fail(f"homing did not finish in {self.TIMEOUT:g} s")
+        return State.RUNNING
+
+    def stop(self) -> None:
+        if self.handle is not None and not self.handle.done:
+            self.rig.arm.stop()
+
+
 class Suction(Action):
     """Switch the suction pump on or off; done when the arm acknowledges it."""
 

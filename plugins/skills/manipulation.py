@@ -36,11 +36,15 @@ from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point
 from .base import ActionFailed, Procedure, as_list
 from .locate import locate, look_over, nearest, out_of_view
+from .reach import nearest_reachable, reachable
 
 #: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
 RISEN_MM = 10.0
 #: An object put on a target marker rests at least this much above it (mm).
 ON_TOP_MM = 5.0
+#: How far a release point may move to within reach (mm), and how much lower at most.
+RELEASE_SLACK_MM = 15.0
+RELEASE_DROP_MM = 3.0
 
 
 def pick_steps(
@@ -61,15 +65,28 @@ def pick_steps(
 def release_steps(
     skill: ArmSkill, target: np.ndarray, approach: float, release: float, dwell: float
 ) -> Procedure:
-    """Approach above ``target``, descend to ``release`` mm above it, open the tool, lift back."""
+    """Approach above ``target``, descend to ``release`` mm above it, open the tool, lift back.
+
+    A release point just out of reach (a Duckybot parked at the edge of a small
+    workspace) gives way to the nearest reachable one within
+    :data:`RELEASE_SLACK_MM`, no lower than :data:`RELEASE_DROP_MM` under it.
+    """
     rig, speed = skill.rig, skill.speed()
-    over = above(skill, target + UP * release, max(0.0, approach - release))
+    point = target + UP * release
+    model = rig.arm.model
+    if not reachable(model, point):
+        near = nearest_reachable(
+            model, point, span=2 * RELEASE_SLACK_MM, min_z=point[2] - RELEASE_DROP_MM
+        )
+        if near is not None and np.linalg.norm(near - point) <= RELEASE_SLACK_MM:
+            point = near
+    over = above(skill, point, max(0.0, approach - release))
     yield Move(rig, over, speed=speed, label="approach")
-    if over[2] > target[2] + release + 1e-6:
-        yield Move(rig, target + UP * release, speed=speed, label="descend")
+    if over[2] > point[2] + 1e-6:
+        yield Move(rig, point, speed=speed, label="descend")
     yield Suction(rig, False)
     yield Pause(skill.clock, dwell)
-    if over[2] > target[2] + release + 1e-6:
+    if over[2] > point[2] + 1e-6:
         yield Move(rig, over, speed=speed, label="lift")
 
 

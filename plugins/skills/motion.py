@@ -6,7 +6,7 @@ import numpy as np
 
 from armtree import Param
 
-from .actions import Move
+from .actions import ArmHome, Move
 from .arm_skill import ArmSkill
 from .base import Procedure, as_list
 
@@ -47,12 +47,29 @@ class MoveTo(ArmSkill):
 
 
 class Home(ArmSkill):
-    """Move the arm to its model's home joint configuration, through the planner."""
+    """Move the arm to its model's home joint configuration, through the planner.
 
-    PARAMS = ArmSkill.COMMON
+    With ``reference`` the arm homes the way its firmware does (``ArmDriver.home``:
+    on its end stops where it has them, as the VICRA's G28), so steps it missed are
+    undone: a retry after a grip the camera saw fail starts from true joints.
+    """
+
+    PARAMS = (
+        Param(
+            "reference",
+            "bool",
+            False,
+            "",
+            "home with the arm's own homing (end stops) to undo missed steps",
+        ),
+        *ArmSkill.COMMON,
+    )
     RESOURCES = ("arm",)
 
     def procedure(self) -> Procedure:
         home = np.asarray(self.rig.arm.model.home, dtype=float)
+        if self.param("reference"):
+            yield ArmHome(self.rig)
+            return home
         yield Move(self.rig, joints=home, speed=self.speed(), label="home")
         return home
