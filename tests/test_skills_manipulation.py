@@ -146,6 +146,29 @@ def test_place_at_a_named_place_without_a_tag_lets_go_there():
     assert np.allclose(held.dropped_at, [60, 230, 40])
 
 
+@pytest.mark.parametrize("marker", [None, 2])
+def test_place_checks_the_marker_it_let_go_not_the_nearest_of_its_role(marker):
+    # eye-to-hand: the dropped trash is hidden in the bin, other trash lies on the table
+    held = Marker(2, np.zeros(3), held=True)
+    rig = make_rig([held, Marker(3, np.array([180.0, 150.0, 0.0]))], mount="eye_to_hand")
+    rig.world.held = held
+    rig.arm.suction = True
+    release = rig.world.release
+
+    def into_the_bin(tool):
+        release(tool)
+        held.position = np.array([60.0, 230.0, 1e6])  # out of the camera's sight
+
+    rig.world.release = into_the_bin
+    node = Place("drop", at="garbage_bin", object="trash", marker=marker)
+    status, _ = run(node, rig)
+    if marker is None:  # the other trash, 130 mm off, is taken for the one let go
+        assert status is Status.FAILURE and "not at the target" in node.feedback_message
+    else:
+        assert status is Status.SUCCESS, node.feedback_message
+        assert "'trash' tag is not in view" in node.feedback_message
+
+
 def test_place_without_an_object_tag_says_it_did_not_check():
     held = Marker(2, np.zeros(3), held=True)
     rig = make_rig([held])

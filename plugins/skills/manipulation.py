@@ -168,8 +168,12 @@ def verify_place(
     target: np.ndarray,
     on_marker: bool,
     tolerance: float,
+    marker: int | None = None,
 ) -> Procedure:
     """Check with the camera that an ``obj`` tag lies at ``target`` (on it when ``on_marker``).
+
+    With ``marker`` only that marker id counts: another object of the same role
+    (trash still on the table) is not the one let go.
 
     Raises :class:`SkillFailure` with the measured distance when it does not;
     returns a one-line description of what was checked.
@@ -182,6 +186,8 @@ def verify_place(
     else:
         yield from move_out_of_view(skill, target)
         after = yield Look(rig, skill.clock, want=obj, frames=2, settle=skill.settle())
+    if marker is not None:
+        after = [s for s in after if s.id == marker]
     seen = nearest(after, obj, target)
     if seen is None:
         if in_hand and on_marker:
@@ -436,6 +442,14 @@ class PuttingDown(ArmSkill):
         ),
         Param("verify", "bool", True, "", "check with the camera where the object went"),
         Param(
+            "marker",
+            "any",
+            None,
+            "",
+            "the held object's marker id (a {key}): the check follows it, not the nearest "
+            "tag of its role",
+        ),
+        Param(
             "place_tolerance_mm",
             "float",
             20.0,
@@ -466,8 +480,14 @@ class PuttingDown(ArmSkill):
         elif self.rig.camera is None or self.rig.tracker is None:
             self.feedback_message = self.unverified("no camera to check where it went")
         else:
+            marker = self.param("marker")
             self.feedback_message = yield from verify_place(
-                self, obj, target, on_marker, float(self.param("place_tolerance_mm"))
+                self,
+                obj,
+                target,
+                on_marker,
+                float(self.param("place_tolerance_mm")),
+                None if marker is None else int(marker),
             )
         return released
 

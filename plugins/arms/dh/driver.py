@@ -121,6 +121,7 @@ class SSC32Driver(SerialArmDriver):
         self._move_seq = 0
         self._moves: list[_Move] = []
         self._pulses: np.ndarray | None = None
+        self._gripper_readback: float | None = None
         self._commanded: np.ndarray | None = None
         self._commanded_pulses: np.ndarray | None = None
         self._tool = ToolState()
@@ -174,6 +175,10 @@ class SSC32Driver(SerialArmDriver):
         self.mark_alive()
         self._silent_polls = 0
         pulses = np.array([10.0 * b for b in reply[:-1]])
+        if self.gripper_map is not None:
+            # the gripper's channel is read last: where it is until the host commands it
+            self._gripper_readback = float(self.gripper_map.angle(pulses[-1]))
+            pulses = pulses[:-1]
         self._pulses = pulses
         self.status_wall = time.perf_counter()
         finished = status == b"."
@@ -209,6 +214,8 @@ class SSC32Driver(SerialArmDriver):
             if send:
                 self._next_poll = now + self.poll_period
                 channels = [m.channel for m in self.servos]
+                if self.gripper_map is not None:
+                    channels.append(self.gripper_map.channel)
                 self._expect = len(channels) + 1
                 self._buf.clear()
                 self._query_sent = now
@@ -268,7 +275,10 @@ class SSC32Driver(SerialArmDriver):
 
     @property
     def tool(self) -> ToolState:
-        """Pump and gripper as last commanded."""
+        """Pump and gripper as last commanded; before the gripper is commanded, its
+        opening as the board reads it back (degrees)."""
+        if self._tool.gripper is None and self._gripper_readback is not None:
+            return ToolState(suction=self._tool.suction, gripper=self._gripper_readback)
         return self._tool
 
     def move_joints(self, q: np.ndarray, speed: float = 1.0) -> MotionHandle:
