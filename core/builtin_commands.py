@@ -71,6 +71,10 @@ class Check:
         tree = _load(args)
         rig = f" on {tree.profile.name}" if tree.profile is not None else " (no rig)"
         print(f"ok: {tree.name}: {len(tree.nodes)} nodes at {tree.tick_hz:g} Hz{rig}")
+        # Checking imports the plugin code a tree, its profile or --plugin names: say which.
+        loaded = list(dict.fromkeys([*tree.plugins, *getattr(tree.profile, "plugins", [])]))
+        if loaded:
+            print("imported plugin code: " + ", ".join(loaded))
         return 0
 
 
@@ -84,14 +88,19 @@ class Show:
         _tree_arguments(parser)
         parser.add_argument("--format", choices=("ascii", "dot", "png"), default="ascii")
         parser.add_argument(
-            "-o", "--output", metavar="FILE", help="write here (png default: TREE_NAME.png)"
+            "-o",
+            "--output",
+            metavar="FILE",
+            help="write here (png default: the TREE argument's file name, .png, in this folder)",
         )
 
     def run(self, args: argparse.Namespace) -> int:
         """Draw the tree; text formats go to stdout unless -o is given."""
         tree = _load(args)
         if args.format == "png":
-            out = Path(args.output or f"{tree.name}.png")
+            # Named from the command line, in the working folder: never from the tree's
+            # own `tree:` text, which could be a path anywhere.
+            out = Path(args.output or f"{Path(args.tree).stem or 'tree'}.png")
             render_png(tree, out)
             print(f"wrote {out}")
             return 0

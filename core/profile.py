@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -382,7 +383,8 @@ def _finish(
     )
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
-    errors.extend(_plugin_checks(profile, manager, clean=not errors))
+    errors.extend(_component_checks(profile, manager))
+    errors.extend(place_error(profile, e) for e in _plugin_checks(profile, manager, not errors))
     if errors:
         order = {file: i for i, file in enumerate(dict.fromkeys(e.file for e in errors))}
         errors.sort(key=lambda e: (order[e.file], e.line or 0, e.column or 0))
@@ -400,6 +402,62 @@ def _check_scene(profile: Profile) -> list[ConfigError]:
     except ConfigError as exc:
         return list(exc.errors)
     return []
+
+
+#: A message that starts with the dotted path of the value it is about (``camera.fps: ...``,
+#: ``arm.servos[2].channel must ...``).
+_PATH_PREFIX = re.compile(r"^((?:[A-Za-z_]\w*)(?:\.[A-Za-z_]\w*|\[\d+\]|\.\d+)*)(?=[:\s])")
+
+
+def place_error(profile: Profile, error: ConfigError) -> ConfigError:
+    """``error`` at the file, line and column of the value its message names.
+
+    A component's own checks (and the rig builder's) know the profile path of a
+    bad value but not its position: ``"camera.fps: must be positive"`` becomes
+    ``sim_dobot.yaml:17:8: camera.fps: must be positive``. An error that already
+    has a line, or whose message names no profile section, is returned as it is.
+    """
+    if error.line is not None or len(error.errors) > 1:
+        return error
+    found = _PATH_PREFIX.match(error.message)
+    if found is None or found.group(1).split(".")[0].split("[")[0] not in PROFILE_KEYS:
+        return error
+    path = re.sub(r"\[(\d+)\]", r".\1", found.group(1))
+    return error_at(error.message, profile.mark(path), str(profile.source or profile.name))
+
+
+def _component_checks(profile: Profile, manager: PluginManager) -> list[ConfigError]:
+    """Each component's own checks, run at load time without opening a device.
+
+    A factory may offer ``validate(config, profile)`` (raising :class:`ConfigError`);
+    an arm's ``model(config)`` builds its kinematic model from the profile, which
+    checks its geometry. Errors are placed at the value they name.
+    """
+    out: list[ConfigError] = []
+    registry = manager.registry
+    for section, kind in COMPONENT_SECTIONS.items():
+        config = profile.section(section)
+        if config is None or section in profile.invalid:
+            continue
+        factory = registry.get(kind, config["type"]).factory
+        checks = [getattr(factory, "validate", None)]
+        if kind == "arm" and callable(getattr(factory, "model", None)):
+            checks.append(lambda c, p, f=factory: f.model(c))
+        for check in checks:
+            if not callable(check):
+                continue
+            try:
+                check(profile.component(section), profile)
+            except ConfigError as exc:
+                out.extend(place_error(profile, e) for e in exc.errors)
+            except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
+                out.append(
+                    profile.error(
+                        section,
+                        f"{config['type']} refuses these values: {shown(str(exc))}",
+                    )
+                )
+    return out
 
 
 def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> list[ConfigError]:

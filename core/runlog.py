@@ -35,7 +35,9 @@ _TICK_PATTERNS = 256
 def default_run_dir(tree_name: str, base: Path | str = "runs") -> Path:
     """A fresh ``runs/<tree>-<YYYYmmdd-HHMMSS>[-N]`` directory (created)."""
     base = Path(base)
-    stem = f"{_UNSAFE.sub('_', tree_name) or 'tree'}-{time.strftime('%Y%m%d-%H%M%S')}"
+    # One short, safe folder name inside ``base``, whatever a tree file calls itself.
+    name = _UNSAFE.sub("_", tree_name).strip(".")[:80] or "tree"
+    stem = f"{name}-{time.strftime('%Y%m%d-%H%M%S')}"
     candidate = base / stem
     n = 1
     while True:

@@ -82,6 +82,7 @@ from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile import OVERRIDE_SECTIONS, Override, Profile, load_profile, parse_overrides
 from .resolve import available, resolve
 from .tree import NodeInfo, Tree
+from .tree_checks import RigChecks
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 
 #: Every top-level key a tree file may have.
@@ -180,6 +181,8 @@ class _Loader:
         self.writes: set[str] = set()
         self.blackboard: dict[str, Any] = {}
         self.node_count = 0
+        #: Resolves places, tag roles, reach and rig parts once the profile is known.
+        self.rig_checks: RigChecks | None = None
 
     # ------------------------------------------------------------------ errors
 
@@ -195,6 +198,8 @@ class _Loader:
             self.errors,
             key=lambda e: (order.get(e.file or "", len(order)), e.line or 0, e.column or 0),
         )
+        # A subtree included twice reports the same problem at the same place once.
+        errors = list({(e.file, e.line, e.column, e.message): e for e in errors}.values())
         first = errors[0]
         return ConfigError(first.message, first.file, first.line, first.column, errors)
 
@@ -234,6 +239,8 @@ class _Loader:
         other = [o for o in parsed if o.keys[0] not in OVERRIDE_SECTIONS and o.keys != ("tick_hz",)]
         self.load_plugins(data, ctx)
         profile = self.load_profile(data, ctx, rig, profile_overrides)
+        if profile is not None:
+            self.rig_checks = RigChecks(profile)
         try:
             self.registry = self.manager.registry
         except ConfigError as exc:
@@ -321,7 +328,9 @@ class _Loader:
             if isinstance(rig, Profile):
                 profile = rig.with_overrides(overrides, self.manager) if overrides else rig
             elif rig is not None:
-                profile = load_profile(rig, overrides, manager=self.manager)
+                profile = load_profile(
+                    rig, overrides, manager=self.manager, where=Mark(f"--rig {rig}", 1, 1)
+                )
             elif isinstance(data.get("rig"), str):
                 profile = load_profile(
                     data["rig"],
@@ -542,6 +551,11 @@ class _Loader:
             path += f"#{siblings[node_name]}"
         node = _Node(ntype, type_mark, node_name, path)
         params = self.check_params(factory, options, node, ctx)
+        if self.rig_checks is not None:
+            for error in self.rig_checks.needs(
+                ntype, getattr(factory, "NEEDS", ()), getattr(factory, "RESOURCES", ()), type_mark
+            ):
+                self.error(error.message, type_mark, ctx)
         built_children: Any = None
         if kind == COMPOSITE:
             built_children = self.build_children(children_spec, children_mark, ctx, path)
@@ -673,6 +687,7 @@ class _Loader:
                 continue
             if key in writes and isinstance(value, str):
                 self.writes.add(_root_key(value))
+            self.check_on_rig(f"{node.type}.{key}", param, params[key], mark, ctx)
         for pname, param in declared.items():
             if pname in params or pname in options:
                 continue
@@ -681,7 +696,26 @@ class _Loader:
                 self.error(f"{node.type} needs parameter {pname!r}{doc}", node.mark, ctx)
             else:
                 params[pname] = param.default
+                self.check_on_rig(
+                    f"{node.type}.{pname} (its default)", param, param.default, node.mark, ctx
+                )
         return params if len(self.errors) == before and not incomplete else None
+
+    def check_on_rig(
+        self, where: str, param: Param, value: Any, mark: Mark | None, ctx: _Context
+    ) -> None:
+        """A value resolved against the profile (see :mod:`armtree.tree_checks`)."""
+        checks = self.rig_checks
+        if checks is None:
+            return
+        found = checks.value(where, param.kind, value, mark) if param.kind else []
+        if not found and param.type not in ("str", "str_list"):
+            found = checks.unbound(where, value, mark)
+        for error in found:
+            if error.file == str(ctx.file) or error.file is None:
+                self.error(error.message, mark, ctx)
+            else:  # at the profile's line
+                self.errors.append(error)
 
     # --------------------------------------------------------------- includes
 

@@ -62,6 +62,9 @@ MAX_NODES = 200_000
 #: Deepest nesting of mappings and lists (a tree of 100 nested nodes needs about 200).
 MAX_DEPTH = 200
 
+#: A float in YAML 1.2's core schema that YAML 1.1 leaves a string (no dot, or no exponent sign).
+_FLOAT_12 = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+$")
+
 #: Characters YAML does not allow in a document (PyYAML's reader rejects the same).
 _NOT_PRINTABLE = re.compile(
     "[^\x09\x0a\x0d\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]"
@@ -342,6 +345,9 @@ class _Builder:
         if tag is None or tag == "!":
             tag = self.loader.resolve(ScalarNode, event.value, event.implicit)
         if tag == _STR_TAG:
+            if not event.style and _FLOAT_12.match(event.value):
+                # YAML 1.1 reads 1e6 and 1e-9 as text; YAML 1.2 and every user read numbers.
+                return float(event.value)
             return event.value
         if tag == _MERGE_TAG:
             return _MERGE

@@ -8,7 +8,7 @@ from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError, PlanningError, Unreachable
 from armtree.plugin_manager import make_plugin_manager
 from armtree.plugins.planners.direct import DirectPlanner, direct_factory, sample_segment
-from armtree.plugins.planners.prm import PRMPlanner, Roadmap, prm_factory
+from armtree.plugins.planners.prm import PRMPlanner, Roadmap, default_cache_dir, prm_factory
 from armtree.rig import RigContext
 from armtree.scene import Scene
 from armtree.validation import validate_samples
@@ -203,6 +203,39 @@ def test_progress_bar_can_be_forced_on_and_off(checker, monkeypatch):
     assert updates == [], "progress=False draws no bar"
 
 
+# -- cached roadmaps are not trusted -----------------------------------------------------
+
+
+def test_an_edited_cache_cannot_make_a_path_through_an_obstacle(checker, tmp_path):
+    built = _prm(checker, tmp_path)
+    roadmap = built.build()
+    start, goal = np.array([30.0, 30.0, 20.0]), np.array([130.0, 30.0, 20.0])
+    assert not checker.segment_free(start, goal)  # the wall lies between them
+    # Edit the cache: milestones at start and goal joined by a free-looking edge of length 0.
+    nodes = np.vstack([roadmap.nodes, start, goal])
+    s, g = len(nodes) - 2, len(nodes) - 1
+    edges = np.vstack([roadmap.edges, [[s, g]]])
+    weights = np.append(roadmap.weights, 0.0)
+    Roadmap(nodes, edges, weights, roadmap.key).save(built.cache_path)
+    cached = _prm(checker, tmp_path, smooth=False)
+    cached.build()
+    assert cached.loaded_from_cache
+    path = cached.plan(start, goal)
+    _path_is_valid(checker, path)
+
+
+def test_a_cached_milestone_inside_an_obstacle_makes_the_roadmap_rebuild(checker, tmp_path):
+    built = _prm(checker, tmp_path)
+    roadmap = built.build()
+    nodes = roadmap.nodes.copy()
+    nodes[0] = [90.0, 30.0, 20.0]  # in the wall
+    Roadmap(nodes, roadmap.edges, roadmap.weights, roadmap.key).save(built.cache_path)
+    again = _prm(checker, tmp_path)
+    again.build()
+    assert not again.loaded_from_cache
+    assert bool(np.all(checker.valid(again.roadmap.nodes)))
+
+
 # -- factories and registration ---------------------------------------------------------
 
 
@@ -212,20 +245,16 @@ def test_planners_are_registered_and_factories_build(tmp_path):
     assert registry.get("planner", "direct").factory is direct_factory
     ctx = RigContext(profile=None, clock=None)
     scene = Scene.from_profile(PROFILE)
-    prm = prm_factory(
-        {"type": "prm", "milestones": 100, "neighbours": 4, "cache_dir": str(tmp_path)},
-        ctx,
-        wide_dobot(),
-        scene,
-    )
-    assert prm.milestones == 100 and prm.cache_dir == tmp_path
+    prm = prm_factory({"type": "prm", "milestones": 100, "neighbours": 4}, ctx, wide_dobot(), scene)
+    # Roadmaps go to the user's cache folder, never to a path a YAML file names.
+    assert prm.milestones == 100 and prm.cache_dir == default_cache_dir()
     assert direct_factory({"type": "direct"}, ctx, wide_dobot(), scene).resolution == 2.0
     assert {p.name for p in prm_factory.PARAMS} >= {
         "milestones",
         "neighbours",
         "seed",
         "resolution_deg",
-        "cache_dir",
+        "cache",
     }
 
 
@@ -259,7 +288,7 @@ def test_prm_on_the_dobot_v1_model_from_a_profile(tmp_path):
     profile = load_profile(rig)
     scene = make_scene(profile)
     assert isinstance(scene, Scene) and {b.name for b in scene.boxes} == {"table", "wall"}
-    config = dict(profile.component("planner"), cache_dir=str(tmp_path / "cache"))
+    config = dict(profile.component("planner"), cache=False)
     planner = prm_factory(config, RigContext(profile=profile, clock=None), DobotV1Model(), scene)
     model = planner.model
     start = np.array([-60.0, 20.0, 58.0])
@@ -310,6 +339,4 @@ def test_a_start_pose_inside_an_obstacle_is_refused_at_rig_build():
     with pytest.raises(ConfigError, match=r"start \(arm.start_pose\).*wall"):
         prm_factory({"type": "prm"}, ctx, wide_dobot(), scene)
     ok = RigContext(profile={"arm": {"type": "x", "start_pose": [0.0, 30.0, 20.0]}}, clock=None)
-    assert (
-        prm_factory({"type": "prm", "cache_dir": None}, ok, wide_dobot(), scene).cache_dir is None
-    )
+    assert prm_factory({"type": "prm", "cache": False}, ok, wide_dobot(), scene).cache_dir is None

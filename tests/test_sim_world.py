@@ -143,8 +143,8 @@ def test_touching_a_top_face_is_not_a_collision(make_world):
 
 
 def test_configured_faults_are_passed_to_the_emulator(make_world):
-    world, emu = make_world(faults={"missed_steps": {"probability": 0.1, "max_steps": 8}})
-    assert emu.injected == [("missed_steps", {"probability": 0.1, "max_steps": 8.0})]
+    world, emu = make_world(faults={"missed_steps": {"joint": 1, "amount": 8}})
+    assert emu.injected == [("missed_steps", {"joint": 1.0, "amount": 8.0})]
 
 
 def script(world, emu):

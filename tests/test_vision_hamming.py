@@ -201,7 +201,7 @@ def test_factory_reads_tags_and_preprocessing():
         ({"max_corected_bits": 1}, None, "did you mean 'max_corrected_bits'"),
         ({"preprocess": {"threshold": 40}}, None, "between 0 and 1"),
         ({"preprocess": {"blur": 4}}, None, "odd"),
-        ({"size_mm": 0}, None, "positive"),
+        ({"size_mm": 0}, None, "> 0"),
         ({}, {"tags": {"ducky": {"id": 1, "size_mm": 0}}}, "positive"),
         ({}, {"tags": {"ducky": {"id": 1}}}, "size_mm"),
         ({"min_side_px": "big"}, None, "min_side_px"),
@@ -250,11 +250,13 @@ def test_profile_errors_point_at_the_value(tmp_path):
         "tags:\n"
         "  ducky: {id: 1, size_mm: 25}\n"
     )
-    profile = load_profile(str(path))
+    # The tracker's own checks run while the profile loads (armtree check), at the value.
     with pytest.raises(ConfigError) as err:
-        hamming_factory(profile.section("tracker"), context(profile))
+        load_profile(str(path))
     assert err.value.file == str(path) and err.value.line == 3
     assert "tracker.preprocess.blur" in err.value.message
+    path.write_text(path.read_text().replace("blur: 4", "blur: 3"))
+    profile = load_profile(str(path))
     good = hamming_factory({"type": "hamming"}, context(profile))
     assert good.roles.describe(1) == ("ducky", 25.0)
 

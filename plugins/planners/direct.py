@@ -96,8 +96,24 @@ def direct_factory(
 
 
 direct_factory.PARAMS = (
-    Param("resolution_deg", "float", 2.0, "deg", "largest joint step between checked samples"),
-    Param("margin_mm", "float", 0.0, "mm", "clearance added around every link box"),
+    Param(
+        "resolution_deg",
+        "float",
+        2.0,
+        "deg",
+        "largest joint step between checked samples",
+        minimum=0.05,
+        maximum=45.0,
+    ),
+    Param(
+        "margin_mm",
+        "float",
+        0.0,
+        "mm",
+        "clearance added around every link box",
+        minimum=0.0,
+        maximum=200.0,
+    ),
     Param(
         "min_singular", "any", 0.2, "mm/deg", "smallest allowed Jacobian singular value, or null"
     ),

@@ -26,6 +26,7 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
+import platformdirs
 from scipy.spatial import cKDTree
 
 from armtree.collision import CollisionChecker
@@ -184,6 +185,8 @@ class PRMPlanner(Planner):
         self._lock = threading.RLock()
         self._graph: nx.Graph | None = None
         self._tree: cKDTree | None = None
+        #: Roadmap edges checked free in this scene (both directions).
+        self._checked_edges: set[tuple[int, int]] = set()
         #: True when the roadmap in use came from the disk cache.
         self.loaded_from_cache = False
         self.workspace = ArmWorkspace(self.model)
@@ -222,6 +225,8 @@ class PRMPlanner(Planner):
         """Load the cached roadmap, or build (and cache) it; ``force`` always rebuilds."""
         key, path = self.key, self.cache_path
         roadmap = None if (force or path is None) else Roadmap.load(path, key)
+        if roadmap is not None and not self._plausible(roadmap):
+            roadmap = None  # edited or damaged: build it again (and overwrite it)
         self.loaded_from_cache = roadmap is not None
         if roadmap is None:
             roadmap = self._build_with_progress()
@@ -231,7 +236,30 @@ class PRMPlanner(Planner):
         self._roadmap = roadmap
         self._graph = roadmap.graph()
         self._tree = cKDTree(roadmap.nodes)
+        self._checked_edges = set()
         return roadmap
+
+    def _plausible(self, roadmap: Roadmap) -> bool:
+        """A cached roadmap fits this arm and scene: shapes, finite values, free milestones.
+
+        Its edges are not all checked here (that is the cost of building); every edge a
+        path uses is checked when the path is found (:meth:`plan`).
+        """
+        nodes, edges, weights = roadmap.nodes, roadmap.edges, roadmap.weights
+        dof = self.model.dof
+        if (
+            nodes.ndim != 2
+            or nodes.shape[1] != dof
+            or edges.ndim != 2
+            or edges.shape[1:] != (2,)
+            or len(weights) != len(edges)
+            or not np.all(np.isfinite(nodes))
+            or not np.issubdtype(edges.dtype, np.integer)
+        ):
+            return False
+        if len(edges) and (edges.min() < 0 or edges.max() >= len(nodes)):
+            return False
+        return bool(np.all(np.asarray(self.checker.valid(nodes))))
 
     def _build_with_progress(self) -> Roadmap:
         show = self.progress if self.progress is not None else sys.stderr.isatty()
@@ -289,13 +317,20 @@ class PRMPlanner(Planner):
             graph.add_weighted_edges_from((s_id, n, w) for n, w in s_links)
             graph.add_weighted_edges_from((g_id, n, w) for n, w in g_links)
             try:
-                ids = nx.astar_path(
-                    graph,
-                    s_id,
-                    g_id,
-                    heuristic=lambda a, b: float(np.linalg.norm(config(a) - config(b))),
-                    weight="weight",
-                )
+                while True:
+                    ids = nx.astar_path(
+                        graph,
+                        s_id,
+                        g_id,
+                        heuristic=lambda a, b: float(np.linalg.norm(config(a) - config(b))),
+                        weight="weight",
+                    )
+                    # Every roadmap edge on the path is checked in this scene before it is
+                    # used (lazily, as Lazy PRM does): a cached roadmap is not trusted.
+                    blocked = self._blocked_edges(ids, nodes)
+                    if not blocked:
+                        break
+                    graph.remove_edges_from(blocked)
             except nx.NetworkXNoPath:
                 raise PlanningError(
                     "no path: start and goal are in different components of the roadmap "
@@ -306,6 +341,21 @@ class PRMPlanner(Planner):
                 graph.remove_nodes_from([s_id, g_id])
         path = np.stack([config(n) for n in ids])
         return self.shortcut(path) if self.smooth else path
+
+    def _blocked_edges(self, ids: list[int], nodes: np.ndarray) -> list[tuple[int, int]]:
+        """The roadmap edges along ``ids`` that are not free in the current scene."""
+        pairs = [(a, b) for a, b in zip(ids, ids[1:], strict=False) if a >= 0 and b >= 0]
+        pairs = [p for p in pairs if p not in self._checked_edges]
+        if not pairs:
+            return []
+        a = nodes[[p[0] for p in pairs]]
+        b = nodes[[p[1] for p in pairs]]
+        free = np.asarray(self.checker.segments_free(a, b, self.resolution, ends=True))
+        for pair, ok in zip(pairs, free, strict=True):
+            if ok:
+                self._checked_edges.add(pair)
+                self._checked_edges.add((pair[1], pair[0]))
+        return [pair for pair, ok in zip(pairs, free, strict=True) if not ok]
 
     def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
         """Waypoints to a tool position (mm), IK solutions nearest-first (seed 002).
@@ -345,9 +395,12 @@ class PRMPlanner(Planner):
 
 
 def default_cache_dir() -> Path:
-    """``$XDG_CACHE_HOME/armtree/prm`` (``~/.cache/armtree/prm``)."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "armtree" / "prm"
+    """The user's cache folder for roadmaps (``~/.cache/armtree/prm`` on Linux).
+
+    Where caches go is the platform's convention (platformdirs), never a path from
+    a YAML file: a profile only says whether to cache.
+    """
+    return platformdirs.user_cache_path("armtree") / "prm"
 
 
 def prm_factory(
@@ -355,9 +408,7 @@ def prm_factory(
 ) -> PRMPlanner:
     """Probabilistic roadmap in joint space (KD-tree neighbours, A*, shortcuts), cached on disk."""
     checker = planner_checker(config, context, model, scene)
-    cache = config.get("cache_dir", "default")
-    if cache == "default":
-        cache = default_cache_dir()
+    cache = default_cache_dir() if config.get("cache", True) else None
     # A fixed default (not the run's seed) so every run finds the same cached roadmap.
     seed = config.get("seed", 0)
     return PRMPlanner(
@@ -373,18 +424,52 @@ def prm_factory(
 
 
 prm_factory.PARAMS = (
-    Param("milestones", "int", 1000, "", "number of collision-free configurations in the roadmap"),
-    Param("neighbours", "int", 5, "", "nearest milestones each one is joined to (seed 004: 5)"),
-    Param("seed", "int", 0, "", "random seed of the roadmap (reproducible; part of the cache key)"),
-    Param("resolution_deg", "float", 2.0, "deg", "largest joint step between checked samples"),
-    Param("margin_mm", "float", 0.0, "mm", "clearance added around every link box"),
     Param(
-        "cache_dir",
-        "any",
-        "default",
+        "milestones",
+        "int",
+        1000,
         "",
-        "roadmap cache folder, 'default' (~/.cache/armtree/prm) or null",
+        "number of collision-free configurations in the roadmap",
+        minimum=10,
+        maximum=100_000,
     ),
+    Param(
+        "neighbours",
+        "int",
+        5,
+        "",
+        "nearest milestones each one is joined to (seed 004: 5)",
+        minimum=1,
+        maximum=50,
+    ),
+    Param(
+        "seed",
+        "int",
+        0,
+        "",
+        "random seed of the roadmap (reproducible; part of the cache key)",
+        minimum=0,
+        maximum=2**32 - 1,
+    ),
+    Param(
+        "resolution_deg",
+        "float",
+        2.0,
+        "deg",
+        "largest joint step between checked samples",
+        minimum=0.05,
+        maximum=45.0,
+    ),
+    Param(
+        "margin_mm",
+        "float",
+        0.0,
+        "mm",
+        "clearance added around every link box",
+        minimum=0.0,
+        maximum=200.0,
+    ),
+    Param("cache", "bool", True, "", "keep the roadmap in the user's cache folder for next runs"),
     Param(
         "progress",
         "any",

@@ -161,13 +161,30 @@ def _check(config: dict[str, Any]) -> None:
     if not 0.0 <= float(config.get("drop_rate", 0.0)) < 1.0:
         raise ConfigError("camera.drop_rate: must be in [0, 1)")
     intr = config.get("intrinsics") or {}
+    for key, value in intr.items():
+        if key not in ("fx", "fy", "cx", "cy"):
+            raise ConfigError(f"camera.intrinsics.{key}: unknown; give fx, fy, cx and cy (pixels)")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not -1e6 < value < 1e6:
+            raise ConfigError(
+                f"camera.intrinsics.{key}: expected a number of pixels, got {value!r}"
+            )
     for key in ("fx", "fy"):
-        if key in intr and float(intr[key]) <= 0:
+        if key in intr and intr[key] <= 0:
             raise ConfigError(f"camera.intrinsics.{key}: must be positive (pixels)")
+    for key, size in (("position", 3), ("rotation_rpy_deg", 3), ("look_at", 3)):
+        if config.get(key) and len(config[key]) != size:
+            raise ConfigError(f"camera.{key}: expected {size} numbers, got {len(config[key])}")
     try:
-        camera_extrinsics(config)
+        extrinsics = camera_extrinsics(config)
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"camera: {exc}") from exc
+    if not np.all(np.isfinite(extrinsics)):
+        raise ConfigError("camera.look_at: the camera cannot look at its own position")
+
+
+def _validate(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks (``armtree check``): the profile's camera without rendering anything."""
+    _check(config)
 
 
 def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
@@ -176,6 +193,7 @@ def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
     return SimCamera(config, context)
 
 
+sim_camera.validate = _validate
 sim_camera.PARAMS = (
     Param(
         "mount",
@@ -184,17 +202,37 @@ sim_camera.PARAMS = (
         doc="where the camera is fixed",
         choices=("eye_in_hand", "eye_to_hand"),
     ),
-    Param("width", "int", 640, "px", "image width"),
-    Param("height", "int", 480, "px", "image height"),
-    Param("fps", "float", 30.0, "Hz", "frames per second on the run's clock"),
+    Param("width", "int", 640, "px", "image width", minimum=16, maximum=4096),
+    Param("height", "int", 480, "px", "image height", minimum=16, maximum=4096),
+    Param(
+        "fps",
+        "float",
+        30.0,
+        "Hz",
+        "frames per second on the run's clock",
+        exclusive_minimum=0.0,
+        maximum=1000.0,
+    ),
     Param("intrinsics", "dict", {}, "px", "fx, fy, cx, cy (default fx = fy = width, centred)"),
-    Param("distortion", "vector", [0.0, 0.0, 0.0, 0.0, 0.0], "", "OpenCV k1, k2, p1, p2, k3"),
+    Param(
+        "distortion",
+        "vector",
+        [0.0, 0.0, 0.0, 0.0, 0.0],
+        "",
+        "OpenCV k1, k2, p1, p2, k3",
+        minimum=-100.0,
+        maximum=100.0,
+        max_items=8,
+    ),
     Param(
         "position",
         "vector",
         [],
         "mm",
         "camera origin in the tool frame (eye_in_hand) or base frame (eye_to_hand)",
+        minimum=-10000.0,
+        maximum=10000.0,
+        max_items=3,
     ),
     Param(
         "rotation_rpy_deg",
@@ -202,11 +240,49 @@ sim_camera.PARAMS = (
         None,
         "deg",
         "camera axes (OpenCV) as roll, pitch, yaw; default looks down",
+        minimum=-360.0,
+        maximum=360.0,
+        length=3,
     ),
-    Param("look_at", "vector", [], "mm", "eye_to_hand: the base-frame point the camera faces"),
-    Param("noise", "float", 2.5, "", "sensor noise, standard deviation in grey levels"),
-    Param("blur", "float", 0.5, "px", "lens blur (Gaussian sigma); 0 for none"),
-    Param("exposure_s", "float", 0.02, "s", "exposure time, for motion blur"),
-    Param("drop_rate", "float", 0.0, "", "fraction of frames lost, deterministic for the seed"),
+    Param(
+        "look_at",
+        "vector",
+        [],
+        "mm",
+        "eye_to_hand: the base-frame point the camera faces",
+        minimum=-10000.0,
+        maximum=10000.0,
+        max_items=3,
+    ),
+    Param(
+        "noise",
+        "float",
+        2.5,
+        "",
+        "sensor noise, standard deviation in grey levels",
+        minimum=0.0,
+        maximum=255.0,
+    ),
+    Param(
+        "blur",
+        "float",
+        0.5,
+        "px",
+        "lens blur (Gaussian sigma); 0 for none",
+        minimum=0.0,
+        maximum=50.0,
+    ),
+    Param(
+        "exposure_s", "float", 0.02, "s", "exposure time, for motion blur", minimum=0.0, maximum=1.0
+    ),
+    Param(
+        "drop_rate",
+        "float",
+        0.0,
+        "",
+        "fraction of frames lost, deterministic for the seed",
+        minimum=0.0,
+        maximum=0.99,
+    ),
     Param("shadows", "bool", True, "", "draw shadows cast by the lamp"),
 )

@@ -17,7 +17,7 @@ from typing import Any
 
 import armtree
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
-from armtree.profile import profile_section
+from armtree.profile import profile_error, profile_section
 
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
@@ -104,7 +104,35 @@ def armtree_validate_profile(profile: Any) -> list[armtree.ConfigError]:
         scene = parse_scene(profile)
     except armtree.ConfigError as exc:
         return list(exc.errors)
-    return _table_disagrees(profile, scene)
+    return [*_table_disagrees(profile, scene), *_joints_exist(profile, scene)]
+
+
+def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+    """Joints named by ``world.faults.missed_steps`` must be joints of the profile's arm."""
+    arm = profile_section(profile, "arm") or {}
+    manager = getattr(profile, "manager", None)
+    if manager is None or not manager.registry.has("arm", arm.get("type", "")):
+        return []
+    make = getattr(manager.registry.get("arm", arm["type"]).factory, "model", None)
+    try:
+        dof = make(profile.component("arm")).dof if callable(make) else None
+    except (armtree.ConfigError, ValueError, TypeError, KeyError):
+        return []  # the arm's own checks report it
+    if dof is None:
+        return []
+    path = "world.faults.missed_steps"
+    wanted = [("joint", scene.faults.get("missed_steps", {}).get("joint"))]
+    if scene.slips is not None:
+        wanted += [("joints", j) for j in scene.slips.joints]
+    return [
+        profile_error(
+            profile,
+            f"{path}.{key}",
+            f"joint {int(j)} does not exist: the {arm['type']} arm has joints 0 to {dof - 1}",
+        )
+        for key, j in wanted
+        if j is not None and int(j) >= dof
+    ]
 
 
 @armtree.hookimpl

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.errors import ConfigError
+from armtree.errors import ConfigError, shown
 from armtree.profile import profile_error, profile_section
 
 from .duckybot import DuckybotParams, Leg, RouteSpec
@@ -184,8 +184,8 @@ class _Errors:
 
 
 def _number(err: _Errors, path: tuple[Any, ...], value: Any, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise err(path, f"expected a number, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not -1e300 < value < 1e300:
+        raise err(path, f"expected a number, got {shown(value)}")
     if positive and value <= 0:
         raise err(path, f"must be positive, got {value!r}")
     return float(value)
@@ -535,8 +535,8 @@ def parse_scene(profile: Any) -> SceneSpec:
     defaults = _marker_defaults(profile)
     table = _parse_table(err, world.get("table"))
     seed = world.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int):
-        raise err(("world", "seed"), f"expected an integer, got {seed!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise err(("world", "seed"), f"expected an integer from 0 to 2**63 - 1, got {shown(seed)}")
     auto_index: dict[str, int] = {}
     objects: list[ObjectSpec] = []
     entries = world.get("objects") or {}
@@ -672,8 +672,34 @@ def _parse_faults(err: _Errors, value: Any) -> tuple[dict[str, dict[str, float]]
                 joints=tuple(int(j) for j in joints),
             )
             continue
-        out[name] = {str(k): _number(err, (*path, k), v) for k, v in options.items()}
+        out[name] = _one_shot(err, path, name, options)
     return out, slips
+
+
+#: Options of each one-shot fault (``PtyEmulator.inject``) and the range of each, inclusive.
+_FAULT_OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
+    "corrupt": {"rate": (0.0, 1.0), "count": (0, 1e9)},
+    "drop": {"rate": (0.0, 1.0), "count": (0, 1e9)},
+    "cut": {"silent": (0, 1)},
+    "missed_steps": {"joint": (0, 63), "amount": (-360.0, 360.0)},
+}
+
+
+def _one_shot(err: _Errors, path: tuple[Any, ...], name: str, options: Mapping) -> dict[str, float]:
+    allowed = _FAULT_OPTIONS[name]
+    _mapping(err, path, options, tuple(allowed))
+    if name == "missed_steps" and "amount" not in options:
+        raise err(path, "needs amount: how far the joint slips (degrees, or mm on a linear axis)")
+    out = {}
+    for key, value in options.items():
+        low, high = allowed[key]
+        number = _number(err, (*path, key), value)
+        if not low <= number <= high:
+            raise err(
+                (*path, key), f"expected a number from {low:g} to {high:g}, got {shown(value)}"
+            )
+        out[str(key)] = number
+    return out
 
 
 def _parse_physics(err: _Errors, value: Any) -> PhysicsSpec:

@@ -29,6 +29,7 @@ from .common import (
     check_config,
     config_error,
     finish_detection,
+    probe,
 )
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
@@ -251,15 +252,47 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     )
 
 
+def _validate(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
+    values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
+    tracker = ArucoTracker(
+        values["dictionary"],
+        detector_parameters(values["detector"], profile),
+        Preprocessing.from_config(values["preprocess"], profile),
+        TagRoles.from_profile(profile, values["size_mm"]),
+        only_registered=values["only_registered"],
+        refine=values["refine"],
+        where=profile,
+    )
+    probe(tracker, profile, "tracker.detector")
+
+
+aruco_factory.validate = _validate
 aruco_factory.PARAMS = (
     Param(
         "dictionary", "str", DEFAULT_DICTIONARY, doc="4x4_50, 5x5_100, 6x6_250, apriltag_36h11, ..."
     ),
     Param("detector", "dict", {}, doc="cv2.aruco.DetectorParameters overrides by attribute name"),
     Param("preprocess", "dict", {}, doc="threshold, adaptive, block_px, offset, blur"),
-    Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
+    Param(
+        "size_mm",
+        "float",
+        None,
+        unit="mm",
+        doc="side of markers not listed in tags:",
+        exclusive_minimum=0.0,
+        maximum=10000.0,
+    ),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
-    Param("min_side_px", "float", 10.0, unit="px", doc="smallest marker side looked for"),
+    Param(
+        "min_side_px",
+        "float",
+        10.0,
+        unit="px",
+        doc="smallest marker side looked for",
+        minimum=1.0,
+        maximum=10000.0,
+    ),
     Param(
         "refine",
         "str",

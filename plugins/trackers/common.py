@@ -10,6 +10,7 @@ marker facing the camera has its z axis pointing back at it.
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -207,3 +208,33 @@ def positive_size(value: float | None, name: str, where: Any = None) -> float | 
             where, f"{name}", f"a marker size must be positive millimetres, got {value}"
         )
     return value
+
+
+#: The condition in an OpenCV assertion message ("... Assertion failed) COND in function ...").
+_ASSERTION = re.compile(r"Assertion failed\)\s*(.*?)\s+in function", re.S)
+
+
+def probe(tracker: Any, where: Any, section: str = "tracker") -> None:
+    """Run ``tracker`` once on a small synthetic frame, so OpenCV checks its parameters now.
+
+    For load-time validation (``armtree check``): a value OpenCV only refuses when it
+    first detects (``adaptiveThreshWinSizeMin: -5``) becomes a :class:`ConfigError`
+    naming the condition it broke, instead of an OpenCV error in the middle of a run.
+    """
+    image = np.full((160, 160), 255, dtype=np.uint8)
+    image[40:120, 40:120] = 0
+    image[60:100, 60:100] = 255
+    frame = Frame(
+        image=image,
+        timestamp=0.0,
+        camera_matrix=np.array([[200.0, 0.0, 80.0], [0.0, 200.0, 80.0], [0.0, 0.0, 1.0]]),
+        distortion=np.zeros(5),
+    )
+    try:
+        tracker.detect(frame)
+    except cv2.error as exc:
+        found = _ASSERTION.search(str(exc))
+        condition = found.group(1).replace("params.", "") if found else "its own checks"
+        raise config_error(
+            where, section, f"OpenCV refuses these parameters: they fail {condition}"
+        ) from None

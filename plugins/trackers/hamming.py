@@ -29,7 +29,7 @@ import numpy as np
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import TagRoles, check_config, finish_detection
+from .common import TagRoles, check_config, finish_detection, probe
 from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
 from .kernels import best_of_overlapping, clockwise_quads, read_markers, sample_cells
 from .preprocess import Preprocessing, threshold_image, to_gray
@@ -294,13 +294,67 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
     )
 
 
+def _validate(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks (``armtree check``): build the tracker and run it once."""
+    values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
+    tracker = HammingTracker(
+        Preprocessing.from_config(values["preprocess"], profile),
+        TagRoles.from_profile(profile, values["size_mm"]),
+        min_side_px=values["min_side_px"],
+        max_corrected_bits=values["max_corrected_bits"],
+        max_border_errors=values["max_border_errors"],
+        min_contrast=values["min_contrast"],
+        refine=values["refine"],
+        max_flip_margin=values["max_flip_margin"],
+    )
+    probe(tracker, profile, "tracker.preprocess")
+
+
+hamming_factory.validate = _validate
 hamming_factory.PARAMS = (
     Param("preprocess", "dict", SEED_PREPROCESS, doc="threshold, adaptive, block_px, offset, blur"),
-    Param("size_mm", "float", None, unit="mm", doc="side of markers not listed in tags:"),
-    Param("min_side_px", "float", 12.0, unit="px", doc="smallest marker side looked for"),
-    Param("max_corrected_bits", "int", 2, doc="bit corrections allowed per marker, one per row"),
-    Param("max_border_errors", "int", 1, doc="border cells allowed to read white"),
-    Param("min_contrast", "float", 20.0, doc="grey levels between a marker's black and white"),
+    Param(
+        "size_mm",
+        "float",
+        None,
+        unit="mm",
+        doc="side of markers not listed in tags:",
+        exclusive_minimum=0.0,
+        maximum=10000.0,
+    ),
+    Param(
+        "min_side_px",
+        "float",
+        12.0,
+        unit="px",
+        doc="smallest marker side looked for",
+        minimum=1.0,
+        maximum=10000.0,
+    ),
+    Param(
+        "max_corrected_bits",
+        "int",
+        2,
+        doc="bit corrections allowed per marker, one per row",
+        minimum=0,
+        maximum=9,
+    ),
+    Param(
+        "max_border_errors",
+        "int",
+        1,
+        doc="border cells allowed to read white",
+        minimum=0,
+        maximum=32,
+    ),
+    Param(
+        "min_contrast",
+        "float",
+        20.0,
+        doc="grey levels between a marker's black and white",
+        minimum=0.0,
+        maximum=255.0,
+    ),
     Param("only_registered", "bool", False, doc="report only ids listed in the profile's tags:"),
     Param("refine", "bool", True, doc="sub-pixel corners from the square's edges"),
     Param(
@@ -308,5 +362,7 @@ hamming_factory.PARAMS = (
         "float",
         0.25,
         doc="cells read closer than this to the threshold are in doubt",
+        minimum=0.0,
+        maximum=0.5,
     ),
 )

@@ -132,9 +132,23 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
     )
 
 
+def _validate(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks beyond the model's (``armtree check``): the gripper servo."""
+    _grip_angles(config)
+    _gripper(config)
+
+
+dh_factory.validate = _validate
 dh_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device of the SSC-32, or sim for the emulator"),
-    Param("baud", "int", 115200, doc="SSC-32 baud rate (jumpers: 2400, 9600, 38400, 115200)"),
+    Param(
+        "baud",
+        "int",
+        115200,
+        doc="SSC-32 baud rate (jumpers: 2400, 9600, 38400, 115200)",
+        minimum=0,
+        maximum=4_000_000,
+    ),
     Param("name", "str", "dh", doc="the arm's name in messages"),
     Param(
         "dh",
@@ -155,7 +169,14 @@ dh_factory.PARAMS = (
         doc="gripper servo {channel, table, closed, open}: closed and open in degrees "
         "(default 0 and 90)",
     ),
-    Param("suction_channel", "int", None, doc="SSC-32 output driving a pump (#<ch>H / #<ch>L)"),
+    Param(
+        "suction_channel",
+        "int",
+        None,
+        doc="SSC-32 output driving a pump (#<ch>H / #<ch>L)",
+        minimum=0,
+        maximum=31,
+    ),
     Param(
         "tool",
         "str",
@@ -164,7 +185,15 @@ dh_factory.PARAMS = (
         "is one and no pump",
         choices=("suction", "gripper"),
     ),
-    Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
+    Param(
+        "link_timeout",
+        "float",
+        1.0,
+        unit="s",
+        doc="silence after which the link is lost",
+        minimum=0.05,
+        maximum=600.0,
+    ),
     Param(
         "trajectory",
         "str",
@@ -179,6 +208,8 @@ dh_factory.PARAMS = (
         0.05,
         unit="s",
         doc="time between the set points streamed along a trajectory",
+        minimum=0.005,
+        maximum=1.0,
     ),
 )
 dh_factory.model = _model

@@ -20,11 +20,23 @@ def _model(config: dict[str, Any]) -> MagicianModel:
     """The Magician's kinematic model from a profile's ``arm`` mapping."""
     links = config.get("links_mm", [135.0, 147.0])
     tool = config.get("tool_offset_mm", [59.7, 0.0, 0.0])
-    if isinstance(tool, (int, float)):
+    if isinstance(tool, (int, float)) and not isinstance(tool, bool):
         tool = [float(tool), 0.0, 0.0]
-    if len(links) != 2 or len(tool) != 3:
-        raise ConfigError("arm.links_mm must be [rear arm, forearm] and tool_offset_mm [x, y, z]")
+    if not _numbers(tool, 3):
+        raise ConfigError(f"arm.tool_offset_mm: expected [x, y, z] in mm, got {tool!r}")
+    if not _numbers(links, 2):
+        raise ConfigError(f"arm.links_mm: expected [rear arm, forearm] in mm, got {links!r}")
     return MagicianModel(links[0], links[1], tool)
+
+
+def _numbers(value: Any, n: int) -> bool:
+    return (
+        isinstance(value, (list, tuple))
+        and len(value) == n
+        and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e4 for v in value
+        )
+    )
 
 
 def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MagicianEmulator:
@@ -49,8 +61,24 @@ def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDri
 
 magician_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device, or sim for the built-in emulator"),
-    Param("baud", "int", 115200, doc="serial speed (the Magician uses 115200)"),
-    Param("links_mm", "vector", [135.0, 147.0], unit="mm", doc="rear arm and forearm lengths"),
+    Param(
+        "baud",
+        "int",
+        115200,
+        doc="serial speed (the Magician uses 115200)",
+        minimum=0,
+        maximum=4_000_000,
+    ),
+    Param(
+        "links_mm",
+        "vector",
+        [135.0, 147.0],
+        unit="mm",
+        doc="rear arm and forearm lengths",
+        exclusive_minimum=0.0,
+        maximum=5000.0,
+        length=2,
+    ),
     Param(
         "tool_offset_mm",
         "any",
@@ -58,7 +86,15 @@ magician_factory.PARAMS = (
         unit="mm",
         doc="end-effector offset from the wrist: forward, sideways, down",
     ),
-    Param("link_timeout", "float", 1.0, unit="s", doc="silence after which the link is lost"),
+    Param(
+        "link_timeout",
+        "float",
+        1.0,
+        unit="s",
+        doc="silence after which the link is lost",
+        minimum=0.05,
+        maximum=600.0,
+    ),
 )
 magician_factory.model = _model
 magician_factory.emulator = _emulator

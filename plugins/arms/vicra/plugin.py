@@ -53,9 +53,28 @@ def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
 
 vicra_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device, or sim for the built-in Marlin emulator"),
-    Param("baud", "int", 115200, doc="serial speed (Marlin's BAUDRATE)"),
-    Param("links_mm", "vector", [300.0, 300.0], unit="mm", doc="shoulder and elbow link lengths"),
-    Param("z_travel_mm", "float", 600.0, unit="mm", doc="travel of the vertical column"),
+    Param(
+        "baud", "int", 115200, doc="serial speed (Marlin's BAUDRATE)", minimum=0, maximum=4_000_000
+    ),
+    Param(
+        "links_mm",
+        "vector",
+        [300.0, 300.0],
+        unit="mm",
+        doc="shoulder and elbow link lengths",
+        exclusive_minimum=0.0,
+        maximum=5000.0,
+        length=2,
+    ),
+    Param(
+        "z_travel_mm",
+        "float",
+        600.0,
+        unit="mm",
+        doc="travel of the vertical column",
+        exclusive_minimum=0.0,
+        maximum=5000.0,
+    ),
     Param(
         "tool",
         "str",
@@ -64,8 +83,24 @@ vicra_factory.PARAMS = (
         choices=("gripper", "suction"),
     ),
     Param("home_on_connect", "bool", True, doc="run G28 as soon as the link is up"),
-    Param("feed", "float", 6000.0, unit="units/min", doc="G1 feed rate at full speed"),
-    Param("link_timeout", "float", 5.0, unit="s", doc="silence after which the link is lost"),
+    Param(
+        "feed",
+        "float",
+        6000.0,
+        unit="units/min",
+        doc="G1 feed rate at full speed",
+        exclusive_minimum=0.0,
+        maximum=1_000_000.0,
+    ),
+    Param(
+        "link_timeout",
+        "float",
+        5.0,
+        unit="s",
+        doc="silence after which the link is lost",
+        minimum=0.05,
+        maximum=600.0,
+    ),
 )
 vicra_factory.model = _model
 vicra_factory.emulator = _emulator
