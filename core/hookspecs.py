@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from .profile import Profile
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
+    from .worldview import SceneObject
 
 hookspec = pluggy.HookspecMarker("armtree")
 hookimpl = pluggy.HookimplMarker("armtree")
@@ -243,4 +244,19 @@ def armtree_run_finished(run: Run, result: RunResult) -> None:
         ``result.details`` (``{label: text}``, one short line each, printed as
         ``label: text`` after the summary's own lines, in insertion order); use
         a label of your own, as other plugins add theirs to the same dict.
+    """
+
+
+@hookspec
+def armtree_scene_objects(run: Run) -> list[SceneObject] | None:
+    """The objects of the run's world, for monitors and recordings to draw.
+
+    :param run: the running :class:`armtree.runtime.Run`.
+    :return: :class:`armtree.worldview.SceneObject` boxes (the table among
+        them, ``kind="table"``), or ``None`` when this plugin knows no world.
+        The lists of all plugins are joined.
+
+    This is what people look at, never what a skill decides on: the built-in
+    simulation answers with its ground truth. Called from the run's thread at
+    most a few times per second; must not block.
     """

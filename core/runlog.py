@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 import re
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from itertools import compress
 from operator import ne
 from pathlib import Path
@@ -90,6 +90,9 @@ class RunLog:
         self._tick_paths: Sequence[str] | None = None
         self._tick_hits = 0
         self._remember = True
+        #: Called with every record written through :meth:`write` (events, blackboard,
+        #: start, result; not the status lines), for live views.
+        self.listeners: list[Callable[[dict[str, Any]], None]] = []
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
             self._file = path.open("wb", buffering=1 << 16)
@@ -100,9 +103,11 @@ class RunLog:
         return self._file is not None
 
     def write(self, record: dict[str, Any]) -> None:
-        """Append one record (made JSON-safe)."""
+        """Append one record (made JSON-safe) and hand it to the listeners."""
         if self._file is not None:
             self._file.write((json.dumps(jsonable(record)) + "\n").encode())
+        for listener in self.listeners:
+            listener(record)
 
     def status_changes(self, tick: int, t: float, changes: Iterable[tuple[str, Any, Any]]) -> None:
         """Append one ``status`` record per ``(node_path, from, to)`` (py_trees Status or name)."""

@@ -187,10 +187,14 @@ class Run:
         #: Called with no argument when the run is over, whatever happened, newest first:
         #: for what a plugin opened in ``armtree_run_opening`` (a server, a watcher).
         self.closers: list[Any] = []
+        #: What plugins keep for this run, each under a key of its own (``"monitor"``).
+        self.plugin_state: dict[str, Any] = {}
         #: Blackboard writes of the last tick, ``[(key, value)]`` (kept while logging).
         self.tick_writes: list[tuple[str, Any]] = []
         #: Wall seconds the last tick took: rig step, tree tick, logging, tick hooks.
         self.tick_wall = 0.0
+        #: Run time at which the last tick started (the ``t`` of its log records).
+        self.tick_time = 0.0
         self._anchor: tuple[float, float, float] | None = None
         self.resources = Resources(halt=self._halt_owner)
         self.view = view if view is not None else (NullView() if quiet else make_view(False))
@@ -443,7 +447,7 @@ class Run:
                     return self._interrupted()
             self.tick_count += 1
             tick_start = time.monotonic()
-            now = clock.now()
+            now = self.tick_time = clock.now()
             if not virtual:
                 self.tick_lateness.append(now - next_t)
             watchdog.begin("a component step")

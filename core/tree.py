@@ -15,11 +15,14 @@ from .errors import Mark
 @dataclass(frozen=True)
 class NodeInfo:
     """Where a node came from: its path in the tree (``"Load a ducky/pick"``),
-    its node type and the YAML position of its definition."""
+    its node type, the YAML position of its definition and the parameters it
+    was built with (children excluded; a ``"{key}"`` binding as a
+    :class:`~armtree.params.Binding`), for views that show them."""
 
     path: str
     type: str
     mark: Mark | None
+    params: dict[str, Any] = field(default_factory=dict, compare=False)
 
 
 @dataclass

@@ -22,6 +22,7 @@ from armtree.profile import profile_error, profile_section
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
 from .scene import SceneSpec, body_error, parse_scene
+from .view import scene_objects
 from .world import SHARED_KEY, World, world_for
 
 
@@ -167,6 +168,13 @@ def armtree_run_started(run: Any) -> None:
     planner = getattr(getattr(run, "rig", None), "planner", None)
     stepper.recorder = Recorder(directory, stepper.world, stepper.camera, planner)
     run.rig.closers.append(stepper.recorder.close)
+
+
+@armtree.hookimpl
+def armtree_scene_objects(run: Any) -> list[Any] | None:
+    """The world's table and bodies as boxes, for monitors and recordings."""
+    stepper = _stepper(run)
+    return None if stepper is None else scene_objects(stepper.world)
 
 
 @armtree.hookimpl

@@ -22,7 +22,8 @@ from .geometry import UNIT_BOX
 
 OVERHEAD_FPS = 10.0
 OVERHEAD_SIZE = 640
-_KIND_COLORS = {
+#: BGR colour of each kind of body in drawings of the world.
+KIND_COLORS = {
     "ducky": (40, 205, 250),
     "trash": (90, 110, 130),
     "block": (60, 90, 200),
@@ -109,7 +110,7 @@ class Overhead:
             for b in bodies:
                 if b.off_table:
                     continue
-                color = _KIND_COLORS.get(b.kind, (128, 128, 128))
+                color = KIND_COLORS.get(b.kind, (128, 128, 128))
                 self._poly(img, b.footprint(), color)
                 if b.kind == "bin":
                     self._poly(img, b.footprint(shrink=b.spec.wall), (30, 60, 25))

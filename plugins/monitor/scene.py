@@ -1,0 +1,153 @@
+"""The arm, the objects, the camera's view and the planned path, as numbers to draw.
+
+:class:`SceneSampler` reads what a person wants to see around the tree: the
+arm's link boxes and tool from its *reported* joints (what the skills know),
+the objects the ``armtree_scene_objects`` hook offers (in simulation: ground
+truth, shown, never used to decide), the newest planned path (from the
+planner tap) and the camera's footprint on the table. Poses are
+``[x, y, z, qx, qy, qz, qw]`` in mm in the arm's base frame.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from armtree.perception import camera_in_base
+
+from .taps import RigTaps
+
+#: Tool positions kept for the trail, and the distance between two of them (mm).
+_TRAIL_POINTS = 400
+_TRAIL_STEP_MM = 2.0
+
+
+def poses(matrices: np.ndarray) -> list[list[float]]:
+    """4x4 poses (N, 4, 4) as ``[x, y, z, qx, qy, qz, qw]`` rows, rounded to 0.01 mm / 1e-5."""
+    matrices = np.asarray(matrices, dtype=float).reshape(-1, 4, 4)
+    if len(matrices) == 0:
+        return []
+    quats = Rotation.from_matrix(matrices[:, :3, :3]).as_quat()
+    out = np.column_stack([matrices[:, :3, 3].round(2), quats.round(5)])
+    return out.tolist()
+
+
+class SceneSampler:
+    """Builds scene snapshots of one run (on the run's thread, a few times per second)."""
+
+    def __init__(self, run: Any, taps: RigTaps | None) -> None:
+        self.run = run
+        self.taps = taps
+        self.trail: list[list[float]] = []
+        self._plan_seq = -1
+        self._path: list[list[float]] = []
+
+    def objects(self) -> list[Any]:
+        """Every object the plugins offer (``armtree_scene_objects``), joined."""
+        manager = getattr(self.run, "manager", None)
+        if manager is None:
+            return []
+        found: list[Any] = []
+        for result in manager.hook.armtree_scene_objects(run=self.run):
+            found.extend(result or ())
+        return found
+
+    def sample(self) -> dict[str, Any]:
+        """A snapshot: ``t``, ``objects``, ``arm`` (``joints``, ``links``, ``boxes``,
+        ``tool``, ``suction``), ``camera`` (``pose``, ``footprint``), ``path``, ``trail``."""
+        run = self.run
+        objects = self.objects()
+        snapshot: dict[str, Any] = {
+            "t": run.tick_time,
+            "tick": run.tick_count,
+            "objects": [
+                {
+                    "name": o.name,
+                    "kind": o.kind,
+                    "pose": poses(o.pose)[0],
+                    "size": [round(float(v), 2) for v in o.size],
+                    "color": [round(float(c), 3) for c in o.color],
+                    "held": bool(o.held),
+                    "marker": o.marker,
+                    "route": [[round(x, 1), round(y, 1)] for x, y in o.route],
+                }
+                for o in objects
+            ],
+            "arm": None,
+            "camera": None,
+            "path": self._planned_path(),
+            "trail": list(self.trail),
+        }
+        arm = getattr(run.rig, "arm", None)
+        model = getattr(arm, "model", None)
+        if arm is None or model is None:
+            return snapshot
+        try:
+            q = np.asarray(arm.joints(), dtype=float)
+        except Exception:  # noqa: BLE001 - no reading yet (link not up)
+            return snapshot
+        frames = model.link_frames(q)
+        tool = frames[-1]
+        boxes = model.box_poses(q) if getattr(model, "boxes", None) else np.zeros((0, 4, 4))
+        tip = tool[:3, 3]
+        if not self.trail or np.hypot(*(tip[:2] - self.trail[-1][:2])) > _TRAIL_STEP_MM:
+            self.trail.append([round(float(v), 1) for v in tip])
+            del self.trail[:-_TRAIL_POINTS]
+        snapshot["arm"] = {
+            "joints": [round(float(v), 3) for v in q],
+            "links": poses(frames),
+            "boxes": poses(boxes),
+            "sizes": model.box_sizes().round(2).tolist() if len(boxes) else [],
+            "tool": poses(tool)[0],
+            "suction": bool(getattr(arm.tool, "suction", False)),
+        }
+        camera = getattr(run.rig, "camera", None)
+        if camera is not None:
+            try:
+                pose = camera_in_base(camera.mount, camera.extrinsics, tool)
+            except ValueError:
+                pose = None
+            if pose is not None:
+                snapshot["camera"] = {
+                    "mount": camera.mount,
+                    "pose": poses(pose)[0],
+                    "footprint": self._footprint(pose, objects),
+                }
+        return snapshot
+
+    def _planned_path(self) -> list[list[float]]:
+        taps = self.taps
+        if taps is None or taps.plan is None:
+            return []
+        if taps.plan_seq != self._plan_seq:
+            self._plan_seq = taps.plan_seq
+            model = getattr(getattr(self.run.rig, "arm", None), "model", None)
+            if model is None:
+                self._path = []
+            else:
+                self._path = model.position(taps.plan).round(1).tolist()
+        return self._path
+
+    def _footprint(self, pose: np.ndarray, objects: list[Any]) -> list[list[float]]:
+        """Where the image corners' rays meet the table top (x, y mm), if they do."""
+        seen = self.taps.seen if self.taps is not None else None
+        table = next((o for o in objects if o.kind == "table"), None)
+        if seen is None or table is None:
+            return []
+        k = seen.frame.camera_matrix
+        h, w = seen.frame.image.shape[:2]
+        px = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
+        rays = np.column_stack(
+            [(px[:, 0] - k[0, 2]) / k[0, 0], (px[:, 1] - k[1, 2]) / k[1, 1], np.ones(4)]
+        )
+        rays = rays @ pose[:3, :3].T
+        top = float(table.pose[2, 3] + 0.5 * table.size[2])
+        if np.any(rays[:, 2] >= -1e-6):
+            return []
+        t = (top - pose[2, 3]) / rays[:, 2]
+        return (pose[:3, 3] + rays * t[:, None])[:, :2].round(1).tolist()
+
+
+__all__ = ["SceneSampler", "poses"]
