@@ -90,3 +90,11 @@ def make_world(sim_profile) -> Callable[..., tuple[World, FakeEmulator]]:
 def camera_profile(sim_profile) -> dict:
     """A fresh profile of the camera tests' scene."""
     return sim_profile(CAMERA_SCENE)
+
+
+@pytest.fixture(scope="session")
+def recorded_run(tmp_path_factory):
+    """A simulated pick and place recorded with ``--record`` (run.jsonl, run.mcap), made once."""
+    from monitor_helpers import record_run
+
+    return record_run(tmp_path_factory.mktemp("recorded"))

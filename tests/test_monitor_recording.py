@@ -9,33 +9,15 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from armtree.cli import run_tree_main
 from armtree.runlog import read_log
 
 LETTER = {"INVALID": "I", "RUNNING": "R", "SUCCESS": "S", "FAILURE": "F"}
 
-#: A pick and place that also writes the blackboard.
-TREE = """\
-tree: recorded
-rig: sim_dobot
-tick_hz: 20
-root:
-  sequence:
-    name: Pick and place
-    children:
-      - pick: {name: Pick, tag: ducky, from: ducky_pickup, pose: "{picked}"}
-      - place: {name: Put, at: garbage_bin, release_mm: 0, pose: "{placed}"}
-"""
-
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
-    """One simulated pick and place, recorded."""
-    base = tmp_path_factory.mktemp("rec")
-    (base / "recorded.yaml").write_text(TREE)
-    out = base / "run"
-    code = run_tree_main([str(base / "recorded.yaml"), "--record", str(out), "--quiet"])
-    assert code == 0
+def recorded(recorded_run):
+    """The recorded run's log and its run.mcap read back."""
+    out = recorded_run
     with (out / "run.mcap").open("rb") as fh:
         reader = make_reader(fh)
         summary = reader.get_summary()
@@ -77,7 +59,7 @@ def test_channels_use_foxglove_schemas_where_they_fit_and_json_everywhere(record
 def test_statuses_match_the_run_log_tick_for_tick_with_the_same_times(recorded):
     _, log, summary, messages = recorded
     start_ns = int(make_metadata(recorded)["start_ns"])
-    tree = next(r for r in log if r["kind"] == "tree")["tree"]
+    tree = next(r for r in log if r["kind"] == "tree")
     paths = [n["path"] for n in tree["nodes"]]
     status_ticks = defaultdict(list)
     times = {}

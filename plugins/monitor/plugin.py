@@ -2,11 +2,71 @@
 
 from __future__ import annotations
 
+import argparse
+import sys
 from typing import Any
 
 import armtree
 
-from .session import MonitorSession
+from .live import LiveFeed
+from .session import KEY, MonitorSession
+
+#: The page's port when ``--monitor`` is given without one.
+DEFAULT_PORT = 8765
+
+
+def port_number(text: str) -> int:
+    """An argparse type: a TCP port, 0 (any free one) to 65535."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a port number; write the tree first: run-tree TREE --monitor [PORT]"
+        ) from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(
+            f"{port} is not a port: give 1-65535, or 0 for any free one"
+        )
+    return port
+
+
+@armtree.hookimpl
+def armtree_run_options(parser: argparse.ArgumentParser) -> None:
+    """``--monitor [PORT]``, ``--monitor-host HOST`` and ``--watch``."""
+    group = parser.add_argument_group("monitor")
+    group.add_argument(
+        "--monitor",
+        nargs="?",
+        const=DEFAULT_PORT,
+        type=port_number,
+        metavar="PORT",
+        help=f"serve the live monitor page on http://127.0.0.1:PORT/ (default {DEFAULT_PORT}; "
+        "0 for any free port); a simulated run then keeps to real time",
+    )
+    group.add_argument(
+        "--monitor-host",
+        metavar="HOST",
+        help="serve the monitor on HOST instead of 127.0.0.1 (0.0.0.0: every interface); "
+        "the page then needs the token printed at start",
+    )
+
+
+@armtree.hookimpl
+def armtree_run_opening(run: Any) -> None:
+    """Start the monitor's server before anything is built (a busy port is exit 2)."""
+    settings = run.settings
+    port, host = settings.get("monitor"), settings.get("monitor_host")
+    if port is None and host is None:
+        return
+    feed = LiveFeed(run, host or "127.0.0.1", DEFAULT_PORT if port is None else port)
+    url = feed.start()
+    session = MonitorSession.of(run)
+    session.feeds.append(feed)
+    if run.clock.virtual and run.control.speed is None:
+        run.control.speed = 1.0
+    note = " (the token is required: keep this URL to yourself)" if feed.server.token else ""
+    print(f"monitor: {url}{note}", flush=True)
+    print("keys: p pause/resume, n step, r resume, q stop", file=sys.stderr, flush=True)
 
 
 @armtree.hookimpl
@@ -18,6 +78,14 @@ def armtree_run_started(run: Any) -> None:
 @armtree.hookimpl
 def armtree_tick(run: Any) -> None:
     """Sample the tick for the recording and the page."""
-    session = run.plugin_state.get("monitor")
+    session = run.plugin_state.get(KEY)
     if session is not None:
         session.tick()
+
+
+@armtree.hookimpl
+def armtree_commands() -> dict[str, Any]:
+    """``armtree replay RUN_DIR``."""
+    from .replay import ReplayCommand
+
+    return {"replay": ReplayCommand}

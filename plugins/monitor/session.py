@@ -54,7 +54,7 @@ class MonitorSession:
         """Attach to a run that has built its rig and set its tree up."""
         run = self.run
         self.observer = RunObserver(run)
-        run.log.write({"kind": "tree", "tick": 0, "t": 0.0, "tree": self.observer.tree})
+        run.log.write(tree_record(self.observer.tree, 0, 0.0))
         if run.record_requested and run.record_dir is not None:
             start_ns = time.time_ns() - round(run.clock.now() * 1e9)
             self.recorder = McapRecorder(
@@ -100,12 +100,7 @@ class MonitorSession:
             return
         self.observer.reindex()
         self.run.log.write(
-            {
-                "kind": "tree",
-                "tick": self.run.tick_count,
-                "t": self.run.clock.now(),
-                "tree": self.observer.tree,
-            }
+            tree_record(self.observer.tree, self.run.tick_count, self.run.clock.now())
         )
         if self.recorder is not None:
             self.recorder.add_tree(self.observer.tree, self.run.clock.now())
@@ -143,6 +138,17 @@ class MonitorSession:
             feed.on_close(self)
 
 
+def tree_record(tree: dict[str, Any], tick: int, t: float) -> dict[str, Any]:
+    """The run log's ``tree`` record: the tree's description at the top level (the log keeps
+    JSON only a few levels deep)."""
+    return {"kind": "tree", "tick": tick, "t": t, **tree}
+
+
+def tree_of(record: dict[str, Any]) -> dict[str, Any]:
+    """The tree description in a ``tree`` record."""
+    return {k: v for k, v in record.items() if k not in ("kind", "tick", "t")}
+
+
 def _first_record(run: Any) -> dict[str, Any] | None:
     """The run log's start record, read back (it was written before any listener)."""
     path = getattr(run.log, "path", None)
@@ -156,4 +162,4 @@ def _first_record(run: Any) -> dict[str, Any] | None:
         return None
 
 
-__all__ = ["KEY", "MonitorSession"]
+__all__ = ["KEY", "MonitorSession", "tree_of", "tree_record"]

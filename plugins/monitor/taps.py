@@ -23,7 +23,11 @@ from armtree.rig import Detection, Frame
 
 @dataclass(frozen=True)
 class Seen:
-    """The newest frame a skill read, and the detections found in it (``None``: not looked)."""
+    """The newest frame a skill read, and the detections found in it (``None``: not looked).
+
+    ``seq`` grows with every new frame and every detection, so a reader can tell
+    whether anything changed since it last looked.
+    """
 
     frame: Frame
     detections: list[Detection] | None
@@ -79,13 +83,10 @@ class RigTaps:
             self._seen = Seen(frame, None, self._seq)
 
     def _on_detect(self, detections: list[Detection], frame: Frame, *_: Any) -> None:
+        # A new sequence number either way: the frame now comes with what was found in it.
         with self._lock:
-            seen = self._seen
-            if seen is not None and seen.frame is frame:
-                self._seen = Seen(frame, list(detections), seen.seq)
-            else:
-                self._seq += 1
-                self._seen = Seen(frame, list(detections), self._seq)
+            self._seq += 1
+            self._seen = Seen(frame, list(detections), self._seq)
 
     def _on_plan(self, path: Any, *_: Any) -> None:
         q = np.asarray(path, dtype=float)

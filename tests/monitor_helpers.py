@@ -1,0 +1,164 @@
+"""Shared by the monitor tests: a recorded run, run-tree with --monitor, a headless browser."""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.metadata
+import os
+import queue
+import re
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from armtree.cli import run_tree_main
+
+RUN_TREE = Path(sys.executable).with_name("run-tree")
+ARMTREE = Path(sys.executable).with_name("armtree")
+CHROMIUM = os.environ.get("ARMTREE_CHROMIUM", "/usr/bin/chromium")
+
+#: A pick and place that also writes the blackboard.
+RECORDED_TREE = """\
+tree: recorded
+rig: sim_dobot
+tick_hz: 20
+root:
+  sequence:
+    name: Pick and place
+    children:
+      - pick: {name: Pick, tag: ducky, from: ducky_pickup, pose: "{picked}"}
+      - place: {name: Put, at: garbage_bin, release_mm: 0, pose: "{placed}"}
+"""
+
+#: Statuses that change for a few ticks, then a leaf that runs until stopped.
+COUNT_TREE = """\
+tree: count
+tick_hz: 20
+root:
+  sequence:
+    name: Root
+    children:
+      - tick_counter: {name: Count, duration: 30}
+      - running: {name: Wait}
+"""
+
+#: Only the core plugins and the monitor: these runs need no arm, camera or skill.
+ONLY_MONITOR = [
+    arg
+    for ep in importlib.metadata.entry_points(group="armtree")
+    if ep.name not in ("core_behaviours", "core_commands", "monitor")
+    for arg in ("-p", f"no:{ep.name}")
+]
+
+
+def record_run(base: Path) -> Path:
+    """Run :data:`RECORDED_TREE` on the simulated Dobot with ``--record``; the run directory."""
+    (base / "recorded.yaml").write_text(RECORDED_TREE)
+    out = base / "run"
+    code = run_tree_main([str(base / "recorded.yaml"), "--record", str(out), "--quiet"])
+    assert code == 0
+    return out
+
+
+class Proc:
+    """A command whose stdout lines can be awaited with a timeout."""
+
+    def __init__(self, args: list[str], cwd: Path, stdin=None) -> None:
+        self.p = subprocess.Popen(
+            [str(a) for a in args],
+            cwd=cwd,
+            stdin=stdin if stdin is not None else subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.lines: queue.Queue = queue.Queue()
+        self.seen: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.p.stdout:
+            self.lines.put(line)
+        self.lines.put(None)
+
+    def wait_for(self, pattern: str, timeout: float = 60.0) -> re.Match:
+        """The first stdout line matching ``pattern`` (a regex)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.01, deadline - time.monotonic()))
+            except queue.Empty:
+                raise AssertionError(
+                    f"no {pattern!r} within {timeout} s: {''.join(self.seen)}"
+                ) from None
+            if line is None:
+                err = self.p.stderr.read()
+                raise AssertionError(f"ended before {pattern!r}: {''.join(self.seen)}{err}")
+            self.seen.append(line)
+            found = re.search(pattern, line)
+            if found:
+                return found
+
+    def url(self, timeout: float = 60.0) -> str:
+        """The monitor's or the replay's URL, once printed."""
+        return self.wait_for(r"(?:monitor|replay): (http://\S+)", timeout).group(1)
+
+    def finish(self, timeout: float) -> tuple[int, str]:
+        """Exit code and stderr; kills the process if it is not gone within ``timeout`` s."""
+        try:
+            code = self.p.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.p.kill()
+            raise
+        return code, self.p.stderr.read()
+
+    def kill(self) -> None:
+        """End it if it still runs."""
+        if self.p.poll() is None:
+            self.p.kill()
+            self.p.wait(5)
+
+
+def run_tree(*args: str, cwd: Path) -> Proc:
+    """``run-tree ARGS`` with only the core and monitor plugins."""
+    return Proc([RUN_TREE, *args, *ONLY_MONITOR], cwd)
+
+
+def browser_or_skip():
+    """Playwright's Chromium launcher on Debian's chromium, or a skip saying what is missing."""
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed (pip install playwright; .ci/run installs it)")
+    if not (Path(CHROMIUM).exists() or shutil.which(CHROMIUM)):
+        pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium; .ci/run installs it)")
+    return sync_playwright
+
+
+#: Flags for Debian's chromium on a machine with no display and a closed network.
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+@contextlib.contextmanager
+def chromium():
+    """A headless Chromium (playwright Browser), closed afterwards."""
+    sync_playwright = browser_or_skip()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        try:
+            yield browser
+        finally:
+            browser.close()
