@@ -227,6 +227,16 @@ def armtree_run_paused(run: Run, paused: bool) -> None:
 
 
 @hookspec
+def armtree_tree_replaced(run: Run, previous: Any) -> None:
+    """The run swapped in another tree (``run.replace_tree``, e.g. ``--watch``).
+
+    :param previous: the :class:`armtree.tree.Tree` that was halted; ``run.tree``
+        is the new one, set up and about to be ticked; ``run.nodes`` and
+        ``run.statuses`` describe it. The clock, rig, log and blackboard go on.
+    """
+
+
+@hookspec
 def armtree_interrupt(run: Run, reason: str) -> None:
     """The run is being interrupted (signal, stop key, e-stop, lost link).
 

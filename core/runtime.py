@@ -196,6 +196,9 @@ class Run:
         #: Run time at which the last tick started (the ``t`` of its log records).
         self.tick_time = 0.0
         self._anchor: tuple[float, float, float] | None = None
+        # A validated tree waiting for a safe point to replace the running one (--watch).
+        self._replacement: Any = None
+        self._bt: py_trees.trees.BehaviourTree | None = None
         self.resources = Resources(halt=self._halt_owner)
         self.view = view if view is not None else (NullView() if quiet else make_view(False))
         # A view that ignores updates (quiet) is not handed the tick's status changes,
@@ -308,7 +311,7 @@ class Run:
             raise RuntimeError("a Run executes once; make a new one")
         self._executed = True
         wall0 = time.monotonic()
-        bt = py_trees.trees.BehaviourTree(self.root)
+        bt = self._bt = py_trees.trees.BehaviourTree(self.root)
         result: RunResult | None = None
         stop_key = self._key = StopKey() if self._stop_key else None
         try:
@@ -445,6 +448,9 @@ class Run:
                 self._hold(stop_key)
                 if interrupts.requested:
                     return self._interrupted()
+            if self._replacement is not None and self._may_replace():
+                self._replace()
+                root = self.root
             self.tick_count += 1
             tick_start = time.monotonic()
             now = self.tick_time = clock.now()
@@ -512,6 +518,71 @@ class Run:
         arm has no command under way."""
         arm = getattr(self.rig, "arm", None)
         return self.clock.virtual or arm is None or not arm.busy()
+
+    def replace_tree(self, tree: Any) -> None:
+        """Run ``tree`` (validated, built with this run's profile) instead of the current one.
+
+        Safe from any thread: the swap happens between ticks at the next safe
+        point, where the arm has no command under way and the tool holds
+        nothing, unless the new tree's first leaf commands the tool (a place or
+        a release). The old tree is halted cleanly first; the rig, the clock,
+        the log and the blackboard carry on. A later call replaces a tree still
+        waiting. ``armtree_tree_replaced`` is called after the swap.
+        """
+        self._replacement = tree
+
+    @property
+    def replacement_waiting(self) -> str | None:
+        """Why a tree given to :meth:`replace_tree` still waits (``None`` when none waits)."""
+        if self._replacement is None:
+            return None
+        return self._unsafe_to_replace(self._replacement) or "the next tick"
+
+    def _may_replace(self) -> bool:
+        return self._unsafe_to_replace(self._replacement) is None
+
+    def _unsafe_to_replace(self, tree: Any) -> str | None:
+        arm = getattr(self.rig, "arm", None)
+        if arm is None:
+            return None
+        if arm.busy():
+            return "the arm is moving"
+        try:
+            holding = bool(arm.tool.suction)
+        except Exception:  # noqa: BLE001 - no reading: take it as holding
+            holding = True
+        if holding and "tool" not in getattr(_first_leaf(tree.root), "RESOURCES", ()):
+            return "the tool holds something and the new tree does not start by handling it"
+        return None
+
+    def _replace(self) -> None:
+        """Halt the old tree, set the new one up, carry on (on the tick thread)."""
+        tree, self._replacement = self._replacement, None
+        now = self.clock.now()
+        errors = self.halt_tree()
+        self._settle()
+        self._track(now, self.log.enabled)
+        with contextlib.suppress(Exception):
+            if self._bt is not None:
+                self._bt.shutdown()
+        self.resources.release_all()
+        previous = self.tree
+        self.tree, self.root = tree, tree.root
+        for key, value in (getattr(tree, "blackboard", None) or {}).items():
+            Blackboard.set(key if key.startswith("/") else "/" + key, value)
+        self._bt = py_trees.trees.BehaviourTree(self.root)
+        self._setup(self._bt)
+        self._index_nodes()
+        self.log.event(
+            self.tick_count,
+            now,
+            "reload",
+            source=str(getattr(tree, "source", "") or ""),
+            previous=getattr(previous, "name", None),
+            halt_errors=errors,
+        )
+        self.view.message(f"tree replaced at tick {self.tick_count}: {tree.name}")
+        self._call_hook("armtree_tree_replaced", run=self, previous=previous)
 
     def _hold(self, keys: StopKey | None) -> None:
         """Stand still (clock held, nothing halted) until resumed, stepped or stopped."""
@@ -834,7 +905,7 @@ class Run:
         if self._nodes:
             self._track(self.clock.now(), self.log.enabled)
         with contextlib.suppress(Exception):
-            bt.shutdown()
+            (self._bt or bt).shutdown()
         message = end.message
         for err in errors:
             self.log.event(self.tick_count, self.clock.now(), "halt_error", error=err)
@@ -1042,6 +1113,13 @@ def lateness_ms(lateness: Sequence[float]) -> dict[str, float]:
         return ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 
     return {"p50": pct(0.50), "p99": pct(0.99), "max": ms[-1], "ticks": float(len(ms))}
+
+
+def _first_leaf(node: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
+    """The leaf a tree ticks first: down the first children from ``node``."""
+    while node.children:
+        node = node.children[0]
+    return node
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import importlib.metadata
-import os
 import queue
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -17,10 +17,10 @@ from pathlib import Path
 import pytest
 
 from armtree.cli import run_tree_main
+from armtree.plugins.monitor.chromium import CHROMIUM, launch
 
 RUN_TREE = Path(sys.executable).with_name("run-tree")
 ARMTREE = Path(sys.executable).with_name("armtree")
-CHROMIUM = os.environ.get("ARMTREE_CHROMIUM", "/usr/bin/chromium")
 
 #: A pick and place that also writes the blackboard.
 RECORDED_TREE = """\
@@ -117,6 +117,11 @@ class Proc:
             raise
         return code, self.p.stderr.read()
 
+    def interrupt(self, timeout: float = 20.0) -> tuple[int, str]:
+        """Ctrl-C: SIGINT, then the exit code and stderr."""
+        self.p.send_signal(signal.SIGINT)
+        return self.finish(timeout)
+
     def kill(self) -> None:
         """End it if it still runs."""
         if self.p.poll() is None:
@@ -140,24 +145,12 @@ def browser_or_skip():
     return sync_playwright
 
 
-#: Flags for Debian's chromium on a machine with no display and a closed network.
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
-
-
 @contextlib.contextmanager
 def chromium():
     """A headless Chromium (playwright Browser), closed afterwards."""
     sync_playwright = browser_or_skip()
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        browser = launch(p)
         try:
             yield browser
         finally:

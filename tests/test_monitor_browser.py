@@ -17,7 +17,7 @@ def shown_statuses(page):
     )
 
 
-def wait_until(page, script, timeout=30.0):
+def wait_until(page, script, timeout=60.0):
     page.wait_for_function(script, timeout=timeout * 1000)
 
 
@@ -34,6 +34,7 @@ def test_a_live_run_shows_its_tree_statuses_and_camera_and_obeys_pause_step_stop
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
             page.goto(url)
+            page.select_option("#speed", "4")  # four run seconds per wall second
             # The tree renders: one box per node, the root among them.
             wait_until(page, "document.querySelectorAll('#tree .node').length === 3")
             assert "Pick and place" in page.inner_text("#tree-wrap")

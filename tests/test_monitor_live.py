@@ -2,7 +2,6 @@
 
 import asyncio
 import json
-import signal
 import socket
 import time
 import urllib.error
@@ -10,8 +9,9 @@ import urllib.request
 
 import aiohttp
 import pytest
-from monitor_helpers import COUNT_TREE, run_tree
+from monitor_helpers import COUNT_TREE, ONLY_MONITOR, run_tree
 
+from armtree.cli import run_tree_main
 from armtree.runlog import read_log
 
 
@@ -99,7 +99,7 @@ def test_two_pages_see_the_run_and_controls_act_once_then_stop_exits_130(count_t
             await b.close()
 
         asyncio.run(scenario())
-        code, err = proc.finish(timeout=10)
+        code, err = proc.finish(timeout=20)
     finally:
         proc.kill()
     assert code == 130, err
@@ -132,8 +132,7 @@ def test_closing_the_last_page_of_a_paused_run_leaves_it_paused_and_ctrl_c_still
         paused, state = asyncio.run(pause_and_leave())
         assert state["control"] == "paused"
         assert state["tick"] == paused["tick"]  # nothing ticked while no page was open
-        proc.p.send_signal(signal.SIGINT)
-        code, err = proc.finish(timeout=5)
+        code, err = proc.interrupt()
     finally:
         proc.kill()
     assert code == 130
@@ -141,23 +140,27 @@ def test_closing_the_last_page_of_a_paused_run_leaves_it_paused_and_ctrl_c_still
     assert "interrupted by SIGINT" in err
 
 
-def test_a_port_in_use_is_exit_2_before_anything_runs(count_tree):
+def test_a_port_in_use_is_exit_2_before_anything_runs(count_tree, capsys, monkeypatch):
+    monkeypatch.chdir(count_tree)
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
-        proc = run_tree("count.yaml", "--monitor", str(port), "--record", "rec", cwd=count_tree)
-        code, err = proc.finish(timeout=30)
+        code = run_tree_main(
+            ["count.yaml", "--monitor", str(port), "--record", "rec", *ONLY_MONITOR]
+        )
+    err = capsys.readouterr().err
     assert code == 2
     assert f"--monitor: port {port} on 127.0.0.1 is already in use" in err
     assert "Traceback" not in err
     assert not (count_tree / "rec").exists()
 
 
-def test_a_tree_name_in_place_of_the_port_says_how_to_write_it(count_tree):
-    proc = run_tree("--monitor", "count.yaml", cwd=count_tree)
-    code, err = proc.finish(timeout=30)
-    assert code == 2
+def test_a_tree_name_in_place_of_the_port_says_how_to_write_it(count_tree, capsys):
+    with pytest.raises(SystemExit) as exited:
+        run_tree_main(["--monitor", "count.yaml", *ONLY_MONITOR])
+    assert exited.value.code == 2
+    err = capsys.readouterr().err
     assert "is not a port number; write the tree first: run-tree TREE --monitor [PORT]" in err
 
 
@@ -193,8 +196,7 @@ def test_off_loopback_the_page_and_its_websocket_need_the_printed_token(count_tr
             return state
 
         assert asyncio.run(connect())["tree"]["name"] == "count"
-        proc.p.send_signal(signal.SIGINT)
-        code, _ = proc.finish(timeout=5)
+        code, _ = proc.interrupt()
     finally:
         proc.kill()
     assert code == 130

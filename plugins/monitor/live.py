@@ -122,9 +122,11 @@ class LiveFeed:
             }
         self.server.call(self._flush)
 
-    def on_reload_error(self, errors: list[str], source: str) -> None:
-        """A changed tree file failed validation; the old tree keeps running."""
-        self.server.call(self._set_reload_error, {"source": source, "errors": errors})
+    def on_watch(self, session: Any, kind: str, text: str, errors: list[str]) -> None:
+        """The tree watcher's news: an invalid change (kept for pages opened later), a
+        valid one waiting for a safe point, or the swap."""
+        news = {"kind": kind, "text": text, "errors": errors}
+        self.server.call(self._set_watch, news)
 
     def on_close(self, session: Any) -> None:
         """The run is over: last delta, the end, then close the pages."""
@@ -155,9 +157,9 @@ class LiveFeed:
         for message in self.hello()[1:2]:
             self.server.broadcast(message)
 
-    def _set_reload_error(self, error: dict[str, Any]) -> None:
-        self.reload_error = error
-        self.server.broadcast({"type": "reload_error", **error})
+    def _set_watch(self, news: dict[str, Any]) -> None:
+        self.reload_error = news if news["kind"] == "invalid" else None
+        self.server.broadcast({"type": "watch", **news})
 
     def _flush_soon(self) -> None:
         delay = self._last_flush + 1.0 / FLUSH_HZ - time.monotonic()
@@ -288,7 +290,7 @@ class LiveFeed:
         if not self.server.clients or self.session is None:
             return
         taps = self.session.taps
-        seen = taps.seen if taps is not None else None
+        seen = taps.shown() if taps is not None else None
         if (
             seen is not None
             and seen.seq != self._image_seq

@@ -10,6 +10,7 @@ import armtree
 
 from .live import LiveFeed
 from .session import KEY, MonitorSession
+from .watch import TreeWatcher
 
 #: The page's port when ``--monitor`` is given without one.
 DEFAULT_PORT = 8765
@@ -49,6 +50,12 @@ def armtree_run_options(parser: argparse.ArgumentParser) -> None:
         help="serve the monitor on HOST instead of 127.0.0.1 (0.0.0.0: every interface); "
         "the page then needs the token printed at start",
     )
+    group.add_argument(
+        "--watch",
+        action="store_true",
+        help="when the tree file changes, validate it and swap it in at a safe point "
+        "(an invalid change is reported and the running tree goes on)",
+    )
 
 
 @armtree.hookimpl
@@ -71,8 +78,30 @@ def armtree_run_opening(run: Any) -> None:
 
 @armtree.hookimpl
 def armtree_run_started(run: Any) -> None:
-    """Attach the session: the tree record, the recording, the page's feed."""
-    MonitorSession.of(run).start()
+    """Attach the session: the tree record, the recording, the page's feed, the watcher."""
+    session = MonitorSession.of(run)
+    session.start()
+    if run.settings.get("watch"):
+        session.watcher = TreeWatcher(run, report=session.on_watch)
+        session.watcher.start()
+        if session.watcher.source is None:
+            print("watch: this tree has no file to watch", file=sys.stderr, flush=True)
+        else:
+            names = ", ".join(str(p) for p in session.watcher.files)
+            print(f"watch: watching {names}", file=sys.stderr, flush=True)
+
+
+@armtree.hookimpl
+def armtree_tree_replaced(run: Any, previous: Any) -> None:
+    """Describe the new tree to the log, the recording and the page."""
+    session = run.plugin_state.get(KEY)
+    if session is None:
+        return
+    session.reindexed()
+    if session.watcher is not None:
+        text = f"swapped in the changed tree at tick {run.tick_count}"
+        print(f"watch: {text}", file=sys.stderr, flush=True)
+        session.on_watch("loaded", text, [])
 
 
 @armtree.hookimpl

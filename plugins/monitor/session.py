@@ -34,6 +34,7 @@ class MonitorSession:
         self.recorder: McapRecorder | None = None
         self.result: dict[str, Any] | None = None
         self.records: list[dict[str, Any]] = []
+        self.watcher: Any = None
         self._closed = False
 
     @classmethod
@@ -77,6 +78,10 @@ class MonitorSession:
 
     def tick(self) -> None:
         """After a tick: sample it and hand it on."""
+        if self.watcher is not None:
+            for event in self.watcher.take_events():
+                name = event.pop("event")
+                self.run.log.event(self.run.tick_count, self.run.clock.now(), name, **event)
         observer = self.observer
         if observer is None or not self.active:
             return
@@ -86,7 +91,7 @@ class MonitorSession:
             recorder.add_tick(sample, observer.blackboard)
             recorder.add_stats(sample.tick, sample.t, observer.rate.summary(), sample.overruns)
             taps = self.taps
-            seen = taps.seen if taps is not None else None
+            seen = taps.shown() if taps is not None else None
             if recorder.wants_image(sample.t, seen):
                 recorder.add_image(seen, sample.tick, sample.t)
             if self.scene is not None and recorder.wants_scene(sample.t):
@@ -120,6 +125,11 @@ class MonitorSession:
         for feed in self.feeds:
             feed.on_record(self, record)
 
+    def on_watch(self, kind: str, text: str, errors: list[str]) -> None:
+        """What the tree watcher found: ``invalid``, ``waiting`` or ``loaded``."""
+        for feed in self.feeds:
+            feed.on_watch(self, kind, text, errors)
+
     def on_state(self, state: str) -> None:
         """The run's control changed state (running, pausing, paused)."""
         for feed in self.feeds:
@@ -130,6 +140,8 @@ class MonitorSession:
         if self._closed:
             return
         self._closed = True
+        if self.watcher is not None:
+            self.watcher.stop()
         if self.taps is not None:
             self.taps.remove()
         if self.recorder is not None:

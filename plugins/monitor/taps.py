@@ -41,6 +41,7 @@ class RigTaps:
         self.rig = rig
         self._lock = threading.Lock()
         self._seen: Seen | None = None
+        self._searched: Seen | None = None
         self._seq = 0
         #: Joint waypoints (N, dof) of the newest plan, degrees / mm.
         self.plan: np.ndarray | None = None
@@ -60,6 +61,19 @@ class RigTaps:
     def seen(self) -> Seen | None:
         """The newest frame and its detections."""
         return self._seen
+
+    def shown(self, within_s: float = 0.5) -> Seen | None:
+        """What to show: the newest frame, or the newest searched one when the newest was
+        not searched and the searched one is at most ``within_s`` (run seconds) older."""
+        seen, searched = self._seen, self._searched
+        if (
+            seen is not None
+            and seen.detections is None
+            and searched is not None
+            and seen.frame.timestamp - searched.frame.timestamp <= within_s
+        ):
+            return searched
+        return seen
 
     def _wrap(self, component: Any, name: str, after: Callable[..., None]) -> None:
         original = getattr(component, name)
@@ -86,7 +100,7 @@ class RigTaps:
         # A new sequence number either way: the frame now comes with what was found in it.
         with self._lock:
             self._seq += 1
-            self._seen = Seen(frame, list(detections), self._seq)
+            self._seen = self._searched = Seen(frame, list(detections), self._seq)
 
     def _on_plan(self, path: Any, *_: Any) -> None:
         q = np.asarray(path, dtype=float)

@@ -86,7 +86,7 @@ function handle(m) {
     case "clients": $("st-viewers").textContent = m.count > 1 ? `${m.count} pages watching` : ""; return;
     case "speed": $("speed").value = m.speed === null ? "max" : String(m.speed); return;
     case "end": return end(m.result);
-    case "reload_error": return reloadError(m);
+    case "watch": return watchNews(m);
     case "timeline": return timeline(m);
     default: return undefined;
   }
@@ -139,7 +139,7 @@ function state(m) {
   if (m.control) page.control = m.control;
   if (m.scene) overhead.show(m.scene);
   if (m.result) end(m.result, true); else if (page.mode === "replay") hideOutcome();
-  if (m.reload_error) reloadError(m.reload_error);
+  if (m.reload_error) watchNews(m.reload_error);
   if (page.mode === "replay") {
     page.tick = m.tick;
     page.waiting = false;
@@ -246,9 +246,10 @@ function showOutcome(r) {
   $("outcome-panel").hidden = false;
 }
 
-function reloadError(m) {
-  if (!m || !m.errors) { banner(null); return; }
-  banner(`the changed tree was not loaded; the running tree goes on:\n${m.errors.join("\n")}`);
+function watchNews(m) {
+  if (!m) return;
+  if (m.kind === "invalid") banner(`${m.text}:\n${(m.errors || []).join("\n")}`);
+  else banner(m.text, "info");
 }
 
 function banner(text, kind = "error") {
@@ -334,6 +335,7 @@ function timeline(m) {
     return i;
   }));
   if (m.notice) banner(m.notice, m.truncated ? "error" : "info");
+  setState("replay", m.truncated ? "cut short" : "recorded");
 }
 
 function seek(tickNumber) {

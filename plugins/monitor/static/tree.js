@@ -253,8 +253,12 @@ export class TreeView {
   fit() {
     const box = this.svg.getBoundingClientRect();
     if (!this.size || box.width < 10) return;
-    const k = Math.min(1.15, (box.width - 40) / this.size.w, (box.height - 40) / Math.max(this.size.h, ROW));
-    this.view = { k: Math.max(0.2, k), x: 20, y: Math.max(20, (box.height - this.size.h * k) / 2) };
+    const k = Math.max(0.2, Math.min(1.5, (box.width - 40) / this.size.w, (box.height - 40) / Math.max(this.size.h, ROW)));
+    this.view = {
+      k,
+      x: Math.max(20, (box.width - this.size.w * k) / 2),
+      y: Math.max(20, (box.height - this.size.h * k) / 2),
+    };
     this._applyView();
     this.fitted = true;
   }
