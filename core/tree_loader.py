@@ -572,8 +572,8 @@ class _Loader:
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor error is shown at the node
             self.error(f"{ntype} {shown(node_name)}: {exc}", type_mark, ctx)
             return None
-        shown = {k: v for k, v in params.items() if k not in ("children", "child")}
-        self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark, shown)
+        given = {k: v for k, v in params.items() if k not in ("children", "child")}
+        self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark, given)
         self.adopt(behaviour, path, ntype, type_mark)
         return behaviour
 

@@ -22,19 +22,6 @@ from armtree.plugins.monitor.chromium import CHROMIUM, launch
 RUN_TREE = Path(sys.executable).with_name("run-tree")
 ARMTREE = Path(sys.executable).with_name("armtree")
 
-#: A pick and place that also writes the blackboard.
-RECORDED_TREE = """\
-tree: recorded
-rig: sim_dobot
-tick_hz: 20
-root:
-  sequence:
-    name: Pick and place
-    children:
-      - pick: {name: Pick, tag: ducky, from: ducky_pickup, pose: "{picked}"}
-      - place: {name: Put, at: garbage_bin, release_mm: 0, pose: "{placed}"}
-"""
-
 #: Statuses that change for a few ticks, then a leaf that runs until stopped.
 COUNT_TREE = """\
 tree: count
@@ -57,10 +44,10 @@ ONLY_MONITOR = [
 
 
 def record_run(base: Path) -> Path:
-    """Run :data:`RECORDED_TREE` on the simulated Dobot with ``--record``; the run directory."""
-    (base / "recorded.yaml").write_text(RECORDED_TREE)
+    """Run the shipped pick_and_place.yaml on the simulated Dobot with ``--record``; the
+    run directory (it looks, grasps, writes the blackboard and places)."""
     out = base / "run"
-    code = run_tree_main([str(base / "recorded.yaml"), "--record", str(out), "--quiet"])
+    code = run_tree_main(["pick_and_place.yaml", "--record", str(out), "--quiet"])
     assert code == 0
     return out
 

@@ -2,7 +2,7 @@
 
 import time
 
-from monitor_helpers import ARMTREE, RECORDED_TREE, RUN_TREE, Proc, chromium
+from monitor_helpers import ARMTREE, RUN_TREE, Proc, chromium
 
 from armtree.runlog import read_log
 
@@ -22,10 +22,9 @@ def wait_until(page, script, timeout=60.0):
 
 
 def test_a_live_run_shows_its_tree_statuses_and_camera_and_obeys_pause_step_stop(tmp_path):
-    (tmp_path / "recorded.yaml").write_text(RECORDED_TREE)
     with chromium() as browser:
         proc = Proc(
-            [RUN_TREE, "recorded.yaml", "--monitor", "0", "--record", "rec"],
+            [RUN_TREE, "pick_and_place.yaml", "--monitor", "0", "--record", "rec"],
             tmp_path,
         )
         try:
@@ -36,8 +35,10 @@ def test_a_live_run_shows_its_tree_statuses_and_camera_and_obeys_pause_step_stop
             page.goto(url)
             page.select_option("#speed", "4")  # four run seconds per wall second
             # The tree renders: one box per node, the root among them.
-            wait_until(page, "document.querySelectorAll('#tree .node').length === 3")
+            nodes = "document.querySelectorAll('#tree .node')"
+            wait_until(page, f"{nodes}.length > 5")
             assert "Pick and place" in page.inner_text("#tree-wrap")
+            assert "Look for the ducky" in page.inner_text("#tree-wrap")
             # Statuses change over ticks, and camera frames arrive as the pick looks.
             wait_until(page, "window.armtree.log.statusChanges >= 2")
             wait_until(page, "Number(document.querySelector('#camera').dataset.frames || 0) >= 2")
