@@ -1,4 +1,5 @@
-"""load_ducky over several seeds, scored by the simulated world's ground truth.
+"""load_ducky on a few seeds, scored by the simulated world's ground truth (the sweep over
+hundreds is benchmarks/sweep_load_ducky.py, its figures in docs/benchmarks.md).
 
 A seed changes the Duckybot's wheel noise (so where, and at which heading, it
 parks), the sensor noise and any dropped frames. Every seed must end SUCCESS with
@@ -37,18 +38,21 @@ def check_loaded(seed: int, result, score: dict) -> None:
 
 
 @pytest.mark.slow
-def test_load_ducky_on_sim_dobot_succeeds_for_every_seed():
-    for seed, result, score in run_seeds("sim_dobot", (0, 1, 6)):  # 1 and 6 used to fail
+def test_load_ducky_on_sim_dobot_succeeds_for_seeds_that_used_to_fail():
+    for seed, result, score in run_seeds("sim_dobot", (1, 6)):  # they used to fail
         check_loaded(seed, result, score)
         # trash_b lies between the start and the Duckybot; the sweep may see trash_a too
         assert "trash_b" in score["in_bin"], f"seed {seed}: {score['in_bin']}"
 
 
 @pytest.mark.slow
-def test_load_ducky_on_sim_vicra_succeeds_for_every_seed():
+def test_load_ducky_on_sim_vicra_with_missed_steps_succeeds():
     """The overhead camera (650 mm, 25 mm markers about 22 px wide) measures a marker's
-    height 2-7 mm low; sim_vicra's workcell grips 4 mm above it, so nothing is touched."""
-    for seed, result, score in run_seeds("sim_vicra", range(3)):
+    height 2-7 mm low; sim_vicra's workcell grips 4 mm above it, so nothing is touched.
+    With missed steps (seed 1 slips during the grip), a grip the camera saw fail homes
+    the arm on its end stops and the next try loads the ducky."""
+    slips = "world.faults.missed_steps={rate_per_s: 0.1, max_amount: 2.0}"
+    for seed, result, score in run_seeds("sim_vicra", (1,), slips):
         check_loaded(seed, result, score)
 
 
@@ -60,8 +64,8 @@ def test_search_without_clean_up_carries_nothing():
 
 
 @pytest.mark.slow
-def test_load_ducky_with_dropped_frames_succeeds_for_every_seed():
+def test_load_ducky_with_dropped_frames_succeeds():
     # the seed also picks which frames the camera drops (none by default)
-    for seed, result, score in run_seeds("sim_dobot", range(3), "camera.drop_rate=0.2"):
+    for seed, result, score in run_seeds("sim_dobot", (2,), "camera.drop_rate=0.2"):
         check_loaded(seed, result, score)
         assert "trash_b" in score["in_bin"], f"seed {seed}: {score['in_bin']}"

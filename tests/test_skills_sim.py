@@ -39,13 +39,6 @@ def test_load_ducky_puts_the_ducky_on_the_duckybot():
     print(f"load_ducky: {result.seconds:.1f} s simulated in {wall:.1f} s wall")
 
 
-@pytest.mark.slow
-def test_load_ducky_without_clean_up_leaves_the_trash():
-    result, score, _ = run_sim("load_ducky.yaml", "clean_up=false")
-    assert result.status == "SUCCESS", result.message
-    assert score["ducky_on_duckybot"] and score["trash_in_bin"] == 0
-
-
 class StopWhileCarrying:
     """Test plugin: interrupts the run once the world says the suction cup holds trash."""
 
@@ -93,3 +86,22 @@ def test_picking_a_tag_at_an_empty_spot_fails_with_the_reason(tmp_path):
     assert result.status == "FAILURE"
     assert "no 'ducky' tag within 80 mm of [150.0, 108.0, -10.0] mm" in result.message
     assert score["held"] is None and score["objects"]["ducky"]["position_mm"][:2] == [119.0, -142.0]
+
+
+#: Each shipped tree on sim_dobot, with what the world must show afterwards.
+TREES = [
+    ("search.yaml", ["tag=duckybot"], lambda score: score["held"] is None),
+    ("clean_up.yaml", ["sweeps=1"], lambda score: score["trash_in_bin"] == score["trash_total"]),
+    ("sort.yaml", ["sweeps=1"], lambda score: score["trash_in_bin"] == score["trash_total"]),
+    ("track.yaml", [], lambda score: score["duckybots"]["duckybot"]["phase"] == "parked"),
+    ("touch_tag.yaml", [], lambda score: score["held"] is None),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("tree", "overrides", "world_ok"), TREES, ids=[t[0] for t in TREES])
+def test_every_shipped_tree_runs_on_the_sim(tree, overrides, world_ok):
+    result, score, _ = run_sim(tree, *overrides)
+    assert result.status == "SUCCESS", result.message
+    assert score["collision_count"] == 0, score["collisions"]
+    assert world_ok(score), score

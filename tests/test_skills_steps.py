@@ -102,9 +102,17 @@ def test_a_sweep_without_a_tag_covers_the_region_and_succeeds():
 def test_search_step_moves_one_scan_pose_per_run_and_goes_on_from_there():
     rig = make_rig([Marker(1, on_ring(40.0))], workcell=RING)
     node = SearchStep("step", tag="duckybot", steps=1)
+    tree = py_trees.trees.BehaviourTree(node)
+    tree.setup(rig=rig, clock=rig.clock)  # once, as a run does
     headings = []
     for _ in range(4):
-        status, _ = run(node, rig)
+        for _ in range(200):
+            tree.tick()
+            if node.status is not Status.RUNNING:
+                break
+            rig.clock.advance(TICK)
+            rig.step(rig.clock.now())
+        status = node.status
         headings.append(round(heading(rig)))
         if status is Status.SUCCESS:
             break

@@ -20,6 +20,7 @@ continue the searching process").
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import numpy as np
@@ -145,6 +146,16 @@ class Sweep(ArmSkill):
         self._points: list[np.ndarray] = []
         self._next = 0
         self._looked = 0
+
+    def setup(self, **kwargs: Any) -> None:
+        """Plan the first sweep from where the arm stands when the run starts, so a branch
+        that moves the arm before the sweep's first tick (trash to clear) does not move
+        its start."""
+        super().setup(**kwargs)
+        self.restart()
+        if self.rig is not None and self.rig.arm is not None and self.workcell.survey is not None:
+            with contextlib.suppress(KeyError):  # a {sweeps} not on the blackboard yet
+                self.plan()
 
     def restart(self) -> None:
         """Forget the sweep: the next run starts anew from the tool's heading."""
