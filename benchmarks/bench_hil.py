@@ -9,7 +9,8 @@ real-hardware profile pointed at them (pyserial on the tty, OpenCV capture of th
 stream, the wall clock, 20 Hz ticks) and measures:
 
 * tick jitter: how late each tick starts against its schedule (p50, p99, max) and
-  the overruns (ticks whose work outlasted the period);
+  the overruns (ticks whose work outlasted the period), with each tick's own
+  work time beside them;
 * camera latency, in ``time.monotonic`` seconds (one clock for both processes on
   Linux): render start -> frame published (serve-sim), -> frame handed to a tick
   by ``camera.read()``, -> the tracker's detections ready;
@@ -97,6 +98,16 @@ def one_run(profile: str, rig_name: str, workdir: Path) -> dict:
             return found
 
         rig.camera.read, rig.tracker.detect = timed_read, timed_detect
+        work: list[float] = []
+
+        class TickWork:
+            """Each tick's own time (``run.tick_wall``, the tick before the hook's)."""
+
+            @armtree.hookimpl
+            def armtree_tick(self, run: Run) -> None:
+                work.append(getattr(run, "tick_wall", 0.0))
+
+        manager.register(TickWork(), "bench-tick-work")
         floor = bare_loop(200)
         load_before = os.getloadavg()
         run = Run(
@@ -108,7 +119,10 @@ def one_run(profile: str, rig_name: str, workdir: Path) -> dict:
             close_rig=True,
             manager=manager,
         )
-        result = run.execute()
+        try:
+            result = run.execute()
+        finally:
+            manager.pm.unregister(name="bench-tick-work")
         load_after = os.getloadavg()
     finally:
         server.send_signal(signal.SIGINT)
@@ -128,6 +142,7 @@ def one_run(profile: str, rig_name: str, workdir: Path) -> dict:
         "overruns": result.overruns,
         "lateness_ms": lateness_ms(run.tick_lateness),
         "floor_ms": lateness_ms(floor),
+        "tick_work_ms": lateness_ms(work[1:]),
         "render_to_sent_ms": [1000 * pct(sent, q) for q in (0.5, 0.99)],
         "render_to_read_ms": [1000 * pct(to_read, q) for q in (0.5, 0.99)] if to_read else [],
         "render_to_detection_ms": [1000 * pct(to_detect, q) for q in (0.5, 0.99)]
@@ -157,6 +172,11 @@ def main() -> None:
             f"  tick start after schedule (20 Hz, {late['ticks']:.0f} ticks): "
             f"p50 {late['p50']:.2f} ms, p99 {late['p99']:.2f} ms, max {late['max']:.1f} ms; "
             f"overruns {r['overruns']}"
+        )
+        work = r["tick_work_ms"]
+        print(
+            f"  a tick's own work: p50 {work['p50']:.2f} ms, p99 {work['p99']:.2f} ms, "
+            f"max {work['max']:.1f} ms (period 50 ms)"
         )
         print(
             f"  bare 20 Hz loop, same process, just before: p50 {floor['p50']:.2f} ms, "
