@@ -250,16 +250,7 @@ class BenchCommand:
 
 def _commands(manager: Any) -> dict[str, Any]:
     commands: dict[str, Any] = {"run": RunCommand(manager), "bench": BenchCommand()}
-    registry = manager.registry
-    for name in registry.names("command"):
-        component = registry.get("command", name)
-        if name in OWN_COMMANDS:
-            raise ConfigError(
-                f"command {name!r} of plugin {component.plugin!r} clashes with armtree's own "
-                f"{name!r}; rename it, or block the plugin with -p no:{component.plugin}"
-            )
-        command = component.factory
-        commands[name] = command() if isinstance(command, type) else command
+    commands.update(manager.registry.instances("command", OWN_COMMANDS))
     return commands
 
 

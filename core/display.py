@@ -217,21 +217,57 @@ def make_view(quiet: bool, stream: TextIO | None = None) -> NullView:
     return PlainView(stream)
 
 
+#: Marks of an expectation's status in the summary.
+EXPECT_MARKS = {"pass": "✓", "fail": "✗", "not checked": "?"}
+#: Most absorbed failures and events listed in the summary (the log has them all).
+SUMMARY_ITEMS = 5
+
+
 def summary(result: RunResult) -> str:
     """The end-of-run summary: result, ticks, virtual and wall time, overruns, why it failed.
 
-    Then one ``label: text`` line per entry of ``result.details``, in order
-    (what plugins added in ``armtree_run_finished``, e.g. the simulation's score).
+    A false success (SUCCESS while the world disagrees) gets its own line,
+    starting ``FALSE SUCCESS``, right after the result; a false failure one
+    starting ``false failure``. Then the chain of failures from the root to
+    the leaf, failures a retry or selector absorbed, the events components
+    reported (collisions, drops, missed steps, faults), one ``expect:`` line
+    per declared outcome with what was measured, and one ``label: text`` line
+    per entry of ``result.details``, in order (what plugins added in
+    ``armtree_run_finished``, e.g. the simulation's score).
     """
-    lines = [
-        f"result: {result.status}  (exit {result.exit_code})",
+    from .outcomes import chain_text
+
+    verdict = getattr(result, "verdict", "")
+    lines = [f"result: {result.status}  (exit {result.exit_code})"]
+    if verdict == "false success":
+        lines.append(f"FALSE SUCCESS: {result.message.split(': ', 1)[-1]}")
+    elif verdict == "false failure":
+        lines.append("false failure: the tree ended FAILURE but every expectation holds")
+    lines.append(
         f"ticks: {result.ticks}  run time: {result.seconds:.3f} s  wall time: "
-        f"{result.wall_seconds:.3f} s  overruns: {result.overruns}",
-    ]
+        f"{result.wall_seconds:.3f} s  overruns: {result.overruns}"
+    )
     if result.failed_node:
         lines.append(f"failed: {result.failed_node}")
-    if result.message:
+    if result.message and verdict != "false success":
         lines.append(f"why: {result.message}")
+    chain = getattr(result, "chain", None) or []
+    if chain:
+        lines.append(f"chain: {chain_text(chain)}")
+    absorbed = getattr(result, "absorbed", None) or []
+    for failure in absorbed[-SUMMARY_ITEMS:]:
+        lines.append(f"absorbed: t={failure[0].t:.2f}s {chain_text(failure)}")
+    if len(absorbed) > SUMMARY_ITEMS:
+        lines.append(f"absorbed: ... and {len(absorbed) - SUMMARY_ITEMS} earlier")
+    events = getattr(result, "events", None) or []
+    for event in events[:SUMMARY_ITEMS]:
+        lines.append(f"event: t={event['t']:.2f}s {event['message']}")
+    if len(events) > SUMMARY_ITEMS:
+        lines.append(f"event: ... and {len(events) - SUMMARY_ITEMS} more (in the log)")
+    for r in getattr(result, "expectations", None) or []:
+        mark = EXPECT_MARKS.get(r.status, "?")
+        status = "not checked: " if r.status == "not checked" else ""
+        lines.append(f"expect: {mark} {r.expect} ({status}{r.detail})")
     if result.log_path is not None:
         lines.append(f"log: {result.log_path}")
     for label, text in (getattr(result, "details", None) or {}).items():
@@ -248,4 +284,11 @@ def print_summary(result: RunResult, stream: TextIO | None = None) -> None:
     first, _, rest = text.partition("\n")
     # soft_wrap: paths and messages stay on one line, so they can be copied and grepped.
     console.print(Text(first, style=f"bold {style}"), soft_wrap=True)
-    console.print(Text(rest), soft_wrap=True)
+    for line in rest.splitlines():
+        if line.startswith("FALSE SUCCESS"):
+            line_style = "bold white on red"
+        elif line.startswith(("false failure", "expect: ✗", "event: ")):
+            line_style = "yellow"
+        else:
+            line_style = ""
+        console.print(Text(line, style=line_style), soft_wrap=True)

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     import argparse
 
     from .errors import ConfigError
+    from .outcomes import WorldTruth
     from .profile import Profile
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
@@ -106,6 +107,24 @@ def armtree_planners() -> dict[str, Any]:
 
 
 @hookspec
+def armtree_predicates() -> dict[str, Any]:
+    """Register predicates for the ``expect:`` list of tree files.
+
+    :return: ``{key: predicate}``; ``key`` is what an entry writes to use it
+        (``{object: ducky, upright: true}`` uses ``upright``) and ``predicate``
+        an :class:`armtree.outcomes.Predicate` (or a subclass, instantiated once).
+        Its ``SUBJECT`` says whether entries name ``object:``/``objects:``,
+        ``VALUE`` and ``OPTIONS`` give the JSON Schema of the key's value and of
+        further keys, ``check(entry, world)`` returns load-time problems against
+        the nominal world and ``judge(entry, obj, world)`` a
+        :class:`armtree.outcomes.Judgement` on the ground truth at the end of a
+        run (once per object, or once with ``obj=None``). Plugin data for it
+        travels in ``WorldTruth.extra``. The built-in keys (``on``, ``in``,
+        ``at``, ``held``, ``collisions``, ``missed_steps``) cannot be taken.
+    """
+
+
+@hookspec
 def armtree_commands() -> dict[str, Any]:
     """Add subcommands to the ``armtree`` command line.
 
@@ -156,6 +175,22 @@ def armtree_rig_ready(rig: Rig, context: RigContext) -> None:
 
     The built-in simulation uses it to put the emulated arm into its world.
     Called before any behaviour is set up and before the run starts.
+    """
+
+
+@hookspec(firstresult=True)
+def armtree_world_inventory(profile: Profile) -> WorldTruth | None:
+    """The nominal world of a profile, for checking the names in a tree's ``expect:``.
+
+    :param profile: the validated profile the tree will run on.
+    :return: a :class:`armtree.outcomes.WorldTruth` with the world's bodies,
+        tag roles and places as the profile describes them (seed 0), or None
+        when this plugin does not model the profile's world. The first answer
+        that is not None is used; with none, the names of the profile's tag
+        roles and places are all that is checked.
+
+    Must not open ports or devices. The built-in simulation answers for its
+    profiles.
     """
 
 
@@ -242,6 +277,20 @@ def armtree_interrupt(run: Run, reason: str) -> None:
 
     :param reason: a short text such as ``"SIGINT"`` or ``"link lost on /dev/ttyUSB0"``.
         Called before running behaviours are halted.
+    """
+
+
+@hookspec(firstresult=True)
+def armtree_ground_truth(run: Run) -> WorldTruth | None:
+    """The world as it really is at the end of the run, to judge the tree's ``expect:``.
+
+    :param run: the run, halted, before ``armtree_run_finished``.
+    :return: a :class:`armtree.outcomes.WorldTruth`, or None when this plugin
+        does not know the run's world (real hardware: expectations are then
+        reported as not checked). The first answer that is not None is used.
+
+    Never for deciding: behaviours must not call it. The built-in simulation
+    lets falling bodies land before it answers.
     """
 
 

@@ -36,6 +36,7 @@ KINDS: dict[str, str] = {
     "tracker": "armtree_trackers",
     "planner": "armtree_planners",
     "command": "armtree_commands",
+    "predicate": "armtree_predicates",
 }
 
 
@@ -280,6 +281,24 @@ class Registry:
     def has(self, kind: str, name: str) -> bool:
         """True when ``name`` is registered for ``kind``."""
         return name in self._components[kind]
+
+    def instances(self, kind: str, reserved: Iterable[str] = ()) -> dict[str, Any]:
+        """``{name: object}`` of ``kind``, a class registered as a factory made once.
+
+        A name in ``reserved`` (armtree's own of that kind) is an error naming the plugin.
+        """
+        out = {}
+        reserved = set(reserved)
+        for name in self.names(kind):
+            component = self._components[kind][name]
+            if name in reserved:
+                raise ConfigError(
+                    f"{kind} {name!r} of plugin {component.plugin!r} clashes with armtree's own "
+                    f"{name!r}; rename it, or block the plugin with -p no:{component.plugin}"
+                )
+            factory = component.factory
+            out[name] = factory() if isinstance(factory, type) else factory
+        return out
 
     def get(self, kind: str, name: str, where: Mark | None = None) -> Component:
         """The component, or a ConfigError with a did-you-mean suggestion at ``where``."""

@@ -4,7 +4,8 @@ Records (every one has ``tick`` and ``t``, seconds on the run's clock):
 
 * ``{"kind": "start", "tree": ..., "seed": ..., "tick_hz": ..., "clock": "virtual"|"wall", ...}``
 * ``{"kind": "status", "node": "Root/Child", "from": "INVALID", "to": "RUNNING"}``
-  for every status change of every node;
+  for every status change of every node, with ``"why"`` (the node's feedback
+  message) when it turns FAILURE;
 * ``{"kind": "feedback", "node": "Root/Child", "status": "SUCCESS", "message": "..."}``
   when a node's ``feedback_message`` changes: always with a status change, at
   most once a second of run time while the status stays the same;
@@ -19,7 +20,7 @@ from __future__ import annotations
 import json
 import re
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from itertools import compress
 from operator import ne
 from pathlib import Path
@@ -120,7 +121,13 @@ class RunLog:
             self._file.write(head + head.join(parts))
 
     def status_diff(
-        self, tick: int, t: float, paths: Sequence[str], old: Sequence[str], new: Sequence[str]
+        self,
+        tick: int,
+        t: float,
+        paths: Sequence[str],
+        old: Sequence[str],
+        new: Sequence[str],
+        why: Mapping[str, str] | None = None,
     ) -> None:
         """Append a ``status`` record for every node whose status name differs in ``old`` and ``new``.
 
@@ -129,6 +136,8 @@ class RunLog:
         :meth:`status_changes` with the changed ``(path, old, new)``, in node
         order. Given as tuples, a tick's lines are remembered for the next time
         the tree makes the same changes (while that pays: see ``_TICK_PATTERNS``).
+        ``why`` maps paths of nodes that turned FAILURE to their reasons; their
+        records get a ``"why"`` field.
         """
         if self._file is None:
             return
@@ -158,6 +167,8 @@ class RunLog:
                 ticks[key] = parts
             else:
                 self._tick_hits += 1
+        if why:
+            parts = self._with_reasons(paths, old, new, why)
         if parts:
             head = f'{{"kind": "status", "tick": {tick}, "t": {t!r}, "node": '.encode()
             self._file.write(head + head.join(parts))
@@ -178,6 +189,23 @@ class RunLog:
                 get(change) or make(change)
                 for change in compress(zip(paths, old, new, strict=True), map(ne, old, new))
             ]
+
+    def _with_reasons(
+        self, paths: Sequence[str], old: Sequence[str], new: Sequence[str], why: Mapping[str, str]
+    ) -> list[bytes]:
+        # Rare (a node failing): built each time, never cached.
+        parts = []
+        for change in compress(zip(paths, old, new, strict=True), map(ne, old, new)):
+            path, before, after = change
+            if path in why:
+                reason = json.dumps(why[path])
+                parts.append(
+                    f'{json.dumps(path)}, "from": "{_name(before)}", "to": "{_name(after)}", '
+                    f'"why": {reason}}}\n'.encode()
+                )
+            else:
+                parts.append(self._tails.get(change) or self._tail(change))
+        return parts
 
     def _tail(self, change: tuple[str, Any, Any]) -> bytes:
         path, old, new = change

@@ -15,12 +15,17 @@ A run:
    to pause, and on a virtual clock it keeps to ``run.control.speed`` if set;
 4. ends on the root's SUCCESS or FAILURE, ``timeout``/``max_ticks`` (FAILURE),
    an exception inside a behaviour (FAILURE, with the node's path and YAML
-   position) or an interrupt (INTERRUPTED: signal, stop key, component event);
+   position), a component's :meth:`Run.fail` (FAILURE: a collision under
+   ``halt_on_collision``) or an interrupt (INTERRUPTED: signal, stop key,
+   component event);
 5. halts: every RUNNING node is stopped with INVALID (py_trees' own shutdown
    leaves them RUNNING), the arm is told to stop on an abnormal end, behaviours
    whose ``halting()`` says they are still reaching a safe state get more clock
    steps (bounded by ``stop_timeout``), the tree is shut down, the rig closed
-   and the log flushed, on every path.
+   and the log flushed, on every path;
+6. is judged: the tree's ``expect:`` on the world's ground truth (when a
+   plugin knows it), giving the verdict: a SUCCESS the world disagrees with is
+   a false success and exits 1.
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ from .control import RunControl
 from .display import NullView, make_view
 from .errors import HardwareFault
 from .interrupts import EXIT_INTERRUPTED, Interrupts, StopKey
+from .outcomes import FailureLog, judge, predicates_for, verdict
 from .resources import Resources
 from .rig import Rig
 from .rig_builder import build_rig, uses_real_hardware
@@ -75,6 +81,10 @@ _FLUSH_S = 1.0
 #: Run-clock seconds between two feedback records of a node whose status stays the same.
 FEEDBACK_INTERVAL_S = 1.0
 _FEEDBACK = attrgetter("feedback_message")
+#: py_trees' name of the FAILURE status (the status tuples hold these strings).
+_FAILURE = Status.FAILURE._value_
+#: Events reported by components (``Run.report_event``) kept for the summary.
+_EVENTS_KEPT = 200
 
 
 @dataclass
@@ -92,6 +102,17 @@ class RunResult:
     extra ``label: text`` lines for the end-of-run summary, filled by plugins
     in ``armtree_run_finished`` (e.g. the simulation's score); they are not
     written to the run log.
+
+    How the world saw it: ``expectations`` holds one
+    :class:`armtree.outcomes.ExpectationResult` per entry of the tree's
+    ``expect:``; ``verdict`` is ``success``, ``failure``, ``false success``
+    (SUCCESS while an expectation failed: exit code 1), ``false failure``
+    (FAILURE while every expectation held) or ``interrupted``. ``chain`` is
+    the failure from the root down to the leaf that failed
+    (:class:`armtree.outcomes.NodeFailure` each, with its reason), ``absorbed``
+    the failures a retry or selector swallowed (as chains), ``events`` the
+    notable events components reported (collisions, drops, missed steps,
+    faults), each ``{"tick", "t", "event", "message", ...}``.
     """
 
     status: str
@@ -107,11 +128,21 @@ class RunResult:
     reason: str | None = None
     traceback: str | None = None
     details: dict[str, str] = field(default_factory=dict)
+    expectations: list[Any] = field(default_factory=list)
+    verdict: str = ""
+    chain: list[Any] = field(default_factory=list)
+    absorbed: list[list[Any]] = field(default_factory=list)
+    events: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         """True for SUCCESS."""
         return self.status == "SUCCESS"
+
+    @property
+    def false_success(self) -> bool:
+        """True when the tree said SUCCESS and an expectation failed."""
+        return self.verdict == "false success"
 
 
 class _End(Exception):
@@ -238,6 +269,10 @@ class Run:
         self._rig_stuck = False
         self._watchdog_closed = False
         self._stopped = threading.Event()
+        self.failures = FailureLog()
+        #: Notable events components reported, for the summary (the log has them all).
+        self.events: list[dict[str, Any]] = []
+        self._fail_reason: str | None = None
 
     # ------------------------------------------------------------------
     # For behaviours and components
@@ -258,6 +293,33 @@ class Run:
     def interrupt(self, reason: str, fault: HardwareFault | None = None) -> None:
         """Ask the run to halt within one tick; safe from any thread (a RigContext's interrupt)."""
         self.interrupts.request(reason, fault)
+
+    def fail(self, reason: str) -> None:
+        """End the run as FAILURE before the tree is ticked again, because of ``reason``.
+
+        For components that see the task fail outright (a collision under
+        ``halt_on_collision``); safe from any thread. The first reason given wins.
+        """
+        if self._fail_reason is None:
+            self._fail_reason = reason
+            self.interrupts.wake.set()
+
+    def report_event(self, event: str, message: str | None = None, **data: Any) -> None:
+        """Write a component's event to the run log at the current tick.
+
+        With a ``message`` (a collision, a drop, a missed step, a fault) it is
+        also shown in the live view and listed in the summary. ``data`` are the
+        record's fields (JSON-safe values). Call it from the run's thread (a
+        stepper or a behaviour).
+        """
+        t = self.clock.now()
+        self.log.event(self.tick_count, t, event, **data)
+        if message:
+            self.view.message(f"t={t:.2f}s {message}")
+            if len(self.events) < _EVENTS_KEPT:
+                self.events.append(
+                    {"tick": self.tick_count, "t": t, "event": event, "message": message}
+                )
 
     def path_of(self, behaviour: py_trees.behaviour.Behaviour) -> str:
         """The node's path in the tree (``"Root/Branch/Leaf"``), from the loader's NodeInfo if any."""
@@ -440,6 +502,8 @@ class Run:
         while True:
             if interrupts.requested:
                 return self._interrupted()
+            if self._fail_reason is not None:
+                return self._component_failed()
             if timeout is not None and clock.now() >= timeout - 1e-9:
                 return _End("FAILURE", f"timeout: {timeout:g} s on the run clock reached")
             if max_ticks is not None and self.tick_count >= max_ticks:
@@ -462,6 +526,8 @@ class Run:
                     rig.step(now)
                 except Exception as exc:  # noqa: BLE001 - a component failed between ticks
                     return self._component_exception(exc)
+                if self._fail_reason is not None:
+                    return self._component_failed()
             watchdog.phase = "the tree's tick"
             try:
                 for _ in root.tick():
@@ -632,8 +698,9 @@ class Run:
             self._log_feedback(now, last, current)
         if current != last:
             self._last = current
+            why = self._new_failures(last, current, now) if _FAILURE in current else None
             if logging:
-                self.log.status_diff(self.tick_count, now, self._paths, last, current)
+                self.log.status_diff(self.tick_count, now, self._paths, last, current, why)
             if self._view_changes:
                 self._remember(last, current)
                 changes = [
@@ -690,6 +757,18 @@ class Run:
         if i is None:
             return ""
         return str(getattr(self._nodes[i], "feedback_message", "") or "")
+    def _new_failures(
+        self, last: Sequence[str], current: Sequence[str], now: float
+    ) -> dict[str, str] | None:
+        """Nodes that turned FAILURE this tick: noted with their feedback message (the reason)."""
+        why = {}
+        for i, (old, new) in enumerate(zip(last, current, strict=True)):
+            if new is _FAILURE and old is not _FAILURE:
+                path = self._paths[i]
+                reason = str(getattr(self._nodes[i], "feedback_message", "") or "")
+                self.failures.add(self.tick_count, now, path, reason)
+                why[path] = reason
+        return why or None
 
     def _log_blackboard(self, items: list[Any], now: float) -> None:
         writes = self.tick_writes
@@ -747,6 +826,8 @@ class Run:
             self.tick_count, self.clock.now(), "interrupt", reason=reason, running=self._running
         )
         self.view.message(f"interrupted: {reason}")
+        if fault is not None:
+            self.report_event("fault", f"fault: {fault}", error=str(fault))
         self._call_hook("armtree_interrupt", run=self, reason=reason)
         where = ", ".join(self._running) if self._running else "no running behaviour"
         message = f"interrupted by {reason} at tick {self.tick_count} (t={self.clock.now():.3f} s) in {where}"
@@ -773,6 +854,15 @@ class Run:
         code = EXIT_HARDWARE if isinstance(exc, HardwareFault) else EXIT_FAILURE
         return _End("FAILURE", message, code)
 
+    def _component_failed(self) -> _End:
+        reason = self._fail_reason or "a component failed"
+        self._running = self._running_leaves()
+        where = f" while {', '.join(self._running)} ran" if self._running else ""
+        self.log.event(
+            self.tick_count, self.clock.now(), "fail", reason=reason, running=self._running
+        )
+        return _End("FAILURE", f"{reason}{where}")
+
     def _component_exception(self, exc: Exception) -> _End:
         self._end_traceback = "".join(tb_module.format_exception(exc))
         self.log.event(
@@ -783,6 +873,7 @@ class Run:
             traceback=self._end_traceback,
         )
         if isinstance(exc, HardwareFault):
+            self.report_event("fault", f"fault: {exc}", error=str(exc))
             return _End("FAILURE", f"hardware fault: {exc}", EXIT_HARDWARE)
         return _End("FAILURE", f"{type(exc).__name__} in a component step: {exc}")
 
@@ -934,6 +1025,7 @@ class Run:
                 f"{lateness['p50']:.2f} ms late (p50), {lateness['p99']:.2f} ms (p99), "
                 f"{lateness['max']:.1f} ms (max) after schedule; {result.overruns} overruns"
             )
+        self._judge(result)
         self.view.stop(self)
         self._call_hook("armtree_run_finished", run=self, result=result)
         record = {
@@ -949,12 +1041,56 @@ class Run:
             "failed_node": result.failed_node,
             "exit_code": result.exit_code,
             "running": result.running,
+            "verdict": result.verdict,
+            "expectations": [r.to_dict() for r in result.expectations],
+            "chain": [f.to_dict() for f in result.chain],
+            "absorbed": [[f.to_dict() for f in c] for c in result.absorbed],
+            "events": result.events,
         }
         if lateness:
             record["tick_lateness_ms"] = lateness
         self.log.write(record)
         self.log.flush()
         return result
+
+    def _judge(self, result: RunResult) -> None:
+        """Judge the tree's ``expect:`` on the ground truth; note the chain of failures.
+
+        A false success keeps its status (what the tree said) but exits 1, with
+        the failed expectations in its message.
+        """
+        root_path = self.path_of(self.root)
+        result.chain = self.failures.chain(root_path) if result.status == "FAILURE" else []
+        result.absorbed = self.failures.absorbed(root_path)
+        result.events = list(self.events)
+        expect = list(getattr(self.tree, "expect", None) or ())
+        world = None
+        if expect:
+            world = self._first_answer("armtree_ground_truth", run=self)
+        try:
+            predicates = predicates_for(self.manager)
+        except Exception:  # noqa: BLE001 - a clash was reported when the tree loaded
+            predicates = {}
+        result.expectations = judge(expect, world, predicates)
+        result.verdict = verdict(result.status, result.expectations)
+        if result.verdict == "false success":
+            failed = "; ".join(f"{r.expect} ({r.detail})" for r in result.expectations if r.failed)
+            result.exit_code = EXIT_FAILURE
+            result.message = (
+                f"false success: the tree ended SUCCESS but the world disagrees: {failed}"
+            )
+
+    def _first_answer(self, name: str, **kwargs: Any) -> Any:
+        """The first implementation's answer that is not None; one that raises is reported."""
+        for impl in reversed(self._impls(name)):
+            try:
+                answer = impl.function(*[kwargs[a] for a in impl.argnames])
+            except Exception as exc:  # noqa: BLE001 - a plugin must not break the run
+                self._hook_error(name, impl, exc)
+                continue
+            if answer is not None:
+                return answer
+        return None
 
     def _cleanup(self) -> None:
         self.interrupts.stopping = True
@@ -1078,20 +1214,24 @@ class Run:
             try:
                 impl.function(*[kwargs[a] for a in impl.argnames])
             except Exception as exc:  # noqa: BLE001 - a plugin must not break the run
-                self.log.event(
-                    self.tick_count,
-                    self.clock.now(),
-                    "hook_error",
-                    hook=name,
-                    plugin=impl.plugin_name,
-                    error=f"{type(exc).__name__}: {exc}",
-                )
-                key = (name, impl.plugin_name)
-                if key not in self._hook_errors_reported:
-                    self._hook_errors_reported.add(key)
-                    text = f"plugin {impl.plugin_name!r}: {name} raised {type(exc).__name__}: {exc}"
-                    self.view.message(text)
-                    print(f"warning: {text} (the run goes on)", file=sys.stderr)
+                self._hook_error(name, impl, exc)
+
+    def _hook_error(self, name: str, impl: Any, exc: Exception) -> None:
+        """Log a hook implementation's exception; tell the user once per plugin and hook."""
+        self.log.event(
+            self.tick_count,
+            self.clock.now(),
+            "hook_error",
+            hook=name,
+            plugin=impl.plugin_name,
+            error=f"{type(exc).__name__}: {exc}",
+        )
+        key = (name, impl.plugin_name)
+        if key not in self._hook_errors_reported:
+            self._hook_errors_reported.add(key)
+            text = f"plugin {impl.plugin_name!r}: {name} raised {type(exc).__name__}: {exc}"
+            self.view.message(text)
+            print(f"warning: {text} (the run goes on)", file=sys.stderr)
 
 
 def _profile_tick_limit(profile: Any) -> float:

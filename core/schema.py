@@ -14,6 +14,7 @@ from typing import Any
 
 from .builtin_behaviours import COMPOSITE, DECORATOR
 from .constructor_params import declared_params
+from .outcomes import BUILTIN_PREDICATES, Predicate
 from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
@@ -138,12 +139,50 @@ def tree_definitions(registry: Registry) -> dict[str, Any]:
             "plugins": {"type": "array", "items": {"type": "string"}},
             "params": params_decl,
             "blackboard": {"type": "object", "description": "initial blackboard values"},
+            "expect": expect_schema(_predicates(registry)),
             "root": NODE_REF,
         },
         "required": ["root"],
         "additionalProperties": False,
     }
     return {"node": {"anyOf": [*nodes, subtree]}, "tree": tree}
+
+
+def _predicates(registry: Registry) -> dict[str, Predicate]:
+    # A plugin's clash with a built-in key is reported when a tree loads, not here.
+    return {**registry.instances("predicate"), **BUILTIN_PREDICATES}
+
+
+def expect_schema(predicates: dict[str, Predicate]) -> dict[str, Any]:
+    """The schema of ``expect:``: a list of entries, each naming one predicate."""
+    subject = {
+        "anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}}],
+        "description": "a body's name or tag role, or a list of them",
+    }
+    entries = []
+    for key, predicate in sorted(predicates.items()):
+        properties: dict[str, Any] = {key: dict(predicate.VALUE) or {}}
+        doc = (type(predicate).__doc__ or "").strip().splitlines()
+        if doc:
+            properties[key]["description"] = doc[0]
+        if predicate.SUBJECT != "none":
+            properties["object"] = {**subject, "description": "at least one of these bodies"}
+            properties["objects"] = {**subject, "description": "every one of these bodies"}
+        properties.update(predicate.OPTIONS)
+        entry: dict[str, Any] = {
+            "type": "object",
+            "properties": properties,
+            "required": [key],
+            "additionalProperties": False,
+        }
+        if predicate.SUBJECT == "required":
+            entry["oneOf"] = [{"required": ["object"]}, {"required": ["objects"]}]
+        entries.append(entry)
+    return {
+        "type": "array",
+        "items": {"anyOf": entries},
+        "description": "what must be true of the world when the tree ends (judged in simulation)",
+    }
 
 
 def component_schema(registry: Registry, kind: str) -> dict[str, Any]:

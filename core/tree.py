@@ -32,7 +32,9 @@ class Tree:
     ``root`` is a py_trees behaviour; ``nodes`` maps each behaviour's ``id`` to
     its :class:`NodeInfo`; ``profile`` is the validated hardware profile
     (``None`` when the tree needs no rig); ``blackboard`` holds the initial
-    values (the file's plus ``--set`` overrides); ``tick_hz`` is the tick rate.
+    values (the file's plus ``--set`` overrides); ``tick_hz`` is the tick rate;
+    ``expect`` the outcomes the file declares (:class:`armtree.outcomes.Expectation`),
+    judged on the world at the end of every run.
     """
 
     name: str
@@ -45,6 +47,7 @@ class Tree:
     profile: Any = None
     plugins: list[str] = field(default_factory=list)
     manager: Any = None
+    expect: list[Any] = field(default_factory=list)
 
     def info(self, behaviour: py_trees.behaviour.Behaviour) -> NodeInfo | None:
         """The source information of one behaviour of this tree."""

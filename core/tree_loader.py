@@ -77,6 +77,7 @@ from .behaviour import Behaviour
 from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
 from .constructor_params import declared_params, name_argument, takes_signature_params
 from .errors import ConfigError, Mark, shown
+from .outcomes import WorldTruth, parse_expectations, predicates_for
 from .params import REQUIRED, Binding, Param, check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile import OVERRIDE_SECTIONS, Override, Profile, load_profile, parse_overrides
@@ -86,7 +87,17 @@ from .tree_checks import RigChecks
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 
 #: Every top-level key a tree file may have.
-TREE_KEYS = ("tree", "description", "rig", "tick_hz", "plugins", "params", "blackboard", "root")
+TREE_KEYS = (
+    "tree",
+    "description",
+    "rig",
+    "tick_hz",
+    "plugins",
+    "params",
+    "blackboard",
+    "expect",
+    "root",
+)
 #: Keys of a ``subtree`` node.
 SUBTREE_KEYS = ("file", "with", "name", "namespace")
 DEFAULT_TICK_HZ = 20.0
@@ -260,6 +271,7 @@ class _Loader:
             root = self.build(data["root"], data.value_mark("root"), ctx, "", Counter())
         else:
             self.error("the tree has no root node", data.mark, ctx)
+        expect = self.expectations(data, ctx, profile)
         self.check_reads()
         if self.errors:
             raise self.fail()
@@ -276,6 +288,7 @@ class _Loader:
             profile=profile,
             plugins=list(self.manager.specs),
             manager=self.manager,
+            expect=expect,
         )
 
     def check_keys(self, data: MarkedDict, ctx: _Context) -> None:
@@ -353,6 +366,28 @@ class _Loader:
         if profile.manager is not None:
             self.manager = profile.manager
         return profile
+
+    def expectations(self, data: MarkedDict, ctx: _Context, profile: Profile | None) -> list:
+        """The top-level file's ``expect:`` (an included file's is not its includer's),
+        its ``{param}`` references substituted and its names checked against the
+        profile's world."""
+        if data.get("expect") is None:
+            return []
+        try:
+            predicates = predicates_for(self.manager)
+        except ConfigError as exc:
+            self.errors.extend(exc.errors)
+            return []
+        world = world_inventory(profile, self.manager) if profile is not None else None
+        expect, errors = parse_expectations(
+            _substitute(data["expect"], ctx.params),
+            data.value_mark("expect"),
+            str(ctx.file),
+            world,
+            predicates,
+        )
+        self.errors.extend(errors)
+        return expect
 
     def tick_hz(self, data: MarkedDict, ctx: _Context) -> float:
         value = data.get("tick_hz", DEFAULT_TICK_HZ)
@@ -839,6 +874,19 @@ class _Loader:
                 if included_from is not None:
                     message += f" (included from {included_from})"
                 self.errors.append(error_at(message, mark))
+
+
+def world_inventory(profile: Profile, manager: PluginManager) -> WorldTruth:
+    """The profile's nominal world from ``armtree_world_inventory``; without a plugin
+    that models it, the names of its tag roles and places (kinds unknown)."""
+    world = manager.hook.armtree_world_inventory(profile=profile)
+    if world is not None:
+        return world
+    return WorldTruth(
+        roles={role: [] for role in profile.tags()},
+        places={name: (xyz[0], xyz[1], xyz[2]) for name, xyz in profile.places().items()},
+        complete=False,
+    )
 
 
 def node_kind(factory: Any) -> str:

@@ -53,6 +53,11 @@ def test_log_records_status_changes_blackboard_writes_and_the_result(tmp_path):
         "failed_node": None,
         "exit_code": 0,
         "running": [],
+        "verdict": "success",
+        "expectations": [],
+        "chain": [],
+        "absorbed": [],
+        "events": [],
     }
 
 

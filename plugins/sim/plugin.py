@@ -6,6 +6,11 @@ appends the world's stepper after the emulators'. ``armtree_run_started``
 starts the recordings when the run records to a directory, and
 ``armtree_run_finished`` writes the ground-truth score beside the run log
 and adds a one-line score to the run summary (``result.details``).
+``armtree_run_started`` also hands the world's events to the run as they happen
+(collisions, drops, missed steps: ``run.report_event``) and ends the run on a
+collision under ``halt_on_collision`` (``run.fail``); ``armtree_ground_truth``
+and ``armtree_world_inventory`` give the ``expect:`` predicates the world at the
+end of a run and the nominal world while a tree loads.
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
 ``armtree_validate_profile`` parses the ``world:`` section while the profile
 loads, so ``armtree check`` reports what building the world would refuse.
@@ -22,8 +27,9 @@ from armtree.profile import profile_error, profile_section
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
 from .scene import SceneSpec, body_error, parse_scene
+from .truth import scene_truth, world_truth
 from .view import scene_objects
-from .world import SHARED_KEY, World, world_for
+from .world import SHARED_KEY, World, WorldEvent, world_for
 
 
 class WorldStepper:
@@ -156,11 +162,42 @@ def armtree_rig_ready(rig: Any, context: Any) -> None:
     context.steppers.append(WorldStepper(world, camera))
 
 
+#: World events shown to the user (the rest only go to the run log), and how.
+_NOTABLE = {
+    "collision": lambda d: f"collision: {d['link']} hit {d['other']} {d['depth_mm']:.1f} mm deep",
+    "drop": lambda d: f"drop: {d['object']} fell {d['fall_mm']:.0f} mm onto {d['on']}",
+    "missed_steps": lambda d: f"missed steps: joint {d['joint']} slipped by {d['amount']:.2f}",
+}
+
+
+def _forward_events(run: Any, world: World) -> None:
+    """Send the world's events to the run's log (and the notable ones to its view)."""
+
+    report = getattr(run, "report_event", None)
+    if report is None:  # a run object from before events (or a stand-in)
+        return
+
+    def forward(event: WorldEvent) -> None:
+        show = _NOTABLE.get(event.kind)
+        report(event.kind, show(event.detail) if show else None, **event.detail)
+
+    world.listeners.append(forward)
+    world.on_halt = run.fail
+    for fault, options in world.scene.faults.items():
+        text = ", ".join(f"{k} {v:g}" for k, v in options.items())
+        run.report_event("fault", f"fault injected: {fault} {text}".strip(), fault=fault, **options)
+
+
 @armtree.hookimpl
 def armtree_run_started(run: Any) -> None:
-    """Start recording videos when the run was given a record directory (``--record DIR``)."""
+    """Forward the world's events to the run; start recording videos when the run was
+    given a record directory (``--record DIR``)."""
     stepper = _stepper(run)
-    if stepper is None or stepper.recorder is not None:
+    if stepper is None:
+        return
+    if not stepper.world.listeners:
+        _forward_events(run, stepper.world)
+    if stepper.recorder is not None:
         return
     directory = getattr(run, "record_dir", None)
     if not run.record_requested or directory is None:
@@ -175,6 +212,27 @@ def armtree_scene_objects(run: Any) -> list[Any] | None:
     """The world's table and bodies as boxes, for monitors and recordings."""
     stepper = _stepper(run)
     return None if stepper is None else scene_objects(stepper.world)
+
+
+@armtree.hookimpl
+def armtree_world_inventory(profile: Any) -> Any:
+    """The profile's nominal world, for checking the names of a tree's ``expect:``."""
+    if not _uses_sim(profile):
+        return None
+    try:
+        return scene_truth(parse_scene(profile), profile)
+    except armtree.ConfigError:
+        return None
+
+
+@armtree.hookimpl
+def armtree_ground_truth(run: Any) -> Any:
+    """The world at the end of the run, once what was falling has landed."""
+    stepper = _stepper(run)
+    if stepper is None:
+        return None
+    stepper.world.settle()
+    return world_truth(stepper.world, run.rig.profile)
 
 
 @armtree.hookimpl

@@ -6,6 +6,9 @@ only in ``RigContext.shared`` (never on the Rig), so skills cannot reach it.
 it reads the arm's true joints and tool, moves the Duckybots, applies
 suction and gripper physics, lets released objects fall and records
 collisions. :meth:`World.score` is the ground truth for tests and the run summary.
+Every event (pick, release, land, drop, collision, missed step) also goes to
+the callables in :attr:`World.listeners` as it happens, and a collision under
+``halt_on_collision`` to :attr:`World.on_halt` (the run ends there).
 
 Millimetres and the robot base frame (z up); times are seconds on the run's clock.
 """
@@ -15,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +38,11 @@ GRAVITY = 9810.0
 FLOOR_DROP = 750.0
 #: Colour of the arm's links (dark anodised aluminium), BGR.
 LINK_COLOR = (70, 70, 75)
+#: A fall longer than this (mm) outside a bin is a drop: a place let go too high.
+DROP_MM = 15.0
+#: Step (s) and longest time (s) :meth:`World.settle` lets falling bodies fall.
+SETTLE_STEP_S = 0.01
+SETTLE_LIMIT_S = 2.0
 
 
 @dataclass
@@ -47,6 +56,8 @@ class Body:
     falling: bool = False
     vz: float = 0.0
     off_table: bool = False
+    #: Height of its bottom (mm) when it started to fall.
+    fall_from: float = 0.0
 
     @property
     def name(self) -> str:
@@ -183,6 +194,10 @@ class World:
         self._slip_rng = np.random.default_rng(self._seq.spawn(2)[1])
         self._last_joints: np.ndarray | None = None
         self.events: list[WorldEvent] = []
+        #: Called with every event as it happens (the run log listens here).
+        self.listeners: list[Callable[[WorldEvent], None]] = []
+        #: Called with the reason when a collision halts the arm (``halt_on_collision``).
+        self.on_halt: Callable[[str], None] | None = None
 
     # -- wiring -------------------------------------------------------------------
 
@@ -255,7 +270,7 @@ class World:
         joint = int(joints[int(self._slip_rng.integers(len(joints)))])
         amount = float(self._slip_rng.uniform(-slips.max_amount, slips.max_amount))
         self.emulator.inject("missed_steps", joint=joint, amount=amount)
-        self.events.append(WorldEvent(now, "missed_steps", {"joint": joint, "amount": amount}))
+        self._event(now, "missed_steps", {"joint": joint, "amount": round(amount, 4)})
 
     def _tool_physics(self, now: float) -> None:
         arm = self.arm
@@ -335,7 +350,8 @@ class World:
         for other in self.bodies.values():
             if other.support == body.name:
                 other.support, other.falling, other.vz = None, True, 0.0
-        self.events.append(WorldEvent(now, "pick", {"object": body.name, "by": mode}))
+                other.fall_from = other.bottom
+        self._event(now, "pick", {"object": body.name, "by": mode})
 
     def _release(self, now: float) -> None:
         assert self.held is not None
@@ -343,12 +359,9 @@ class World:
         # A released object hangs level: keep only its heading and position.
         body.pose = pose(rot_z(body.yaw), body.pose[:3, 3])
         body.held, body.falling, body.vz = False, True, 0.0
+        body.fall_from = body.bottom
         self.held, self._held_rel = None, None
-        self.events.append(
-            WorldEvent(
-                now, "release", {"object": body.name, "at": body.pose[:3, 3].round(2).tolist()}
-            )
-        )
+        self._event(now, "release", {"object": body.name, "at": body.pose[:3, 3].round(2).tolist()})
 
     def _support_below(self, body: Body) -> tuple[str, float]:
         """The surface under the body's centre: (name, height mm); the table at least.
@@ -391,7 +404,10 @@ class World:
                 body.pose[2, 3] = z
                 body.falling, body.vz, body.support = False, 0.0, name
                 body.off_table = name == "floor"
-                self.events.append(WorldEvent(now, "land", {"object": body.name, "on": name}))
+                fall = round(body.fall_from - z, 2)
+                self._event(now, "land", {"object": body.name, "on": name, "fall_mm": fall})
+                if body.off_table or (fall > DROP_MM and self.in_bin(body) is None):
+                    self._event(now, "drop", {"object": body.name, "on": name, "fall_mm": fall})
             else:
                 body.pose[2, 3] = new_bottom
 
@@ -456,9 +472,29 @@ class World:
         extra.update(self._held_contacts({solid.name for solid in others}))
         fresh = self.collisions.update(now, links, others, extra)
         for hit in fresh:
-            self.events.append(WorldEvent(now, "collision", dataclasses.asdict(hit)))
+            self._event(now, "collision", dataclasses.asdict(hit))
             if self.physics.halt_on_collision and self.emulator is not None:
-                self.emulator.halt(f"collision: {hit.link} hit {hit.other} ({hit.depth_mm:.1f} mm)")
+                reason = f"collision: {hit.link} hit {hit.other} ({hit.depth_mm:.1f} mm deep)"
+                self.emulator.halt(reason)
+                if self.on_halt is not None:
+                    self.on_halt(reason)
+
+    def _event(self, now: float, kind: str, detail: dict[str, Any]) -> None:
+        event = WorldEvent(now, kind, detail)
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)
+
+    def settle(self, limit_s: float = SETTLE_LIMIT_S) -> None:
+        """Let bodies that are falling land (at most ``limit_s`` s); the arm and Duckybots stay.
+
+        For judging a run that ended the moment something was let go.
+        """
+        with self.lock:
+            waited = 0.0
+            while any(b.falling for b in self.bodies.values()) and waited < limit_s:
+                waited += SETTLE_STEP_S
+                self._fall(SETTLE_STEP_S, self.time + waited)
 
     # -- queries --------------------------------------------------------------------
 
