@@ -85,14 +85,17 @@ class SimCamera(Camera):
         if self.renderer is not None:
             return
         self.world = world_for(self.context)
+        # A randomised world may have drawn the sensor's noise, blur and frame drops.
+        drawn = self.world.scene.camera
+        self.drop_rate = float(drawn.get("drop_rate", self.drop_rate))
         model = CameraModel(self.width, self.height, self.camera_matrix, self.distortion)
         self.renderer = Renderer(
             model,
             self.world.table,
             self.world.scene.light,
             seed=self.world.seed * 1000 + self.world.scene.seed,
-            noise=float(self.config.get("noise", 2.5)),
-            blur=float(self.config.get("blur", 0.5)),
+            noise=float(drawn.get("noise", self.config.get("noise", 2.5))),
+            blur=float(drawn.get("blur", self.config.get("blur", 0.5))),
             exposure=float(self.config.get("exposure_s", 0.02)),
             shadows=bool(self.config.get("shadows", True)),
         )

@@ -53,7 +53,17 @@ _DUCKYBOT_KEYS = (
     "noise",
     "max_speed_mm_s",
 )
-_WORLD_KEYS = ("seed", "table", "objects", "duckybots", "faults", "physics", "light", "tool_marker")
+_WORLD_KEYS = (
+    "seed",
+    "table",
+    "objects",
+    "duckybots",
+    "faults",
+    "physics",
+    "light",
+    "tool_marker",
+    "randomize",
+)
 
 
 @dataclass(frozen=True)
@@ -161,6 +171,10 @@ class SceneSpec:
     tool_marker: MarkerSpec | None = None
     tool_marker_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     slips: SlipSpec | None = None
+    #: ``world.randomize``: what ``--seed`` varies (None: nothing).
+    randomize: Any = None
+    #: The sim camera's ``noise``, ``blur`` and ``drop_rate`` as a seed drew them.
+    camera: dict[str, float] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------
@@ -557,6 +571,30 @@ def parse_scene(profile: Any) -> SceneSpec:
         )
         for name, entry in bots_entry.items()
     ]
+
+    def spare(kind: str, name: str, path: tuple[Any, ...], index: int) -> ObjectSpec:
+        """One more body of ``kind`` for ``randomize``'s count, like the first one."""
+        first = next(o for o in objects if o.kind == kind)
+        role = KINDS[kind]["role"]
+        ids = tags.roles.get(role or "", ((), 0.0))[0] if first.marker is not None else ()
+        if first.marker is not None and index >= len(ids):
+            raise err(
+                path, f"tags.{role} has {len(ids)} marker ids: at most {len(ids)} {kind} bodies"
+            )
+        entry = {
+            "kind": kind,
+            "shape": first.shape,
+            "size": first.size.tolist(),
+            "at": first.position[:2].tolist(),
+            "color": list(first.color),
+        }
+        if first.marker is None:
+            entry["marker"] = False
+        return _parse_body(err, path, name, entry, tags, defaults, auto_index, table)
+
+    from .randomize import parse_randomize  # it builds on this module's parsers
+
+    randomize = parse_randomize(err, world.get("randomize"), objects, duckybots, spare)
     objects += _profile_obstacles(err, profile, table)
     _check_layout(err, table, objects + [b.body for b in duckybots])
     faults, slips = _parse_faults(err, world.get("faults"))
@@ -588,6 +626,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         tool_marker=tool_marker,
         tool_marker_offset=tool_offset,
         slips=slips,
+        randomize=randomize,
     )
 
 

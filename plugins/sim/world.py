@@ -27,8 +27,9 @@ import numpy as np
 from .duckybot import Duckybot
 from .geometry import obb_penetration, point_in_polygon, pose, rot_z
 from .physics import CollisionMonitor, SolidBox
+from .randomize import draw_scene
 from .renderer import Drawable
-from .scene import MarkerSpec, ObjectSpec, SceneSpec, parse_scene
+from .scene import MarkerSpec, ObjectSpec, SceneSpec, _Errors, parse_scene
 
 #: Kinds an end effector can lift.
 MOVABLE = ("ducky", "trash", "block")
@@ -675,12 +676,15 @@ SHARED_KEY = "sim.world"
 def world_for(context: Any) -> World:
     """The rig's simulated world, built from its profile on first use (idempotent).
 
+    The rig's seed draws the world from ``world.randomize`` (seed 0: the nominal one).
+
     Raises :class:`armtree.ConfigError` naming the entry when the profile's
     ``world:`` section is invalid.
     """
     world = context.shared.get(SHARED_KEY)
     if world is None:
-        world = World(parse_scene(context.profile), seed=context.seed)
+        scene = draw_scene(parse_scene(context.profile), context.seed, _Errors(context.profile))
+        world = World(scene, seed=context.seed)
         context.shared[SHARED_KEY] = world
     return world
 
