@@ -161,6 +161,9 @@ def interface_problems(component: Any) -> list[Problem]:
     if kind == "command":
         _check_command(factory, report)
         return report.problems
+    if kind == "predicate":
+        _check_predicate(factory, report)
+        return report.problems
     if not callable(factory):
         report.add(factory, "factory", f"{type(factory).__name__} {factory!r}", "a callable")
         return report.problems
@@ -307,31 +310,61 @@ def _check_signature_constructor(factory: type, report: _Reporter) -> None:
             )
 
 
-def _check_command(command: Any, report: _Reporter) -> None:
-    target = command
-    if isinstance(command, type):
+def _check_methods(
+    component: Any, report: _Reporter, methods: tuple[tuple[str, tuple[str, ...], str], ...]
+) -> None:
+    """An object (or a class built with no arguments) whose ``methods`` take those arguments."""
+    if isinstance(component, type):
         try:
-            inspect.signature(command).bind()
+            inspect.signature(component).bind()
         except (TypeError, ValueError) as exc:
             report.add(
-                command,
+                component,
                 "class",
-                f"{command.__name__}() fails: {exc}",
+                f"{component.__name__}() fails: {exc}",
                 "a class built with no arguments",
             )
             return
-    for member, args, call in (
-        ("configure", ("parser",), "configure(parser) adding its arguments to an argparse parser"),
-        ("run", ("args",), "run(args) -> int exit code"),
-    ):
-        function = getattr(target, member, None)
+    for member, args, call in methods:
+        function = getattr(component, member, None)
         if not callable(function):
-            report.add(command, member, "missing" if function is None else "not callable", call)
+            report.add(component, member, "missing" if function is None else "not callable", call)
             continue
-        bound_args = (None, *args) if isinstance(command, type) else args
+        bound_args = (None, *args) if isinstance(component, type) else args
         report.binds(function, f"{member}()", bound_args, {}, call)
-    if not isinstance(getattr(target, "help", ""), str):
-        report.add(command, "help", f"{type(target.help).__name__}", "a one-line str")
+
+
+def _check_command(command: Any, report: _Reporter) -> None:
+    _check_methods(
+        command,
+        report,
+        (
+            (
+                "configure",
+                ("parser",),
+                "configure(parser) adding its arguments to an argparse parser",
+            ),
+            ("run", ("args",), "run(args) -> int exit code"),
+        ),
+    )
+    if not isinstance(getattr(command, "help", ""), str):
+        report.add(command, "help", f"{type(command.help).__name__}", "a one-line str")
+
+
+def _check_predicate(predicate: Any, report: _Reporter) -> None:
+    _check_methods(
+        predicate,
+        report,
+        (
+            ("check", ("entry", "world"), "check(entry, world) -> [(key, message)]"),
+            ("judge", ("entry", "obj", "world"), "judge(entry, obj, world) -> Judgement"),
+            ("describe", ("entry",), "describe(entry) -> str"),
+        ),
+    )
+    if getattr(predicate, "SUBJECT", "required") not in ("required", "optional", "none"):
+        report.add(
+            predicate, "SUBJECT", repr(predicate.SUBJECT), "'required', 'optional' or 'none'"
+        )
 
 
 # ---------------------------------------------------------------------------
