@@ -10,6 +10,7 @@ planner tap) and the camera's footprint on the table. Poses are
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import numpy as np
@@ -59,6 +60,8 @@ class SceneSampler:
         ``tool``, ``suction``), ``camera`` (``pose``, ``footprint``), ``path``, ``trail``."""
         run = self.run
         objects = self.objects()
+        # One rotation-to-quaternion call for every pose of the snapshot.
+        object_rows = poses(np.stack([o.pose for o in objects])) if objects else []
         snapshot: dict[str, Any] = {
             "t": run.tick_time,
             "tick": run.tick_count,
@@ -66,14 +69,14 @@ class SceneSampler:
                 {
                     "name": o.name,
                     "kind": o.kind,
-                    "pose": poses(o.pose)[0],
+                    "pose": row,
                     "size": [round(float(v), 2) for v in o.size],
                     "color": [round(float(c), 3) for c in o.color],
                     "held": bool(o.held),
                     "marker": o.marker,
                     "route": [[round(x, 1), round(y, 1)] for x, y in o.route],
                 }
-                for o in objects
+                for o, row in zip(objects, object_rows, strict=True)
             ],
             "arm": None,
             "camera": None,
@@ -95,26 +98,28 @@ class SceneSampler:
         if not self.trail or np.hypot(*(tip[:2] - self.trail[-1][:2])) > _TRAIL_STEP_MM:
             self.trail.append([round(float(v), 1) for v in tip])
             del self.trail[:-_TRAIL_POINTS]
+        camera = getattr(run.rig, "camera", None)
+        camera_pose = None
+        if camera is not None:
+            with contextlib.suppress(ValueError):
+                camera_pose = camera_in_base(camera.mount, camera.extrinsics, tool)
+        extra = [camera_pose] if camera_pose is not None else []
+        rows = poses(np.concatenate([frames, boxes, *(p[None] for p in extra)]))
+        n, b = len(frames), len(boxes)
         snapshot["arm"] = {
             "joints": [round(float(v), 3) for v in q],
-            "links": poses(frames),
-            "boxes": poses(boxes),
-            "sizes": model.box_sizes().round(2).tolist() if len(boxes) else [],
-            "tool": poses(tool)[0],
+            "links": rows[:n],
+            "boxes": rows[n : n + b],
+            "sizes": model.box_sizes().round(2).tolist() if b else [],
+            "tool": rows[n - 1],
             "suction": bool(getattr(arm.tool, "suction", False)),
         }
-        camera = getattr(run.rig, "camera", None)
-        if camera is not None:
-            try:
-                pose = camera_in_base(camera.mount, camera.extrinsics, tool)
-            except ValueError:
-                pose = None
-            if pose is not None:
-                snapshot["camera"] = {
-                    "mount": camera.mount,
-                    "pose": poses(pose)[0],
-                    "footprint": self._footprint(pose, objects),
-                }
+        if camera_pose is not None:
+            snapshot["camera"] = {
+                "mount": camera.mount,
+                "pose": rows[n + b],
+                "footprint": self._footprint(camera_pose, objects),
+            }
         return snapshot
 
     def _planned_path(self) -> list[list[float]]:
