@@ -65,18 +65,18 @@ with sync_playwright() as p:
     page = browser.new_page(viewport={"width": 1600, "height": 1000})
     page.goto(sys.argv[1])
     print("ready", flush=True)
-    state = [[], 0, ""]
-    while not (state[2] or "").startswith("ended"):
+    state = [[], [], 0, ""]
+    while not (state[3] or "").startswith("ended"):
         time.sleep(0.2)
         try:
             state = page.evaluate(
-                "() => [window.armtree.log.latencies.slice(), "
+                "() => [window.armtree.log.latencies.slice(), window.armtree.log.received.slice(), "
                 "Number(document.querySelector('#camera').dataset.frames || 0), "
                 "document.body.dataset.state]"
             )
         except Exception:
             break
-    print(json.dumps({"latencies": state[0], "frames": state[1]}), flush=True)
+    print(json.dumps({"latencies": state[0], "received": state[1], "frames": state[2]}), flush=True)
     browser.close()
 """
 
@@ -86,6 +86,7 @@ class BrowserPage:
 
     def __init__(self) -> None:
         self.latencies: list[float] = []
+        self.received: list[float] = []
         self.frames = 0
         self._proc: subprocess.Popen | None = None
 
@@ -102,6 +103,7 @@ class BrowserPage:
         out, _ = self._proc.communicate(timeout=60)
         found = json.loads(out.strip().splitlines()[-1])
         self.latencies, self.frames = found["latencies"], found["frames"]
+        self.received = found["received"]
 
 
 class SocketPage:
@@ -109,6 +111,7 @@ class SocketPage:
 
     def __init__(self) -> None:
         self.latencies: list[float] = []
+        self.received = self.latencies
         self.frames = 0
         self._thread: threading.Thread | None = None
 
@@ -185,6 +188,7 @@ def one_run(tree_name: str, seed: int, monitored: bool, browser: bool) -> dict:
         "cpu_ms_per_tick": 1000 * cpu / max(1, result.ticks),
         "overruns": result.overruns,
         "latencies": list(page.latencies) if page is not None else [],
+        "received": list(page.received) if page is not None else [],
         "frames": page.frames if page is not None else 0,
         "tick_hz": run.tick_hz,
     }
@@ -246,16 +250,17 @@ def latency(browser: bool) -> None:
 
 
 def report_latency(what: str, results: list[dict]) -> None:
-    latencies = sorted(x for r in results for x in r["latencies"])
-    if not latencies:
-        print(f"status change to page ({what}): none measured")
-        return
-    p95 = latencies[min(len(latencies) - 1, int(0.95 * len(latencies)))]
-    print(
-        f"status change to page ({what}; {len(latencies)} changes): median "
-        f"{1000 * statistics.median(latencies):.1f} ms, 95th percentile {1000 * p95:.1f} ms, "
-        f"max {1000 * latencies[-1]:.1f} ms"
-    )
+    for key, label in (("received", "received by the page"), ("latencies", "drawn")):
+        latencies = sorted(x for r in results for x in r[key])
+        if not latencies:
+            print(f"status change to page ({what}): none measured")
+            return
+        p95 = latencies[min(len(latencies) - 1, int(0.95 * len(latencies)))]
+        print(
+            f"status change {label} ({what}; {len(latencies)} changes): median "
+            f"{1000 * statistics.median(latencies):.1f} ms, 95th percentile {1000 * p95:.1f} ms, "
+            f"max {1000 * latencies[-1]:.1f} ms"
+        )
 
 
 def size(tree: str) -> None:

@@ -32,7 +32,7 @@ const page = {
   playing: false,
   waiting: false,
   // For tests and the latency benchmark: status changes seen, and how late they were drawn.
-  log: { ticks: [], latencies: [], statusChanges: 0 },
+  log: { ticks: [], latencies: [], received: [], statusChanges: 0 },
 };
 window.armtree = page;
 
@@ -165,7 +165,9 @@ function tick(m) {
     page.log.statusChanges += 1;
     if (m.wall) {
       const wall = m.wall;
+      page.log.received.push(Date.now() / 1000 - wall);
       requestAnimationFrame(() => page.log.latencies.push(Date.now() / 1000 - wall));
+      if (page.log.received.length > 5000) { page.log.received.splice(0, 2500); page.log.latencies.splice(0, 2500); }
     }
   }
   page.log.ticks.push(m.tick);
