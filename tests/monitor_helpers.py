@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio  # noqa: F401 - Page's coroutines run under asyncio
 import contextlib
 import importlib.metadata
+import json
 import queue
 import re
 import shutil
@@ -14,6 +16,7 @@ import threading
 import time
 from pathlib import Path
 
+import aiohttp
 import pytest
 
 from armtree.cli import run_tree_main
@@ -142,3 +145,41 @@ def chromium():
             yield browser
         finally:
             browser.close()
+
+
+class Page:
+    """One open monitor page, seen through its websocket."""
+
+    def __init__(self, ws, session):
+        self.ws = ws
+        self.session = session
+        self.messages = []
+
+    @classmethod
+    async def open(cls, url):
+        session = aiohttp.ClientSession()
+        base, _, query = url.partition("?")
+        ws = await session.ws_connect(base.rstrip("/") + "/ws" + (f"?{query}" if query else ""))
+        return cls(ws, session)
+
+    async def next(self, kind, check=lambda m: True, timeout=20.0):
+        """The next message of ``kind`` for which ``check`` holds."""
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            assert left > 0, f"no {kind} message within {timeout} s"
+            msg = await self.ws.receive(timeout=left)
+            if msg.type == aiohttp.WSMsgType.BINARY:
+                continue
+            assert msg.type == aiohttp.WSMsgType.TEXT, msg
+            data = json.loads(msg.data)
+            self.messages.append(data)
+            if data.get("type") == kind and check(data):
+                return data
+
+    async def send(self, **message):
+        await self.ws.send_str(json.dumps(message))
+
+    async def close(self):
+        await self.ws.close()
+        await self.session.close()

@@ -1,56 +1,15 @@
 """run-tree --monitor: the page's websocket, controls from two pages, tokens, bad input."""
 
 import asyncio
-import json
 import socket
-import time
 import urllib.error
 import urllib.request
 
-import aiohttp
 import pytest
-from monitor_helpers import COUNT_TREE, ONLY_MONITOR, run_tree
+from monitor_helpers import COUNT_TREE, ONLY_MONITOR, Page, run_tree
 
 from armtree.cli import run_tree_main
 from armtree.runlog import read_log
-
-
-class Page:
-    """One open monitor page, seen through its websocket."""
-
-    def __init__(self, ws, session):
-        self.ws = ws
-        self.session = session
-        self.messages = []
-
-    @classmethod
-    async def open(cls, url):
-        session = aiohttp.ClientSession()
-        base, _, query = url.partition("?")
-        ws = await session.ws_connect(base.rstrip("/") + "/ws" + (f"?{query}" if query else ""))
-        return cls(ws, session)
-
-    async def next(self, kind, check=lambda m: True, timeout=20.0):
-        """The next message of ``kind`` for which ``check`` holds."""
-        deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            assert left > 0, f"no {kind} message within {timeout} s"
-            msg = await self.ws.receive(timeout=left)
-            if msg.type == aiohttp.WSMsgType.BINARY:
-                continue
-            assert msg.type == aiohttp.WSMsgType.TEXT, msg
-            data = json.loads(msg.data)
-            self.messages.append(data)
-            if data.get("type") == kind and check(data):
-                return data
-
-    async def send(self, **message):
-        await self.ws.send_str(json.dumps(message))
-
-    async def close(self):
-        await self.ws.close()
-        await self.session.close()
 
 
 @pytest.fixture
@@ -59,7 +18,7 @@ def count_tree(tmp_path):
     return tmp_path
 
 
-def test_two_pages_see_the_run_and_controls_act_once_then_stop_exits_130(count_tree):
+def test_two_pages_see_the_run_controls_act_once_and_a_paused_run_outlives_its_pages(count_tree):
     proc = run_tree("count.yaml", "--monitor", "0", "--record", "rec", cwd=count_tree)
     try:
         url = proc.url()
@@ -92,52 +51,43 @@ def test_two_pages_see_the_run_and_controls_act_once_then_stop_exits_130(count_t
             assert max(later) == tick_a + 1
             await b.send(type="control", action="resume")
             await a.next("tick", lambda m: m["tick"] > tick_a + 3)
-            await a.send(type="control", action="stop")
-            end = await b.next("end")
-            assert end["result"]["status"] == "INTERRUPTED"
+            # Paused again, then every page closes: the run stays paused, nothing ticks.
+            await b.send(type="control", action="pause")
+            paused = await a.next("control", lambda m: m["state"] == "paused")
             await a.close()
             await b.close()
-
-        asyncio.run(scenario())
-        code, err = proc.finish(timeout=20)
-    finally:
-        proc.kill()
-    assert code == 130, err
-    assert "interrupted by stop from the monitor page" in err
-    log = read_log(count_tree / "rec" / "run.jsonl")
-    events = [r["event"] for r in log if r["kind"] == "event"]
-    assert events[:4] == ["paused", "step", "paused", "resumed"]
-    assert log[-1]["status"] == "INTERRUPTED"
-
-
-def test_closing_the_last_page_of_a_paused_run_leaves_it_paused_and_ctrl_c_still_stops_it(
-    count_tree,
-):
-    proc = run_tree("count.yaml", "--monitor", "0", "--record", "rec", cwd=count_tree)
-    try:
-        url = proc.url()
-
-        async def pause_and_leave():
-            page = await Page.open(url)
-            await page.next("tick", lambda m: m["letters"] == "SRR")
-            await page.send(type="control", action="pause")
-            paused = await page.next("control", lambda m: m["state"] == "paused")
-            await page.close()
             await asyncio.sleep(0.6)
             again = await Page.open(url)
             state = await again.next("state")
             await again.close()
             return paused, state
 
-        paused, state = asyncio.run(pause_and_leave())
+        paused, state = asyncio.run(scenario())
         assert state["control"] == "paused"
-        assert state["tick"] == paused["tick"]  # nothing ticked while no page was open
-        code, err = proc.interrupt()
+        assert state["tick"] == paused["tick"]
+        code, err = proc.interrupt()  # Ctrl-C still stops it
     finally:
         proc.kill()
-    assert code == 130
+    assert code == 130, err
     assert "the last page closed while the run is paused" in err
     assert "interrupted by SIGINT" in err
+    log = read_log(count_tree / "rec" / "run.jsonl")
+    events = [r["event"] for r in log if r["kind"] == "event"]
+    assert events[:5] == ["paused", "step", "paused", "resumed", "paused"]
+    assert log[-1]["status"] == "INTERRUPTED"
+
+
+def test_a_monitor_host_that_is_not_this_machines_is_exit_2(count_tree, capsys, monkeypatch):
+    monkeypatch.chdir(count_tree)
+    code = run_tree_main(
+        ["count.yaml", "--monitor", "0", "--monitor-host", "192.0.2.1", *ONLY_MONITOR]
+    )
+    err = capsys.readouterr().err
+    assert code == 2
+    assert (
+        "--monitor-host: cannot listen on 192.0.2.1:0: 192.0.2.1 is not an address of this machine"
+        in err
+    )
 
 
 def test_a_port_in_use_is_exit_2_before_anything_runs(count_tree, capsys, monkeypatch):

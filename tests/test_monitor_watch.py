@@ -1,11 +1,11 @@
 """--watch: a changed tree is validated, swapped in at a safe point; an invalid one is reported."""
 
+import asyncio
 import re
-import time
 from types import SimpleNamespace
 
 import py_trees
-from monitor_helpers import COUNT_TREE, run_tree
+from monitor_helpers import COUNT_TREE, Page, run_tree
 
 import armtree
 from armtree.clock import VirtualClock
@@ -94,19 +94,39 @@ def test_with_something_held_only_a_tree_that_starts_by_handling_the_tool_is_swa
 
 def test_an_invalid_change_is_reported_and_a_valid_one_replaces_the_running_tree(tmp_path):
     (tmp_path / "count.yaml").write_text(COUNT_TREE)
-    proc = run_tree("count.yaml", "--watch", "--record", "rec", "--realtime", cwd=tmp_path)
+    args = ["count.yaml", "--watch", "--monitor", "0", "--record", "rec", "--realtime"]
+    proc = run_tree(*args, cwd=tmp_path)
     try:
-        proc.wait_for("Root/Count: INVALID -> RUNNING")
-        (tmp_path / "count.yaml").write_text(COUNT_TREE.replace("duration: 30", "durration: 30"))
-        proc.wait_for("Root/Count: RUNNING -> SUCCESS", timeout=30)  # the old tree went on
-        time.sleep(0.3)
-        (tmp_path / "count.yaml").write_text(
-            COUNT_TREE.replace("name: Root", "name: Second").replace("duration: 30", "duration: 2")
-        )
+        url = proc.url()
+
+        async def scenario():
+            page = await Page.open(url)
+            await page.next("state")
+            proc.wait_for("Root/Count: INVALID -> RUNNING")
+            (tmp_path / "count.yaml").write_text(
+                COUNT_TREE.replace("duration: 30", "durration: 30")
+            )
+            news = await page.next("watch", lambda m: m["kind"] == "invalid", timeout=30)
+            proc.wait_for("Root/Count: RUNNING -> SUCCESS", timeout=30)  # the old tree went on
+            await asyncio.sleep(0.3)
+            (tmp_path / "count.yaml").write_text(
+                COUNT_TREE.replace("name: Root", "name: Second").replace(
+                    "duration: 30", "duration: 2"
+                )
+            )
+            state = await page.next("state", lambda m: m["tree"]["nodes"][-1]["path"] == "Second")
+            await page.close()
+            return news, state
+
+        news, state = asyncio.run(scenario())
         proc.wait_for("Second/Wait: INVALID -> RUNNING", timeout=30)
         code, err = proc.interrupt()
     finally:
         proc.kill()
+    # The page showed the errors, with their file, line and column.
+    assert any("tick_counter has no parameter 'durration'" in e for e in news["errors"])
+    assert "running tree goes on" in news["text"]
+    assert [n["name"] for n in state["tree"]["nodes"]] == ["Count", "Wait", "Second"]
     assert code == 130
     assert "watch: the changed tree is not valid; the running tree goes on" in err
     assert re.search(r"count\.yaml:7:\d+: tick_counter has no parameter 'durration'", err)
