@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio  # noqa: F401 - Page's coroutines run under asyncio
 import contextlib
 import importlib.metadata
 import json
@@ -124,21 +123,28 @@ def run_tree(*args: str, cwd: Path) -> Proc:
     return Proc([RUN_TREE, *args, *ONLY_MONITOR], cwd)
 
 
-def browser_or_skip():
-    """Playwright's Chromium launcher on Debian's chromium, or a skip saying what is missing."""
+def _browser_missing() -> str | None:
+    """Why the browser tests cannot run here, or None."""
     try:
-        from playwright.sync_api import sync_playwright
+        import playwright.sync_api  # noqa: F401
     except ImportError:
-        pytest.skip("playwright is not installed (pip install playwright; .ci/run installs it)")
+        return "playwright is not installed (pip install playwright; .ci/run installs it)"
     if not (Path(CHROMIUM).exists() or shutil.which(CHROMIUM)):
-        pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium; .ci/run installs it)")
-    return sync_playwright
+        return f"no Chromium at {CHROMIUM} (apt-get install chromium; .ci/run installs it)"
+    return None
+
+
+#: Why the browser tests skip (None: they run).
+BROWSER_MISSING = _browser_missing()
+#: Mark for tests that need headless Chromium.
+needs_browser = pytest.mark.skipif(BROWSER_MISSING is not None, reason=str(BROWSER_MISSING))
 
 
 @contextlib.contextmanager
 def chromium():
     """A headless Chromium (playwright Browser), closed afterwards."""
-    sync_playwright = browser_or_skip()
+    from playwright.sync_api import sync_playwright
+
     with sync_playwright() as p:
         browser = launch(p)
         try:

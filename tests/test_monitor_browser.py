@@ -2,9 +2,11 @@
 
 import time
 
-from monitor_helpers import ARMTREE, RUN_TREE, Proc, chromium
+from monitor_helpers import ARMTREE, RUN_TREE, Proc, chromium, needs_browser
 
 from armtree.runlog import read_log
+
+pytestmark = needs_browser
 
 LETTER = {"INVALID": "I", "RUNNING": "R", "SUCCESS": "S", "FAILURE": "F"}
 

@@ -112,3 +112,21 @@ def test_a_recording_cut_short_is_shown_up_to_where_it_ends(recorded_run, tmp_pa
     timeline = ReplayFeed(rec, "127.0.0.1", 0).hello()[1]
     assert timeline["truncated"] and timeline["ticks"] == rec.ticks
     assert "ends at tick" in timeline["notice"]
+
+
+def test_without_run_mcap_the_tree_statuses_feedback_and_blackboard_come_from_run_jsonl(
+    recorded_run, tmp_path
+):
+    bare = tmp_path / "bare"
+    shutil.copytree(recorded_run, bare)
+    (bare / "run.mcap").unlink()
+    log = read_log(bare / "run.jsonl")
+    rec = Recording.open(bare)
+    assert "No run.mcap here" in rec.notice and not rec.truncated
+    feedback = [r for r in log if r["kind"] == "feedback"]
+    last = feedback[len(feedback) // 2]
+    state = rec.state(last["tick"])
+    index = {n["path"]: str(n["id"]) for n in state["tree"]["nodes"]}
+    assert state["feedback"][index[last["node"]]] == last["message"]
+    assert state["letters"] == expected_letters(log, last["tick"])
+    assert state["scene"] is None and rec.image_at(rec.time(rec.ticks)) is None

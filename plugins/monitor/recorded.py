@@ -154,6 +154,7 @@ class Recording:
             paths = list(dict.fromkeys(r["node"] for r in statuses))
             self.trees = [(0, tree_from_paths(str(self.start.get("tree", "tree")), paths))]
         self.events = [r for r in records if r.get("kind") == "event"]
+        self._feedback_records = [r for r in records if r.get("kind") == "feedback"]
         self.writes = [r for r in records if r.get("kind") == "blackboard"]
         self.ticks = max((int(r.get("tick", 0)) for r in records), default=0)
         if self.result is not None:
@@ -271,10 +272,20 @@ class Recording:
         return "".join(state.get(n["path"], "I") for n in tree["nodes"])
 
     def _feedback_by_tick(self) -> list[tuple[int, dict[str, str]]]:
+        """Feedback messages by tick: from run.mcap (every change) or else run.jsonl's
+        ``feedback`` records (at most one a second while a node's status stays)."""
         frames = self.topics.get("/armtree/status")
         out: list[tuple[int, dict[str, str]]] = []
         current: dict[str, str] = {}
-        for data in frames.data if frames else ():
+        if not frames:
+            for r in self._feedback_records:
+                current = {**current, r["node"]: str(r.get("message") or "")}
+                if out and out[-1][0] == int(r["tick"]):
+                    out[-1] = (out[-1][0], current)
+                else:
+                    out.append((int(r["tick"]), current))
+            return out
+        for data in frames.data:
             with contextlib.suppress(ValueError, KeyError):
                 message = json.loads(data)
                 if message.get("feedback"):
