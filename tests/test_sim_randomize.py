@@ -24,7 +24,7 @@ SEEDS = range(1, 41)
 RELEASE_MM = 35.0
 
 
-@pytest.fixture(scope="module", params=["sim_dobot", "sim_vicra"])
+@pytest.fixture(scope="module", params=["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"])
 def shipped(request):
     profile = load_profile(request.param)
     scene = parse_scene(profile)
