@@ -19,7 +19,9 @@ Usage::
         [--faults] [--workers 2] [--out DIR] [--set KEY=VALUE ...]
 
 ``--faults`` adds missed steps (``world.faults.missed_steps``, 0.1 slips a second
-of up to 2 degrees while the arm moves) and 20 % dropped camera frames.
+of up to 2 degrees while the arm moves) and 20 % dropped camera frames, in the
+nominal world (seed 0) and in the randomised ones (``world.randomize``, whose own
+draws of slips and drops would otherwise replace them).
 """
 
 from __future__ import annotations
@@ -39,6 +41,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 FAULTS = (
     "world.faults.missed_steps={rate_per_s: 0.1, max_amount: 2.0}",
     "camera.drop_rate=0.2",
+    # a randomised world (seed > 0) draws its own slips and drops: fix those draws too
+    "world.randomize.faults.missed_steps={rate_per_s: 0.1, max_amount: 2.0}",
+    "world.randomize.camera.drop_rate=0.2",
 )
 
 
