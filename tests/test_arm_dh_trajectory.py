@@ -173,3 +173,24 @@ def test_a_servo_slip_lasts_until_the_servo_is_next_commanded(sim):
     times, true = follow(sim, sim.arm.move_joints(goal))
     np.testing.assert_allclose(true[-1], goal, atol=0.1)
     assert np.abs(np.diff(true[:, 1])).max() < 2.0, "it moved from where it was, no jump"
+
+
+def test_a_stream_sent_late_aims_as_far_ahead_as_it_was_behind():
+    from armtree.plugins.arms.dh.streaming import MIN_RAMP_S, TrajectoryStream
+    from armtree.trajectory import plan_trajectory
+
+    trajectory = plan_trajectory(np.array([[0.0], [90.0]]), durations=[1.0])
+    stream = TrajectoryStream(trajectory, t0=10.0, period=0.05)
+    first = stream.next(10.0)
+    assert first.ramp_s == pytest.approx(0.05) and not first.last
+    np.testing.assert_allclose(first.q, trajectory.position(0.05))
+    assert not stream.due(10.04) and stream.due(10.05)
+    late = stream.next(10.2)  # called 0.2 s after the last set point, 0.15 s late
+    assert late.ramp_s == pytest.approx(0.2)
+    np.testing.assert_allclose(late.q, trajectory.position(0.4))
+    last = stream.next(11.2)  # past the end: the goal, at once
+    assert last.last and last.ramp_s == MIN_RAMP_S
+    np.testing.assert_allclose(last.q, [90.0])
+    assert not stream.due(12.0)
+    with pytest.raises(StopIteration):
+        stream.next(12.0)
