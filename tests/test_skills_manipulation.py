@@ -8,7 +8,7 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.params import Binding
-from armtree.plugins.skills.manipulation import Pick, Place
+from armtree.plugins.skills.manipulation import Grasp, Pick, Place
 
 
 def ducky(at=(185.0, -155.0, 0.0)):
@@ -253,3 +253,33 @@ def test_a_release_point_just_out_of_reach_moves_within_reach_by_a_few_mm():
     rig.world.held, held.held, rig.arm.suction = held, True, True
     status, _ = run(far, rig)
     assert status is Status.FAILURE and "refused" in far.feedback_message
+
+
+def test_a_failed_grasp_homes_the_arm_on_its_reference_when_asked():
+    rig = make_rig([ducky((200.0, -50.0, 0.0))])
+    rig.world.grip = lambda tool: None  # the cup does not hold
+    homings = []
+    rig.arm.home = lambda: homings.append(1) or rig.arm.move_joints(rig.arm.model.home)
+    node = Grasp("g", at=[200.0, -50.0, 0.0], tag="ducky", rehome_on_failure=True)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE and "the grip failed" in node.feedback_message
+    assert homings == [1] and np.allclose(rig.arm.q, rig.arm.model.home)
+
+
+def test_the_place_check_looks_around_the_target_when_the_view_over_it_misses():
+    bot = Marker(1, np.array([225.0, 60.0, 10.0]))
+    held = Marker(0, np.zeros(3), held=True)
+    rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
+    rig.world.held = held
+    rig.arm.suction = True
+    release = rig.world.release
+
+    def blind_then_release(tool):
+        release(tool)
+        rig.tracker.blind_frames = 2  # the two frames over the target see nothing
+
+    rig.world.release = blind_then_release
+    node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", object="ducky")
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert "0 mm from the target" in node.feedback_message

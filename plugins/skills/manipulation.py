@@ -32,10 +32,11 @@ from armtree import Param
 from armtree.params import Binding
 from armtree.perception import EYE_IN_HAND
 
-from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
+from .actions import ArmHome, Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point
 from .base import ActionFailed, Procedure, as_list
-from .locate import locate, look_over, nearest, out_of_view
+from .eye import eye_of
+from .locate import AROUND, around, locate, look_over, nearest, out_of_view
 from .reach import nearest_reachable, reachable
 
 #: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
@@ -181,24 +182,34 @@ def verify_place(
     rig = skill.rig
     cell = skill.workcell
     in_hand = rig.camera.mount == EYE_IN_HAND
+    limit = tolerance if on_marker else max(tolerance, cell.search_radius_mm)
     if in_hand:
-        after = yield from look_over(skill, target, cell.look_height_mm, obj, 2)
+        # over the target, then around it: a marker turned near the image's corner
+        # over a small view is seen whole from a little aside
+        seen = None
+        views: list[np.ndarray] = [target]
+        while views and seen is None:
+            point = views.pop(0)
+            after = yield from look_over(skill, point, cell.look_height_mm, obj, 2)
+            seen = nearest([s for s in after if marker is None or s.id == marker], obj, target)
+            if seen is None and point is target:
+                view = eye_of(rig).last
+                size = None if view is None else view.footprint(float(target[2]))
+                views = around(target, 0.5 * min(size) if size else limit, size)[:AROUND]
     else:
         yield from move_out_of_view(skill, target)
         after = yield Look(rig, skill.clock, want=obj, frames=2, settle=skill.settle())
-    if marker is not None:
-        after = [s for s in after if s.id == marker]
-    seen = nearest(after, obj, target)
+        seen = nearest([s for s in after if marker is None or s.id == marker], obj, target)
     if seen is None:
         if in_hand and on_marker:
             skill.note("check", check="place", ok=False, tag=obj, seen=False)
             raise SkillFailure(
-                f"{skill.name}: no {obj!r} tag in view over {fmt(target)} after letting go"
+                f"{skill.name}: no {obj!r} tag in view over {fmt(target)} or around it "
+                "after letting go"
             )
         return skill.unverified(f"the {obj!r} tag is not in view after letting go")
     off = seen.position - target
     flat = float(np.linalg.norm(off[:2]))
-    limit = tolerance if on_marker else max(tolerance, cell.search_radius_mm)
     ok = flat <= limit and (not on_marker or off[2] >= ON_TOP_MM)
     skill.note("check", check="place", ok=ok, tag=obj, offset_mm=as_list(off), limit_mm=limit)
     if not ok:
@@ -250,6 +261,13 @@ class Gripping(ArmSkill):
             "in/out: marker ids to leave alone; a failed one is added",
             io="inout",
         ),
+        Param(
+            "rehome_on_failure",
+            "bool",
+            False,
+            "",
+            "after a failed grip, home the arm on its own reference (missed steps undone)",
+        ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
         *ArmSkill.GRIP,
         *ArmSkill.COMMON,
@@ -280,6 +298,12 @@ class Gripping(ArmSkill):
             if marker is not None:
                 self.add_skip(marker)
             yield from self.let_go("the grip failed")
+            if self.param("rehome_on_failure"):
+                # a grip that missed may have missed because steps were lost: the next
+                # try starts from joints the arm's own reference has set right
+                self.note("rehome", why="the grip failed")
+                with contextlib.suppress(SkillFailure):
+                    yield ArmHome(self.rig)
             raise
         self.output("pose", as_list(target))
         return target
