@@ -89,12 +89,18 @@ def test_pick_needs_exactly_one_of_a_tag_or_a_blind_place(params, message):
         Pick("pick", **params)
 
 
-def test_place_on_a_tag_uses_its_fresh_position_and_checks_the_object_is_on_it():
+def holding_over_a_duckybot():
+    """A rig holding the ducky (marker 0), a Duckybot's marker at [225, 60, 10] mm."""
     bot = Marker(1, np.array([225.0, 60.0, 10.0]))
     held = Marker(0, np.zeros(3), held=True)
     rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
     rig.world.held = held
     rig.arm.suction = True
+    return rig, held
+
+
+def test_place_on_a_tag_uses_its_fresh_position_and_checks_the_object_is_on_it():
+    rig, held = holding_over_a_duckybot()
     node = Place("place", at=[210.0, 50.0, 10.0], tag="duckybot", object="ducky")
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
@@ -104,11 +110,7 @@ def test_place_on_a_tag_uses_its_fresh_position_and_checks_the_object_is_on_it()
 
 
 def test_place_fails_with_the_measured_distance_when_the_object_lands_off_the_target():
-    bot = Marker(1, np.array([225.0, 60.0, 10.0]))
-    held = Marker(0, np.zeros(3), held=True)
-    rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
-    rig.world.held = held
-    rig.arm.suction = True
+    rig, held = holding_over_a_duckybot()
     release = rig.world.release
 
     def slide_off(tool):
@@ -267,11 +269,7 @@ def test_a_failed_grasp_homes_the_arm_on_its_reference_when_asked():
 
 
 def test_the_place_check_looks_around_the_target_when_the_view_over_it_misses():
-    bot = Marker(1, np.array([225.0, 60.0, 10.0]))
-    held = Marker(0, np.zeros(3), held=True)
-    rig = make_rig([bot, held], workcell={"release_offset_mm": 30.0})
-    rig.world.held = held
-    rig.arm.suction = True
+    rig, held = holding_over_a_duckybot()
     release = rig.world.release
 
     def blind_then_release(tool):
