@@ -555,6 +555,9 @@ class Run:
                 if interrupts.fault is not None:
                     # A device fault (a lost link) failed the tree: the fault is the cause.
                     return self._interrupted()
+                fault = self._component_fault()
+                if fault is not None:
+                    return _End("FAILURE", f"hardware fault: {fault}", EXIT_HARDWARE)
                 return _End("FAILURE", self._failure_message())
             # Tick k starts at k periods; multiplying (not summing) keeps times exact-ish,
             # and rounding to a nanosecond keeps logs free of float noise.
@@ -786,6 +789,14 @@ class Run:
                         "value": jsonable(item.current_value),
                     }
                 )
+
+    def _component_fault(self) -> HardwareFault | None:
+        """A fault a rig component holds (a lost link, a camera that stopped), if any."""
+        for part in ("arm", "camera"):
+            fault = getattr(getattr(self.rig, part, None), "fault", None)
+            if isinstance(fault, HardwareFault):
+                return fault
+        return None
 
     def _failure_message(self) -> str:
         failed = self._deepest(Status.FAILURE)

@@ -34,6 +34,8 @@ def test_connect_reads_the_power_up_status(sim):
 
 def test_move_completes_from_the_arms_reports(sim):
     target = np.array([30.0, 5.0, 45.0])
+    while not sim.arm.guard.stable:  # commands wait for a stable run of plausible frames
+        sim.tick()
     written = sim.arm.commands_written
     handle = sim.arm.move_joints(target)
     # the status interval is free: the command goes out at once

@@ -224,10 +224,12 @@ class SerialArmDriver(ArmDriver):
             handles, self._handles = self._handles, []
         if self.barrier is not None:
             self.barrier.detach()
-        for handle in handles:
-            handle.update(MotionStatus.FAILED, error=fault)
+        # The run hears of the fault before any behaviour sees its motion fail, so the
+        # run ends as a hardware fault (exit 3), not as the tree's failure.
         if self._connected:
             self.interrupt(f"link lost on {self.device}", fault)
+        for handle in handles:
+            handle.update(MotionStatus.FAILED, error=fault)
 
     def track(self, handle: MotionHandle) -> MotionHandle:
         """Keep ``handle`` to be failed if the link is lost or stopped by :meth:`stop_all`."""

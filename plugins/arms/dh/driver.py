@@ -30,6 +30,7 @@ import numpy as np
 
 from armtree.collision import CollisionChecker
 from armtree.errors import HardwareFault, PlanningError, Unreachable
+from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 from armtree.scene import Scene
@@ -94,6 +95,8 @@ class SSC32Driver(SerialArmDriver):
         super().__init__(model, port, **options)
         self.model: DHModel = model
         self.servos = list(servos)
+        #: Doubts the joint values read back from the board (finite, limits, speed).
+        self.guard = StatusGuard(model)
         self.gripper_map = gripper
         self.suction_channel = suction_channel
         self.tool_kind = tool or ("gripper" if suction_channel is None and gripper else "suction")
@@ -171,10 +174,15 @@ class SSC32Driver(SerialArmDriver):
         status = reply[-1:]
         if status not in (b"+", b"."):
             self._buf.clear()  # out of step with the board: drop and ask again
+            self.guard.refused(f"a query reply ending in {status!r}, not + or .")
+            return
+        pulses = np.array([10.0 * b for b in reply[:-1]])
+        joint_pulses = pulses[:-1] if self.gripper_map is not None else pulses
+        q = np.array([float(m.angle(p)) for m, p in zip(self.servos, joint_pulses, strict=True)])
+        if self.guard.check(q, self._now if math.isfinite(self._now) else 0.0) is not None:
             return
         self.mark_alive()
         self._silent_polls = 0
-        pulses = np.array([10.0 * b for b in reply[:-1]])
         if self.gripper_map is not None:
             # the gripper's channel is read last: where it is until the host commands it
             self._gripper_readback = float(self.gripper_map.angle(pulses[-1]))

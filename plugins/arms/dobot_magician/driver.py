@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from armtree.errors import HardwareFault, Unreachable
+from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
@@ -76,6 +77,8 @@ class MagicianDriver(SerialArmDriver):
         options.setdefault("baud", 115200)
         super().__init__(model, port, **options)
         self.model: MagicianModel = model
+        #: Doubts the joint angles the arm reports (finite, limits, speed).
+        self.guard = StatusGuard(model)
         self.poll_period = poll_period
         self.reply_timeout = reply_timeout
         self.retries = retries
@@ -189,11 +192,17 @@ class MagicianDriver(SerialArmDriver):
         self.write(req.frame)
 
     def _on_pose(self, frame: P.Frame) -> None:
-        if len(frame.params) >= 32:
-            vals = P.unpack_pose(frame.params)
-            self._joints = np.array(vals[4:8], dtype=float)
-            self.status_wall = time.perf_counter()
-            self._update_progress()
+        if len(frame.params) < 32:
+            self.guard.refused("a pose reply too short to hold a pose")
+            return
+        vals = P.unpack_pose(frame.params)
+        q = np.array(vals[4:8], dtype=float)
+        # The checksum catches damage on the wire, not a device that is not the arm.
+        if self.guard.check(q, self._now if math.isfinite(self._now) else 0.0) is not None:
+            return
+        self._joints = q
+        self.status_wall = time.perf_counter()
+        self._update_progress()
 
     def _on_index(self, frame: P.Frame) -> None:
         if len(frame.params) >= 8:

@@ -26,7 +26,13 @@ from armtree.errors import HardwareFault, Unreachable
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from ..common import SerialArmDriver
+from ..common.plausibility import StatusGuard
 from . import codec
+
+#: Largest magnitude a believable Cartesian field of a status frame has (mm, degrees).
+_FIELD_LIMIT = 10_000.0
+#: Gripper angles the firmware reports (degrees), with a margin.
+_GRIPPER = (-100.0, 100.0)
 
 
 @dataclass
@@ -68,8 +74,10 @@ class DobotV1Driver(SerialArmDriver):
         self._gripper = 0.0
         self._last_target: np.ndarray | None = None
         self._speed = 1.0
-        #: Status frames received, for figures and tests.
+        #: Status frames believed, for figures and tests.
         self.frames_received = 0
+        # The frames carry no checksum: each is checked for plausibility before it is believed.
+        self.guard = StatusGuard(self.model, frame_bytes=codec.FRAME_LEN)
         #: Commands written, for figures and tests.
         self.commands_written = 0
 
@@ -82,15 +90,26 @@ class DobotV1Driver(SerialArmDriver):
             self._queue.clear()
             self._status = None
             self._wrote_since_status = False
+            self.guard.reset()
 
     def handshake_done(self) -> bool:
-        """Connected once the first status frame arrived."""
-        return self._status is not None
+        """Connected once a stable run of plausible status frames arrived (not any bytes).
+
+        On a virtual clock no time passes while connecting, so one plausible frame
+        connects; no command goes out before the run is stable either way.
+        """
+        return self._status is not None and (self.guard.stable or self.clock.virtual)
 
     def on_data(self, data: bytes) -> None:
-        """Parse status frames; after each, update handles and write one queued command."""
-        for frame in self._parser.feed(data):
+        """Parse status frames; believe the plausible ones; after each, update handles and
+        write one queued command. Mostly corrupt frames lose the link."""
+        skipped = self._parser.discarded
+        frames = self._parser.feed(data)
+        self.guard.skipped(self._parser.discarded - skipped)
+        for frame in frames:
             status = codec.Status.decode(frame)
+            if self._doubt(status) is not None:
+                continue
             self.mark_alive()
             with self._lock:
                 if self._status is None:
@@ -101,8 +120,28 @@ class DobotV1Driver(SerialArmDriver):
                 self._wrote_since_status = False
                 self._update_handles(status)
                 # seed 004, second safeguard: the next command waits for the move before it
-                if self._queue and (not self._inflight or self._queue[0].key == ("stop",)):
+                if (
+                    self._queue
+                    and self.guard.stable
+                    and (not self._inflight or self._queue[0].key == ("stop",))
+                ):
                     self._send(self._queue.popleft())
+        verdict = self.guard.verdict()
+        if verdict is not None and self._connected:
+            self.lose_link(f"link lost: {verdict}")
+
+    def _doubt(self, status: codec.Status) -> str | None:
+        """Why a decoded status frame is not believed (see StatusGuard), or None."""
+        values = (status.x, status.y, status.z, status.r_head, status.paw)
+        if not all(math.isfinite(v) and abs(v) < _FIELD_LIMIT for v in values):
+            self.guard.refused("a Cartesian field is not a plausible number")
+            return self.guard.last_reason
+        if status.is_grab not in (0.0, 1.0) or not _GRIPPER[0] <= status.gripper <= _GRIPPER[1]:
+            self.guard.refused(
+                f"tool fields isGrab={status.is_grab:.4g}, gripper={status.gripper:.4g}"
+            )
+            return self.guard.last_reason
+        return self.guard.check(status.joints, self._now if math.isfinite(self._now) else 0.0)
 
     def close(self) -> None:
         """Send a stop still waiting for its status frame (≤ 0.5 s, wall clock), then release the port.
@@ -129,6 +168,7 @@ class DobotV1Driver(SerialArmDriver):
         if (
             self._queue
             and self._status is not None
+            and self.guard.stable
             and not self._wrote_since_status
             and not self._inflight
             and self._fault is None

@@ -24,6 +24,7 @@ from armtree.errors import HardwareFault, Unreachable
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from ..common import JointMove, SerialArmDriver
+from ..common.plausibility import StatusGuard
 from . import opendobot as od
 
 #: Slots kept queued ahead of the firmware (0.2 s).
@@ -65,6 +66,8 @@ class OpenDobotDriver(SerialArmDriver):
 
     def __init__(self, *args, board: str = "fpga", **kwargs) -> None:
         super().__init__(*args, **kwargs)
+        #: Doubts the joint angles the step counters give (finite, limits, speed).
+        self.guard = StatusGuard(self.model)
         self.board = od.BOARDS[board]
         self._lock = threading.RLock()
         self._requests: collections.deque[_Request] = collections.deque()
@@ -256,6 +259,10 @@ class OpenDobotDriver(SerialArmDriver):
 
     def _on_counters(self, payload: bytes) -> None:
         counters = np.array(od.parse_counters(payload), dtype=np.int64)
+        # The CRC catches damage on the wire, not a board whose counters make no sense.
+        q = counters.astype(float) / od.STEPS_PER_DEG
+        if self.guard.check(q, self._now if math.isfinite(self._now) else 0.0) is not None:
+            return
         with self._lock:
             self._counters = counters
             if not self._ready:

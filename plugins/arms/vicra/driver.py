@@ -25,6 +25,7 @@ import numpy as np
 
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common.framing import LineParser
+from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.rig import MotionHandle, MotionStatus, ToolState
 
@@ -95,6 +96,8 @@ class VicraDriver(SerialArmDriver):
         self.banner: list[str] = []
         self.endstops: dict[str, bool] = {}
         self._lines = LineParser(max_line=256)
+        #: Doubts the positions Marlin reports and counts replies that answer nothing.
+        self.guard = StatusGuard(model)
         self._lock = threading.RLock()
         self._queue: collections.deque[_Line] = collections.deque()
         self._inflight: collections.deque[_Line] = collections.deque()
@@ -160,11 +163,15 @@ class VicraDriver(SerialArmDriver):
             self._history.clear()
             self._next_n = 0
             self._ready = False
+            self.guard.reset()
         self._enqueue("M110 N0", self._on_ready)
 
     def handshake_done(self) -> bool:
-        """True once Marlin acknowledged M110."""
-        return self._ready
+        """True once Marlin acknowledged M110 and reported a plausible position (M114).
+
+        An ``ok`` alone could be noise; a position within the arm's limits is not.
+        """
+        return self._ready and self.guard.believed > 0
 
     def _on_ready(self, replies: list[str]) -> None:
         self._ready = True
@@ -182,21 +189,36 @@ class VicraDriver(SerialArmDriver):
             line = raw.strip()
             if line:
                 self._on_line(line)
+        verdict = self.guard.verdict()
+        if verdict is not None and self._connected:
+            self.lose_link(f"link lost: {verdict}")
+            return
         self._pump()
 
     def _on_line(self, line: str) -> None:
+        # Only replies that answer what was sent keep the link alive: an "ok" or a
+        # "Resend" with nothing in flight is noise, and a position must be plausible.
         if G.is_ok(line):
-            self.mark_alive()
             with self._lock:
                 if self._swallow_ok:
                     self._swallow_ok -= 1
                     return
                 done = self._inflight.popleft() if self._inflight else None
-            if done is not None and done.on_ok is not None:
+            if done is None:
+                self.guard.refused("an 'ok' that answers no command")
+                return
+            if done.on_ok != self._on_position:
+                self.mark_alive()
+            if done.command.split()[0] == "G28":
+                self.guard.rebase()  # homing sets the coordinates: the next report may jump
+            if done.on_ok is not None:
                 done.on_ok(done.replies)
             return
         n = G.parse_resend(line)
         if n is not None:
+            if not self._inflight:
+                self.guard.refused("a Resend with no command in flight")
+                return
             self.mark_alive()
             self._resend(n)
             return
@@ -209,7 +231,10 @@ class VicraDriver(SerialArmDriver):
         if line.startswith("Error:") and "Last Line" in line:
             return  # the Resend that follows says what to do
         if line.startswith("echo:busy"):
-            self.mark_alive()
+            with self._lock:
+                head = self._inflight[0] if self._inflight else None
+            if head is not None and head.command.split()[0] in BLOCKING:
+                self.mark_alive()
             return
         if not self._ready:
             if len(self.banner) < MAX_KEPT:
@@ -298,11 +323,21 @@ class VicraDriver(SerialArmDriver):
     # ------------------------------------------------------------------ replies
 
     def _on_position(self, replies: list[str]) -> None:
+        believed = False
         for text in replies:
             pos = G.parse_m114(text)
-            if pos is not None:
-                self._joints = np.array([pos.axes["Z"], pos.axes["X"], pos.axes["Y"], self._wrist])
+            if pos is None:
+                continue
+            q = np.array([pos.axes.get(a, math.nan) for a in ("Z", "X", "Y")] + [self._wrist])
+            now = self._now if math.isfinite(self._now) else 0.0
+            if self.guard.check(q, now) is None:
+                self._joints = q
                 self.status_wall = time.perf_counter()
+                believed = True
+        if believed:
+            self.mark_alive()
+        else:
+            self.guard.refused("an M114 answer without a plausible position")
         self._update_motions()
 
     def _on_servo_report(self, replies: list[str]) -> None:
