@@ -81,10 +81,9 @@ _REFINEMENT = {
 def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) -> Any:
     """``cv2.aruco.DetectorParameters`` with sub-pixel refinement and the profile's overrides.
 
-    ``perspectiveRemovePixelPerCell`` defaults to 8 (OpenCV: 4): with more
-    pixels read per cell a 20 px marker under noise and blur is read in every
-    frame of the vision benchmark (all 180, against 174 of 180 at 4), no false
-    ids, for 1-5 % more detection time (two runs). Keys are OpenCV's attribute
+    ``perspectiveRemovePixelPerCell`` defaults to 8 (OpenCV: 4): reading more
+    pixels per cell keeps small markers readable under noise and blur, for a
+    few percent more detection time (docs/benchmarks.md). Keys are OpenCV's attribute
     names (``adaptiveThreshWinSizeMin``, ...); ``cornerRefinementMethod`` also
     takes ``none``, ``subpix``, ``contour`` or ``apriltag``. An unknown key or a
     value of the wrong type is a ConfigError.
@@ -129,9 +128,9 @@ class ArucoTracker(Tracker):
     hamming tracker's): OpenCV's ``minMarkerPerimeterRate`` is a fraction of
     the image's larger side, so it is set from this for each frame size.
     OpenCV's default (0.03, a 5 px side at 640x480) spends time on specks of
-    noise too small to read: 10 px saves 3-8 % of the tracker's time in the
-    vision benchmark and reads as many 16 px markers as the default (152 of
-    180), where 12 px lost 24 of them. None keeps the rate in ``parameters``.
+    noise too small to read; 10 px is the largest limit that still reads every
+    marker the default reads (docs/benchmarks.md). None keeps the rate in
+    ``parameters``.
     """
 
     family = FAMILY

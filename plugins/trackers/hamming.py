@@ -71,10 +71,9 @@ def _plane_fit(uv: np.ndarray) -> np.ndarray:
 _BLACK_FIT = _plane_fit(_CELL_CENTRES[_BORDER_FLAT])
 _WHITE_FIT = _plane_fit(_QUIET_UV)
 _CELL_DESIGN = np.column_stack([np.ones(GRID * GRID), _CELL_CENTRES])
-#: How far a cell is pushed away from its neighbours' mean before thresholding. 1.5
-#: rather than 1: on the benchmark's noisy, blurred frames it reads 20 px markers
-#: 240/240 (adaptive threshold) instead of 237/240 and 16-18 px ones far more often,
-#: and it removed the false ids that 1 gave there; 2 gave a false id at 60 px.
+#: How far a cell is pushed away from its neighbours' mean before thresholding: enough
+#: to undo the blur between 2-3 px cells, not so much that noise flips a cell
+#: (1 read fewer small markers and some false ids, 2 a false id; docs/benchmarks.md).
 _SHARPEN = 1.5
 #: The points read of each cell ``(81, 5, 2)`` and of the quiet zone ``(36, 2)``, as
 #: fractions of the marker's side (the unit square the kernel maps onto each quad).
@@ -213,8 +212,7 @@ class HammingTracker(Tracker):
             processed = self.preprocessing.apply(gray)
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         # findContoursLinkRuns gives what RETR_CCOMP with CHAIN_APPROX_SIMPLE gives,
-        # without findContours' internal full-frame threshold, which OpenCV runs on
-        # its worker threads and which cost twice the contour search in CPU time.
+        # without findContours' internal full-frame threshold on OpenCV's worker threads.
         contours, _ = cv2.findContoursLinkRuns(dark)
         min_perimeter = 4.0 * self.min_side_px
         h, w = gray.shape

@@ -149,7 +149,7 @@ def to_gray(image: np.ndarray) -> np.ndarray:
         return image
     if image.ndim == 3 and image.shape[2] in (3, 4):
         code = cv2.COLOR_BGR2GRAY if image.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
-        # as one row of pixels (see threshold_image): the same grey levels, half the CPU time
+        # as one row of pixels (see threshold_image): the same grey levels, no worker threads
         return cv2.cvtColor(image.reshape(1, -1, image.shape[2]), code).reshape(image.shape[:2])
     if image.ndim == 3 and image.shape[2] == 1:
         return image[:, :, 0]
