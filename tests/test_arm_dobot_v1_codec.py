@@ -15,7 +15,7 @@ def _hex(s: str) -> bytes:
     return bytes.fromhex(s)
 
 
-# hardware_protocols.md §1.7
+# vectors computed with struct.pack('<f') (Dobot protocol frame layout)
 MOVE_200 = _hex(
     "A5 00 00 40 40 00 00 00 00 00 00 48 43 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00 00 "
     "00 00 80 3F 00 00 00 00 00 00 00 00 5A"

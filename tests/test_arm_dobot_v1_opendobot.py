@@ -22,7 +22,7 @@ from armtree.rig import MotionStatus
 
 H = bytes.fromhex
 
-# ---------------------------------------------------------------- codec (reference §2.7)
+# ------------------------------------- codec (vectors computed from open-dobot's algorithm)
 
 
 @pytest.mark.parametrize(

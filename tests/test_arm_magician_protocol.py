@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from armtree.plugins.arms.dobot_magician import protocol as P
 
-# hardware_protocols.md §4.4
+# test vectors (checksums verified; also on the Dobot forum)
 VECTORS = [
     (P.Cmd.GET_POSE, 0x00, b"", "AA AA 02 0A 00 F6"),
     (
@@ -43,7 +43,7 @@ def test_parser_decodes_reference_vectors_in_one_stream():
 
 
 def test_reply_echo_from_forum():
-    # "request ctrl 0x01 -> reply AA AA 02 03 01 FC" (§4.1)
+    # "request ctrl 0x01 -> reply AA AA 02 03 01 FC" (Dobot DLL)
     (frame,) = P.FrameParser().feed(bytes.fromhex("AA AA 02 03 01 FC"))
     assert (frame.id, frame.ctrl, frame.write, frame.queued) == (3, 1, True, False)
 
@@ -61,7 +61,7 @@ def test_wrong_checksum_is_ignored_and_next_frame_found():
 def test_pydobot_checksum_bug_frames_are_rejected():
     from pydobot.message import Message
 
-    # pydobot sends 0x01 where the sum is 0 mod 256 (§4.3); the strict arm ignores it
+    # pydobot 1.3.2 sends 0x01 where the sum is 0 mod 256; the strict arm ignores it
     msg = Message()
     msg.id, msg.ctrl, msg.params = 62, 3, bytearray([1, 190])
     raw = bytes(msg.bytes())

@@ -8,7 +8,7 @@ from armtree.plugins.arms.vicra import gcode as G
 
 
 def test_numbered_lines_match_reference_examples():
-    # hardware_protocols.md §5.3 (XOR verified)
+    # Marlin's line checksum (XOR, verified)
     assert G.numbered(0, "M110 N0") == "N0 M110 N0*125"
     assert G.numbered(1, "G28") == "N1 G28*18"
     assert G.numbered(2, "G1 X10 Y20 F3000") == "N2 G1 X10 Y20 F3000*77"

@@ -1,6 +1,6 @@
 """Dobot Magician firmware, byte for byte, behind a pseudo-terminal.
 
-What it reproduces (hardware_protocols.md §4):
+What it reproduces (Dobot DLL, pydobot 1.3.2):
 
 * 0xAA 0xAA frames; a frame whose checksum is wrong is ignored without a
   reply, as the arm does (so pydobot's checksum bug shows up as a timeout);

@@ -1,9 +1,9 @@
 """Dobot Magician geometry: base yaw, rear arm, forearm (parallelogram), servo wrist.
 
-The reference (hardware_protocols.md §4.4) fixes the conventions: the Cartesian
+The Dobot DLL and pydobot 1.3.2 fix the conventions: the Cartesian
 origin is at the centre of the three motors (the rear-arm pivot), positive joint
 rotation is counter-clockwise, J2 is measured from the vertical Z axis and J3
-from the horizontal (as on the V1). Link lengths and ranges are UNCONFIRMED
+from the horizontal (as on the V1). Link lengths and ranges are not given
 there; this model uses the published Magician figures, overridable in the
 profile: rear arm 135 mm, forearm 147 mm, end-effector offset 59.7 mm forward
 (suction cup), ranges J1 ±90°, J2 0-85°, J3 -10-90°, J4 ±90°.

@@ -1,6 +1,6 @@
 """Dobot Magician serial protocol: 0xAA 0xAA framing, checksum, command ids and payloads.
 
-Facts from hardware_protocols.md §4 ([DLL ProtocolDef.h, Packet.cpp], [PYD132]):
+Facts from the Dobot DLL (ProtocolDef.h, Packet.cpp) and pydobot 1.3.2:
 ``AA AA len id ctrl params... checksum`` with ``len = 2 + len(params)`` (< 0xAA),
 ``ctrl`` bit 0 = write, bit 1 = queued, checksum = ``(0 - (id + ctrl + sum(params))) mod 256``.
 Payloads are packed little-endian C structs.

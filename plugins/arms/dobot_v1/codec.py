@@ -1,10 +1,10 @@
 """The Dobot V1.0 original firmware's 42-byte frames, both directions.
 
 A frame is ``0xA5``, ten little-endian float32 and ``0x5A``; no length, no
-checksum (reference §1.2). Host-to-arm fields are ``state, axis, x, y, z,
-rHead, isGrab, startVel, endVel, maxVel`` (§1.3); arm-to-host status fields
+checksum (Dobot protocol, frame format). Host-to-arm fields are ``state, axis, x, y, z,
+rHead, isGrab, startVel, endVel, maxVel`` (Dobot protocol, host-to-arm frame); arm-to-host status fields
 are ``x, y, z, rHead, baseAngle, longArmAngle, shortArmAngle, pawArmAngle,
-isGrab, gripperAngle`` (§1.4). Units: mm and degrees.
+isGrab, gripperAngle`` (Dobot protocol, status frame). Units: mm and degrees.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ TAIL = 0x5A
 FRAME_LEN = 42
 _FLOATS = struct.Struct("<10f")
 
-# States (reference §1.3)
+# States (Dobot protocol, host-to-arm states)
 STATE_JOINT_JOG = 2
 STATE_MOVE_XYZ = 3
 STATE_MOVE_JOINTS = 6
@@ -28,12 +28,12 @@ STATE_LINEAR_JOG = 7
 STATE_CONFIG = 9
 STATE_SPEED = 10
 
-# Move modes, F8 of states 3 and 6: the client's enum order (reference §1.5)
+# Move modes, F8 of states 3 and 6: the official client's enum order (Dobot protocol)
 MODE_JUMP = 0
 MODE_MOVJ = 1
 MODE_MOVL = 2
 
-# Jog axis codes (reference §1.3, table 2.5)
+# Jog axis codes (Dobot protocol, table 2.5)
 AXIS_STOP = 0
 AXIS_GRAB = 9
 AXIS_RELEASE = 10
@@ -173,5 +173,5 @@ def configure_playback(
 
 
 def set_speed(velocity_percent: float, accel_percent: float) -> Command:
-    """State 10: playback velocity and acceleration ratios, percent (reference §1.3)."""
+    """State 10: playback velocity and acceleration ratios, percent (Dobot protocol, state 10)."""
     return Command(STATE_SPEED, 0.0, velocity_percent, accel_percent)

@@ -1,8 +1,8 @@
 """The Dobot V1.0 driver for the original firmware (42-byte frames over pyserial).
 
-It keeps the official client's rule (reference §1.4): the arm streams status
+It keeps the official client's rule (Dobot protocol, DobotClient): the arm streams status
 frames and at most one command is written per status frame received, so the
-firmware never drops one (§1.6). A command goes out when its status frame
+firmware never drops one (the firmware's documented quirk). A command goes out when its status frame
 arrives, or at once when asked for if no command has been written since the
 last frame. The
 RPI report's safeguards (seed 004, "Serial Interface") hold: targets are

@@ -1,12 +1,12 @@
 """Firmware emulators of the Dobot V1.0: the original firmware and open-dobot.
 
 :class:`DobotV1Emulator` speaks the original firmware's 42-byte frames
-(reference §1): a status frame every ``status_period`` seconds, state 3 / 6
+(Dobot protocol): a status frame every ``status_period`` seconds, state 3 / 6
 moves in a small FIFO, jogs (axis 0 stops), suction, speed and playback
 configuration, MOVJ / MOVL (a straight tool line) / JUMP moves, and the
 documented quirk that a command arriving before the
-next status frame was sent is dropped (reference §1.6; the official client
-writes one command per status frame, §1.4).
+next status frame was sent is dropped (Dobot protocol; the official client
+writes one command per status frame).
 
 :class:`OpenDobotEmulator` (in :mod:`.opendobot_emulator`) is the replacement firmware.
 """
@@ -87,7 +87,7 @@ class DobotV1Emulator(PtyEmulator):
     # ------------------------------------------------------------------ firmware
 
     def on_start(self) -> None:
-        """Power-up: the first status frame goes out at once (reference §1.4)."""
+        """Power-up: the first status frame goes out at once (Dobot protocol, status frame)."""
         self._next_status = self.time
 
     def tool(self) -> ToolState:
@@ -220,7 +220,7 @@ class DobotV1Emulator(PtyEmulator):
             self.refused += 1
 
     def _enqueue_jump(self, goal: np.ndarray, pause: float, t: float) -> None:
-        """JUMP: lift by the jump height, cross over, lower (reference §1.5)."""
+        """JUMP: lift by the jump height, cross over, lower (Dobot protocol, move modes)."""
         here = self.model.position(self.joints.reported(t))
         there = self.model.position(goal)
         lift = np.array([0.0, 0.0, self.jump_height])
@@ -230,7 +230,7 @@ class DobotV1Emulator(PtyEmulator):
         except Unreachable:
             self._enqueue(goal, pause, t)
             return
-        # vertical legs are straight lines, the crossing a joint move (reference §1.5)
+        # vertical legs are straight lines, the crossing a joint move (Dobot protocol, move modes)
         for q, p, linear in ((up, 0.0, True), (over, 0.0, False), (goal, pause, True)):
             self._enqueue(q, p, t, linear)
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from armtree.kinematics import Constraint, Joint, KinematicModel, LinkBox
 
-#: Rear arm (shoulder to elbow), mm (seed 004; reference §3).
+#: Rear arm (shoulder to elbow), mm (seed 004).
 L1 = 135.0
 #: Forearm (elbow to wrist joint), mm.
 L2 = 160.0

@@ -1,4 +1,4 @@
-"""The open-dobot firmware's wire format (reference §2): requests, replies and CRC.
+"""The open-dobot firmware's wire format (open-dobot firmware): requests, replies and CRC.
 
 Request ``[id] [payload] [CRC hi] [CRC lo]``; reply ``[payload] [CRC hi] [CRC lo]``
 whose CRC-16/CCITT (poly 0x1021, init 0xFFFF, MSB first) is not restarted: it
@@ -27,7 +27,7 @@ VALVE_ON = 11
 BOARD_VERSION = 12
 CALIBRATOR_STATUS = 13
 
-#: Request payload length (after the id) per command (reference §2.3).
+#: Request payload length (after the id) per command (open-dobot firmware, dobot.h and its handlers).
 REQUEST_LEN = {
     0: 0,
     1: 17,
@@ -53,10 +53,10 @@ READY_MAGIC = 0x40
 BOARD_FPGA = 0
 BOARD_RAMPS = 1
 
-#: Steps per revolution of every joint: 200 x 16 microsteps x 10:1 gearbox (reference §2.5).
+#: Steps per revolution of every joint: 200 x 16 microsteps x 10:1 gearbox (open-dobot firmware).
 STEPS_PER_REV = 32000
 STEPS_PER_DEG = STEPS_PER_REV / 360.0
-#: Accelerometer scale and zero of the FPGA board's sensors (reference §2.6).
+#: Accelerometer scale and zero of the FPGA board's sensors (open-dobot SDK).
 ACCEL_SCALE = 493.56
 ACCEL_ZERO = 1024
 #: Slot length of the step queue, seconds (50 Hz).
@@ -66,7 +66,7 @@ QUEUE_SIZE = 100
 
 @dataclass(frozen=True)
 class Board:
-    """A control board's step encoding (reference §2.5)."""
+    """A control board's step encoding (open-dobot firmware, fpga.cpp and ramps.cpp)."""
 
     name: str
     version: int
@@ -147,7 +147,7 @@ def steps_payload(
 def calibrate_payload(
     forward: int, back: int, pin: int, joint: int, toward: int, pullup: bool, normal_high: bool
 ) -> bytes:
-    """CALIBRATE_JOINT payload (reference §2.3 control bits)."""
+    """CALIBRATE_JOINT payload (open-dobot firmware, its control bits)."""
     control = (joint & 3) | ((toward & 1) << 2) | (int(pullup) << 3) | (int(normal_high) << 4)
     return struct.pack("<II", forward, back) + bytes([pin, control])
 

@@ -1,4 +1,4 @@
-"""The Dobot V1.0 driver for the open-dobot firmware (reference §2), over pyserial.
+"""The Dobot V1.0 driver for the open-dobot firmware, over pyserial.
 
 One request in flight at a time, its reply's CRC checked as a continuation
 of the request's. The host plans every move itself (a synchronised trapezoid
@@ -138,7 +138,7 @@ class OpenDobotDriver(SerialArmDriver):
     def _on_accels(self, payload: bytes) -> None:
         rear_x, rear_y, rear_z, front_x, front_y, front_z = od.parse_accels(payload)
         if self.board is od.FPGA:
-            # open-dobot SDK InitializeAccelerometers (reference §2.6)
+            # open-dobot SDK InitializeAccelerometers (open-dobot SDK)
             rear = math.pi / 2 - od.accel_to_radians(rear_x)
             front = od.accel_to_radians(front_x)
         else:
@@ -361,7 +361,7 @@ class OpenDobotDriver(SerialArmDriver):
             steps, dirs = [], []
             for j in range(3):
                 d = int(delta[j])
-                # the forearm counter runs against its direction bit (reference §2.4)
+                # the forearm counter runs against its direction bit (open-dobot firmware)
                 forward = d > 0 if j != 2 else d < 0
                 n_req = abs(d)
                 n_done = self._encodable(n_req)
@@ -452,7 +452,7 @@ class OpenDobotDriver(SerialArmDriver):
         """Run the limit-switch routine on ``joint`` (0-2) and set its counter to ``switch_angle``.
 
         The joint moves toward the switch at ``forward_hz`` steps/s until it is hit,
-        backs off at ``back_hz`` until released, and stops (reference §2.6); the
+        backs off at ``back_hz`` until released, and stops (open-dobot firmware, calibrator.cpp); the
         handle is DONE once the counter holds the switch's angle (degrees).
         """
         handle = self.track(MotionHandle(f"calibrate joint {joint}"))

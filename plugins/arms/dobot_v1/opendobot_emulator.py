@@ -1,4 +1,4 @@
-"""The open-dobot replacement firmware (reference §2) behind a pseudo-terminal.
+"""The open-dobot replacement firmware (open-dobot) behind a pseudo-terminal.
 
 Strict request/response with CRC-16/CCITT continuing into the reply; a bad
 CRC or unknown id silently drops the buffered bytes. A 100-slot queue (99
@@ -30,7 +30,7 @@ from .kinematics import DobotV1Model
 #: Where the limit switch of each joint sits (degrees, true angle), and its hysteresis.
 SWITCH_ANGLES = (135.0, 85.0, 95.0)
 SWITCH_HYSTERESIS = 0.5
-#: The firmware's receive buffer (reference §2.2).
+#: The firmware's receive buffer (open-dobot firmware).
 RX_BUFFER = 24
 
 
@@ -133,7 +133,7 @@ class OpenDobotEmulator(PtyEmulator):
             self.laser = False
 
     def _step(self, joint: int, n: int, direction: int) -> None:
-        """Issue ``n`` steps on ``joint``; the forearm counter runs the other way (§2.4)."""
+        """Issue ``n`` steps on ``joint``; the forearm counter runs the other way (open-dobot firmware)."""
         if n <= 0:
             return
         sign = 1 if direction else -1

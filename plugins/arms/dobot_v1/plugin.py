@@ -87,7 +87,7 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
     common = {
         "baud": baud,
         "link_timeout": float(config.get("link_timeout", 1.0)),
-        # A real Arduino resets when the port opens and boots for about 2 s (reference §1.1).
+        # A real Arduino resets when the port opens and boots for about 2 s (Dobot protocol, serial settings).
         "connect_timeout": 3.0 if simulated else float(config.get("connect_timeout", 8.0)),
         **options,
     }

@@ -2,7 +2,7 @@
 
 The host does the SCARA inverse kinematics and sends joint targets as axes
 (X = theta1 and Y = theta2 in degrees, Z = column in mm; see ``emulator``).
-One line is in flight at a time (hardware_protocols.md §5.4, the safe host
+One line is in flight at a time (Marlin's flow control: the safe host
 strategy); ``Resend: n`` sends line ``n`` again and swallows the ``ok`` Marlin
 1.1 / 2.1 print after it. Moves are refused until G28 has homed the arm on its
 end stops, confirmed by M119 (seed 000: micro-switch end stops, steppers

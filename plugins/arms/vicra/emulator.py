@@ -1,6 +1,6 @@
 """The VICRA arm's Marlin firmware (Mega 2560 + RAMPS 1.4) behind a pseudo-terminal.
 
-Marlin drives the arm as a plain joint controller (hardware_protocols.md §5.6,
+Marlin drives the arm as a plain joint controller (Marlin's SCARA support,
 last point): X is the shoulder theta1 and Y the elbow theta2 (degrees), Z the
 column (mm); servo 0 is the wrist (M280 S = wrist + 90), servo 1 the gripper
 (S = opening in degrees); a vacuum pump, when fitted, is on the fan output
@@ -8,7 +8,7 @@ column (mm); servo 0 is the wrist (M280 S = wrist + 90), servo 1 the gripper
 one (so homing leaves the elbow on the same side as the home pose),
 z_max at the top of the column (seed 000: micro-switches on all three axes).
 
-What it reproduces (§5.2-5.5): the start-up banner (printed when the host
+What it reproduces (Marlin 2.0.x): the start-up banner (printed when the host
 first talks, as the board resets on a port open), ``N``/``*`` line checks with
 ``Error:`` + ``Resend:`` + ``ok`` (Marlin 2.1) and a flushed receive buffer, a
 4-line command ring, ``ok`` only once a command has been executed (G0/G1 when

@@ -1,4 +1,4 @@
-"""Marlin G-code line format and replies (hardware_protocols.md §5.3-5.5).
+"""Marlin G-code line format and replies (Marlin 2.0.x: queue.cpp, language.h).
 
 Host lines are ``N<n> <command>*<cs>`` with ``cs`` the XOR of every byte before
 ``*`` ([MARLIN queue.cpp]). Replies are text lines: ``ok``, ``Error:...``,
