@@ -7,10 +7,8 @@ The Dobot V1 rows come from :data:`ENTRIES`: each ``(arm, what, make)`` row's
 and, optionally, a baseline callable over a smaller sample of the same work,
 so adding an arm is one line. The Magician, VICRA and DH rows
 (:func:`analytic_rows`, :func:`dh_rows`, :func:`motoman_rows`) compare DH FK
-and IK with roboticstoolbox-python; that comparison needs the benchmark
-environment (``benchmarks/requirements-bench.txt``, e.g. a venv made with
-``--system-site-packages`` next to the dev venv); without it those rows are
-measured without a baseline and say so. Every rtb ratio is measured in the same
+and IK with roboticstoolbox-python, which comes with ``pip install -e
+'.[bench]'``; without it those rows are measured without a peer and say so. Every rtb ratio is measured in the same
 run on the same DH model (rtb's Puma 560, standard DH, and the slides'
 modified-DH PUMA built both ways), on the same configurations and targets.
 

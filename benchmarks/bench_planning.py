@@ -7,7 +7,8 @@ Run: ``python benchmarks/bench_planning.py [--quick]``.
   must agree with on every pair checked.
 * Whole-arm collision check per configuration in batches of 1,000 (the Dobot
   V1.0 model's link boxes against a table and a wall) against python-fcl's
-  per-pair box query and python-fcl doing the same whole-arm check.
+  per-pair box query and python-fcl doing the same whole-arm check as its users
+  would: a DynamicAABBTreeCollisionManager broad phase for arm against scene.
 * PRM with 1,000 milestones and the real collision check, and queries, against
   a plain networkx + cKDTree PRM with a trivial check, and OMPL's PRM through its
   Python bindings (trivial check, and our own checker as its validity function).
@@ -16,9 +17,9 @@ Run: ``python benchmarks/bench_planning.py [--quick]``.
   recursion; the Dobot V1.0's 3-D workspace to 1 mm.
 * Batched analytic inverse kinematics for the planners.
 
-python-fcl and OMPL run in the benchmark venv (``/work/venv-bench``, made with
-``--system-site-packages``; ``pip install python-fcl ompl`` there, never in
-pyproject) in a subprocess; without it those rows say "not available".
+python-fcl and OMPL come with ``pip install -e '.[bench]'`` and run in a
+subprocess of this interpreter (``planning_peers.py``); without them those rows
+say "not available".
 Times are CPU seconds of the measuring process (``time.process_time``) with
 BLAS held to one thread, so other work on the machine skews them less.
 """
@@ -31,6 +32,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import importlib.util  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -50,7 +52,9 @@ from armtree.scene import Scene  # noqa: E402
 from armtree.tritri import intersect_matrix, intersect_pairs, triangles_intersect  # noqa: E402
 from armtree.workspace import ArmWorkspace, cover  # noqa: E402
 
-BENCH_PYTHON = Path(os.environ.get("ARMTREE_BENCH_PYTHON", "/work/venv-bench/bin/python"))
+BENCH_PYTHON = Path(os.environ.get("ARMTREE_BENCH_PYTHON", sys.executable))
+#: The module each peer task imports.
+PEER_MODULES = {"fcl": "fcl", "ompl": "ompl"}
 ROWS: list[tuple[str, str, str]] = []
 
 
@@ -83,8 +87,13 @@ def scene() -> Scene:
 
 
 def peer(task: str, payload: dict) -> dict | None:
-    """Run ``task`` of benchmarks/planning_peers.py in the benchmark venv; None if unavailable."""
+    """Run ``task`` of benchmarks/planning_peers.py in a subprocess; None if unavailable."""
     if not BENCH_PYTHON.exists():
+        return None
+    if (
+        Path(sys.executable) == BENCH_PYTHON
+        and importlib.util.find_spec(PEER_MODULES[task]) is None
+    ):
         return None
     with tempfile.TemporaryDirectory() as tmp:
         args = Path(tmp) / "args.npz"
@@ -218,7 +227,7 @@ def bench_whole_arm(quick: bool) -> None:
     }
     got = peer("fcl", payload)
     if got is None:
-        row("python-fcl", "not available", "pip install python-fcl in /work/venv-bench")
+        row("python-fcl", "not available", "pip install -e '.[bench]'")
         return
     row(
         "python-fcl per-pair box query (peer)",
@@ -226,7 +235,7 @@ def bench_whole_arm(quick: bool) -> None:
         f"{1e6 / got['pair_rate']:.2f} us/query",
     )
     row(
-        "python-fcl whole-arm check (peer)",
+        "python-fcl whole-arm check, broad phase (peer)",
         f"{got['arm_us']:.2f} us/config",
         f"agrees on {got['agree']}/1000 configs",
     )
@@ -313,7 +322,7 @@ def bench_prm(quick: bool) -> None:
     )
     got = peer("ompl", {"lower": lo, "upper": hi, "starts": pts[:, 0], "goals": pts[:, 1]})
     if got is None:
-        row("OMPL PRM", "not available", "pip install ompl in /work/venv-bench")
+        row("OMPL PRM", "not available", "pip install -e '.[bench]'")
         return
     row(
         "OMPL PRM build, trivial check (peer)",

@@ -1,17 +1,9 @@
 """Compatibility and speed of the ``hamming`` tracker against PyPI hampy 1.4.2.
 
-Runs only where hampy is installed, which is never the project's own
-environment (hampy pulls in nothing we want there). Set up once::
+hampy comes with the benchmark extra. From a clone::
 
-    python3.11 -m venv /work/venv-vision
-    echo "import site; site.addsitedir('/work/venv/lib/python3.11/site-packages')" \\
-        > /work/venv-vision/lib/python3.11/site-packages/armtree_dev_venv.pth
-    /work/venv-vision/bin/pip install --no-deps hampy==1.4.2
-
-(the .pth line lends it the dev venv's armtree, OpenCV, numpy, scipy and
-Pillow, which hampy imports, so nothing in /work/venv changes), then::
-
-    /work/venv-vision/bin/python benchmarks/compat_hampy.py [--ids 160] [--seed 0]
+    pip install -e '.[bench]'
+    python benchmarks/compat_hampy.py [--ids 160] [--seed 0]
 
 Checks, on 640x480 frames with three markers each (about 80 px across,
 tilted up to 25 degrees, anti-aliased edges):
@@ -43,8 +35,8 @@ try:
     from hampy.hamming_marker import HammingMarker
 except ImportError:  # pragma: no cover - the message is the point
     sys.exit(
-        "hampy is not installed here: run this script with /work/venv-vision/bin/python "
-        "(see its docstring for the one-time set-up)"
+        "hampy is not installed here: pip install -e '.[bench]' (the benchmarks' peers), "
+        "then run this script again"
     )
 
 from call_timing import MEASURES, ratios, time_contenders

@@ -1,7 +1,8 @@
-"""Peer measurements for bench_planning.py, run in the benchmark venv (python-fcl, OMPL).
+"""Peer measurements for bench_planning.py (python-fcl, OMPL), run in a subprocess.
 
 ``python planning_peers.py fcl|ompl ARGS.npz`` prints one JSON line of figures.
-Not a module of armtree: python-fcl and OMPL are benchmark-only dependencies.
+python-fcl and OMPL come with ``pip install -e '.[bench]'``; the subprocess keeps
+their libraries out of the process that times armtree.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 
 
 def fcl_task(args: dict) -> dict:
-    """python-fcl: one box-box query, and the whole-arm check of bench_planning."""
+    """python-fcl: one box-box query, and bench_planning's whole-arm check through its broad phase."""
     import fcl
 
     poses, sizes = args["poses"], args["sizes"]
@@ -35,20 +36,27 @@ def fcl_task(args: dict) -> dict:
         fcl.CollisionObject(fcl.Box(*s), fcl.Transform(p[:3, :3], p[:3, 3]))
         for p, s in zip(obs_pose, obs_size, strict=True)
     ]
-    moving = range(len(sizes))
+    # As fcl's users check a whole arm: a broad-phase manager (dynamic AABB tree) for the
+    # static scene and one for the links, updated after each pose; the self pairs that
+    # may collide (non-adjacent links) by narrow phase, as an allowed-pairs list is used.
+    scene = fcl.DynamicAABBTreeCollisionManager()
+    scene.registerObjects(obstacles)
+    scene.setup()
+    arm = fcl.DynamicAABBTreeCollisionManager()
+    arm.registerObjects(links)
+    arm.setup()
+    self_pairs = [(links[i], links[j]) for i, j in pairs]
     verdict = []
     t = time.process_time()
     for cfg in poses:
-        for k in moving:
-            links[k].setTransform(fcl.Transform(cfg[k, :3, :3], cfg[k, :3, 3]))
-        hit = False
-        for k in moving:
-            for o in obstacles:
-                if fcl.collide(links[k], o, req, fcl.CollisionResult()):
-                    hit = True
-        for i, j in pairs:
-            if fcl.collide(links[i], links[j], req, fcl.CollisionResult()):
-                hit = True
+        for k, link in enumerate(links):
+            link.setTransform(fcl.Transform(cfg[k, :3, :3], cfg[k, :3, 3]))
+        arm.update()
+        data = fcl.CollisionData()
+        arm.collide(scene, data, fcl.defaultCollisionCallback)
+        hit = data.result.is_collision or any(
+            fcl.collide(a, b, req, fcl.CollisionResult()) for a, b in self_pairs
+        )
         verdict.append(hit)
     arm_us = (time.process_time() - t) / len(poses) * 1e6
     agree = int(np.sum(np.array(verdict) == args["ours"]))

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from . import hookspecs
+from .docgen import replace_generated
 from .errors import ConfigError
 
 BEGIN = (
@@ -130,14 +131,7 @@ def update_file(path: Path) -> bool:
 
 def replace_reference(text: str, where: str = "the document") -> str:
     """``text`` with the part between :data:`BEGIN` and :data:`END` regenerated."""
-    start, end = text.find(BEGIN), text.find(END)
-    if start < 0 or end < start:
-        raise ConfigError(
-            f"{where} has no hook reference markers: put the lines\n{BEGIN}\n{END}\n"
-            "where the reference belongs",
-            file=where,
-        )
-    return text[: start + len(BEGIN)] + "\n\n" + hook_reference() + "\n" + text[end:]
+    return replace_generated(text, BEGIN, END, hook_reference(), where, "hook reference")
 
 
 class HooksCommand:

@@ -1,6 +1,6 @@
 """Loading tree files: validate everything, then build the py_trees behaviours.
 
-Format (see DESIGN.md "Tree files")::
+Format (see docs/tree_files.md)::
 
     # yaml-language-server: $schema=tree.schema.json
     tree: load_ducky                 # name (default: the file's stem)

@@ -1,4 +1,4 @@
-"""The public contract names of DESIGN.md exist and behave as documented."""
+"""The public names plugins and trees rely on (armtree.ConfigError, clocks, Param, motion handles) behave as documented."""
 
 import numpy as np
 import pytest
