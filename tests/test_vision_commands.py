@@ -248,3 +248,30 @@ def test_detect_takes_tracker_and_tags_from_a_profile(frames_dir, capsys):
     assert (dets[3]["role"], dets[3]["size_mm"]) == ("trash", 30.0)
     assert dets[2]["role"] == "unknown" and dets[2]["tvec"] is None
     assert dets[3]["tvec"][2] == pytest.approx(360.0, abs=6.0), "a 25 mm marker taken as 30 mm"
+
+
+@pytest.mark.parametrize("scale", [1, 2])
+def test_detect_with_a_rig_takes_the_profiles_camera_intrinsics(
+    frames_dir, tmp_path, capsys, scale
+):
+    folder, truth = frames_dir
+    # the profile's camera was calibrated at 640x480; a half-size image scales its intrinsics
+    image = cv2.imread(str(folder / "three.png"))
+    small = cv2.resize(image, (640 // scale, 480 // scale), interpolation=cv2.INTER_AREA)
+    cv2.imwrite(str(tmp_path / "shot.png"), small)
+    profile = tmp_path / "rig.yaml"
+    profile.write_text(
+        "profile: rig\n"
+        "arm: {type: dobot_v1, port: sim}\n"
+        "camera: {type: sim, width: 640, height: 480,\n"
+        f"         intrinsics: {{fx: {K[0, 0]}, fy: {K[1, 1]}, cx: {K[0, 2]}, cy: {K[1, 2]}}}}}\n"
+        "tracker: {type: hamming}\n"
+        "tags: {ducky: {ids: [1, 2, 3], size_mm: 25}}\n"
+    )
+    argv = [str(tmp_path / "shot.png"), "--rig", str(profile), "--tracker", "hamming", "--json"]
+    assert run(DetectCommand(), argv) == 0
+    dets = json.loads(capsys.readouterr().out)["detections"]
+    assert {d["id"] for d in dets} == {1, 2, 3}
+    for d in dets:
+        assert d["tvec"] is not None, "the profile's intrinsics give every marker a pose"
+        assert d["tvec"][2] == pytest.approx(300.0, abs=8.0)

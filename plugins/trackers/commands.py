@@ -10,6 +10,7 @@ Bad input raises :class:`ConfigError` naming the file or option (exit 2).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ import numpy as np
 
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
+from armtree.plugins.cameras.intrinsics import Intrinsics, intrinsics_from_config
 from armtree.rig import Detection, Frame, RigContext
 
 from . import hamming_code
@@ -92,8 +94,14 @@ class DetectCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Detect, print, draw; the exit code (0, or ConfigError for bad input)."""
-        tracker = self._tracker(args)
-        intr = intrinsics_from_args(args)
+        profile = None
+        if args.rig:
+            from armtree.profile import load_profile
+
+            profile = load_profile(args.rig)
+        tracker = self._tracker(args, profile)
+        # --intrinsics or --calibration win; else the profile's camera, so poses come out
+        intr = intrinsics_from_args(args) or profile_intrinsics(profile)
         if args.rate:
             return self._rate(args, tracker, intr)
         out_dir = Path(args.annotate) if args.annotate else None
@@ -138,14 +146,10 @@ class DetectCommand:
             )
         return 0
 
-    def _tracker(self, args: argparse.Namespace) -> Any:
+    def _tracker(self, args: argparse.Namespace, profile: Any) -> Any:
         registry = registry_of(args)
-        profile = None
         config: dict[str, Any] = {}
-        if args.rig:
-            from armtree.profile import load_profile
-
-            profile = load_profile(args.rig)
+        if profile is not None:
             section = profile.section("tracker") or {}
             if section.get("type", args.tracker) == args.tracker:
                 config = {k: v for k, v in section.items() if k != "type"}
@@ -218,6 +222,21 @@ class DetectCommand:
                 t = np.asarray(d.tvec, float)
                 line += f", t = [{t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}] mm"
             print(line)
+
+
+def profile_intrinsics(profile: Any) -> Intrinsics | None:
+    """The intrinsics of the profile's camera (calibration file or inline values), or None.
+
+    They hold for the camera's ``width`` x ``height`` when it gives them, and are
+    scaled to the size of each image.
+    """
+    camera = None if profile is None else profile.section("camera")
+    if not camera:
+        return None
+    intr = intrinsics_from_config(camera, profile)
+    if intr is not None and intr.width is None and camera.get("width") and camera.get("height"):
+        intr = dataclasses.replace(intr, width=int(camera["width"]), height=int(camera["height"]))
+    return intr
 
 
 def _detect(tracker: Any, frame: Frame, path: str) -> list[Detection]:
