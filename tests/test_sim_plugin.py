@@ -102,7 +102,9 @@ def test_recording_writes_videos_png_and_score(tmp_path, build):
     overhead_video = next(n for n in files if n.startswith("overhead.") and not n.endswith(".png"))
     assert {"overhead.png", "score.json"} <= files
     frames = cv2.VideoCapture(str(tmp_path / camera_video))
-    assert int(frames.get(cv2.CAP_PROP_FRAME_COUNT)) == 30
+    # 30 frames were read in 1.5 s; the video plays at the run's time: 1.5 s at 30 fps, from t = 0
+    assert int(frames.get(cv2.CAP_PROP_FRAME_COUNT)) == 46
+    assert frames.get(cv2.CAP_PROP_FPS) == pytest.approx(30.0, abs=1e-6)
     overhead = cv2.VideoCapture(str(tmp_path / overhead_video))
     assert int(overhead.get(cv2.CAP_PROP_FRAME_COUNT)) == 16  # 1.5 s at 10 frames/s, from t = 0
     png = cv2.imread(str(tmp_path / "overhead.png"))

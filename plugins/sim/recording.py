@@ -1,7 +1,9 @@
 """Recordings of a simulated run: camera video, overhead video and PNG, score JSON.
 
-The camera video holds every frame the sim camera produced, at its frame
-rate; the overhead view is a top-down drawing of the table, the bodies, the
+The camera video plays at the run's time, at the camera's frame rate: a frame
+the camera produced stands in for the frames after it that no one read (the sim
+camera renders only the frames skills read), up to the end of the run. The
+overhead view is a top-down drawing of the table, the bodies, the
 arm's links, the camera's field of view and the planned path, drawn at
 ``OVERHEAD_FPS`` on the run's clock. Videos are MP4 (mp4v) when OpenCV can
 write it, else Motion-JPEG AVI.
@@ -10,6 +12,7 @@ write it, else Motion-JPEG AVI.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -198,7 +201,11 @@ class Recorder:
         self._overhead_writer: Any = None
         self.paths: dict[str, Path] = {}
         self._next_overhead = 0.0
+        #: Camera frames rendered during the run (the video holds more: see the module).
         self.frames = 0
+        self._camera_next = 0  # index of the camera video's next frame
+        self._camera_last: np.ndarray | None = None
+        self._now = 0.0
         #: Tool positions (x, y mm) seen so far, for the overhead view.
         self.trail: list[tuple[float, float]] = []
         if camera is not None:
@@ -213,8 +220,21 @@ class Recorder:
             self._camera_writer, self.paths["camera"] = open_video(
                 self.directory / "camera.mp4", self.camera.fps, (w, h)
             )
+        index = self._camera_next if frame.index is None else int(frame.index)
+        if index < self._camera_next:
+            return  # a frame rendered again (render_now): the video has it
+        # the first frame also stands for the time before it
+        self._fill_camera(index, image if self._camera_last is None else self._camera_last)
         self._camera_writer.write(image)
+        self._camera_next = index + 1
+        self._camera_last = image
         self.frames += 1
+
+    def _fill_camera(self, index: int, image: np.ndarray) -> None:
+        """Repeat ``image`` in the camera video up to (not including) frame ``index``."""
+        while self._camera_next < index:
+            self._camera_writer.write(image)
+            self._camera_next += 1
 
     def _draw(self) -> np.ndarray:
         model = getattr(self.world, "model", None)
@@ -222,6 +242,7 @@ class Recorder:
 
     def step(self, now: float) -> None:
         """Add overhead frames up to ``now`` (seconds on the run's clock)."""
+        self._now = max(self._now, now)
         arm = self.world.arm
         if arm is not None:
             tip = (float(arm.tool_pose[0, 3]), float(arm.tool_pose[1, 3]))
@@ -243,6 +264,11 @@ class Recorder:
 
     def finish(self, score: dict[str, Any]) -> None:
         """Write the final overhead PNG and the score, and close the videos."""
+        if self._camera_writer is not None and self._camera_last is not None:
+            # the last frame shown lasts until the run's end
+            self._fill_camera(
+                int(math.floor(self._now * self.camera.fps + 1e-9)) + 1, self._camera_last
+            )
         image = self._draw()
         cv2.imwrite(str(self.directory / "overhead.png"), image)
         self.paths["overhead_png"] = self.directory / "overhead.png"
