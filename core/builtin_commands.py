@@ -69,6 +69,8 @@ class Check:
     def run(self, args: argparse.Namespace) -> int:
         """Load and validate; print a one-line summary. Raises ConfigError when invalid."""
         tree = _load(args)
+        if tree.profile is None:
+            _refuse_rigless(tree)
         rig = f" on {tree.profile.name}" if tree.profile is not None else " (no rig)"
         print(f"ok: {tree.name}: {len(tree.nodes)} nodes at {tree.tick_hz:g} Hz{rig}")
         # Checking imports the plugin code a tree, its profile or --plugin names: say which.
@@ -76,6 +78,48 @@ class Check:
         if loaded:
             print("imported plugin code: " + ", ".join(loaded))
         return 0
+
+
+#: Resources a behaviour claims that only a rig with an arm has.
+ARM_RESOURCES = frozenset({"arm", "tool", "head"})
+
+
+def rig_needs(behaviour: py_trees.behaviour.Behaviour) -> tuple[str, ...]:
+    """The rig components a behaviour needs: its ``NEEDS``, and an arm for the resources it claims."""
+    needs = list(getattr(behaviour, "NEEDS", ()) or ())
+    if ARM_RESOURCES & set(getattr(behaviour, "RESOURCES", ()) or ()) and "arm" not in needs:
+        needs.insert(0, "arm")
+    return tuple(needs)
+
+
+def _article(part: str) -> str:
+    return f"an {part}" if part[:1] in "aeiou" else f"a {part}"
+
+
+def _refuse_rigless(tree: Tree) -> None:
+    """ConfigError at every node that needs a rig component, for a tree loaded without a rig."""
+    errors = []
+    for behaviour in tree.root.iterate():
+        needs = rig_needs(behaviour)
+        if not needs:
+            continue
+        info = tree.nodes.get(behaviour.id)
+        where = info.mark if info is not None else None
+        what = info.type if info is not None else behaviour.name
+        errors.append(
+            ConfigError(
+                f"{what} needs a rig with {' and '.join(_article(n) for n in needs)}, but the "
+                "tree names none: "
+                "add 'rig: PROFILE' to the tree or give --rig PROFILE (e.g. --rig sim_dobot)",
+                file=where.file if where else str(tree.source),
+                line=where.line if where else None,
+                column=where.column if where else None,
+            )
+        )
+    if errors:
+        raise ConfigError(
+            errors[0].message, errors[0].file, errors[0].line, errors[0].column, errors
+        )
 
 
 class Show:

@@ -240,3 +240,28 @@ def test_show_png_uses_graphviz_when_its_dot_program_is_installed(tmp_path, monk
     assert out.read_text() == "PNG from dot"
     assert (bin_dir / "args").read_text().startswith(f"-Tpng -o {out} ")
     assert "Never" in (bin_dir / "source.dot").read_text()
+
+
+def test_check_refuses_a_tree_without_a_rig_whose_skills_need_an_arm(tmp_path, capsys):
+    tree = write(
+        tmp_path,
+        "arm.yaml",
+        """
+        tree: moves
+        root:
+          sequence:
+            children:
+              - success: {}
+              - home: {}
+        """,
+    )
+    manager = get_plugin_manager(autoload=False)
+    with pytest.raises(armtree.ConfigError) as err:
+        COMMANDS["check"].run(parse("check", [str(tree)], manager))
+    assert (err.value.file, err.value.line) == (str(tree), 6)  # the home node's line
+    assert "home needs a rig with an arm" in err.value.message and "--rig" in err.value.message
+    # with a rig given the same tree is fine, and a tree of plain behaviours needs none
+    assert COMMANDS["check"].run(parse("check", [str(tree), "--rig", "sim_dobot"], manager)) == 0
+    plain = write(tmp_path, "plain.yaml", TREE)
+    assert COMMANDS["check"].run(parse("check", [str(plain)], manager)) == 0
+    assert "(no rig)" in capsys.readouterr().out
