@@ -63,7 +63,9 @@ class NodeType:
     a decorator, ``children=`` for a composite) and returns a py_trees behaviour;
     it raises ``ValueError`` for a combination of values the declarations cannot
     express, and the loader reports that at the node. ``writes`` names parameters
-    whose value is the name of a blackboard key the node writes. These adapters
+    whose value is the name of a blackboard key the node writes, ``reads`` those
+    naming a key it reads (a list of ``{variable_name: KEY, ...}`` mappings names
+    one key per item). These adapters
     take literal values only (``bindable`` is False): py_trees' classes cannot
     read a ``"{key}"`` binding.
     """
@@ -74,6 +76,7 @@ class NodeType:
     doc: str
     writes: tuple[str, ...] = ()
     bindable: bool = False
+    reads: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         # Listings read a factory's docstring; an adapter's is its own description.
@@ -356,6 +359,7 @@ def node_types() -> dict[str, NodeType | type]:
                 Param("namespace", "str", None, doc="blackboard namespace for the choice"),
             ),
             "Run the child of the first condition that holds, first come first served.",
+            reads=("conditions",),
         ),
         # Leaves
         "success": _simple(pb.Success, "Always SUCCESS."),
@@ -401,6 +405,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             (_VAR,),
             "Return the status stored in a blackboard variable.",
+            reads=("variable_name",),
         ),
         "check_blackboard_variable_exists": NodeType(
             LEAF,
@@ -409,6 +414,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             (_VAR,),
             "SUCCESS if the blackboard variable exists, else FAILURE.",
+            reads=("variable_name",),
         ),
         "wait_for_blackboard_variable": NodeType(
             LEAF,
@@ -417,6 +423,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             (_VAR,),
             "RUNNING until the blackboard variable exists, then SUCCESS.",
+            reads=("variable_name",),
         ),
         "unset_blackboard_variable": NodeType(
             LEAF,
@@ -447,6 +454,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             (_VAR, _VALUE, _OP),
             "SUCCESS if `variable operator value` holds, else FAILURE.",
+            reads=("variable_name",),
         ),
         "wait_for_blackboard_variable_value": NodeType(
             LEAF,
@@ -455,6 +463,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             (_VAR, _VALUE, _OP),
             "RUNNING until `variable operator value` holds, then SUCCESS.",
+            reads=("variable_name",),
         ),
         "compare_blackboard_variables": NodeType(
             LEAF,
@@ -467,6 +476,7 @@ def node_types() -> dict[str, NodeType | type]:
                 _OP,
             ),
             "SUCCESS if `var1 operator var2` holds, else FAILURE.",
+            reads=("var1_key", "var2_key"),
         ),
         "check_blackboard_variable_values": NodeType(
             LEAF,
@@ -477,6 +487,7 @@ def node_types() -> dict[str, NodeType | type]:
                 Param("namespace", "str", None, doc="store each check's result under it"),
             ),
             "Combine several blackboard comparisons with and/or/xor.",
+            reads=("checks",),
         ),
         "probabilistic_behaviour": NodeType(
             LEAF,
@@ -526,6 +537,7 @@ def node_types() -> dict[str, NodeType | type]:
             _eternal_guard,
             (_VAR, Param("value", "any", True, doc="value to compare with"), _OP),
             "Tick the child only while `variable operator value` holds; halt it and fail otherwise.",
+            reads=("variable_name",),
         ),
         "timeout": Timeout,
         "one_shot": NodeType(
@@ -561,6 +573,7 @@ def node_types() -> dict[str, NodeType | type]:
             ),
             "Run the child once per item of a blackboard list.",
             writes=("target_key",),
+            reads=("source_key",),
         ),
     }
 

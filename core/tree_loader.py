@@ -190,6 +190,10 @@ class _Loader:
         self.nodes: dict[Any, NodeInfo] = {}
         self.reads: list[tuple[str, Mark | None, Mark | None]] = []
         self.writes: set[str] = set()
+        #: Keys named literally by nodes that read them (py_trees' blackboard behaviours).
+        self.literal_reads: set[str] = set()
+        #: Blackboard keys given by --set, with the override that gave each.
+        self.set_keys: dict[str, Override] = {}
         self.blackboard: dict[str, Any] = {}
         self.node_count = 0
         #: Resolves places, tag roles, reach and rig parts once the profile is known.
@@ -264,7 +268,7 @@ class _Loader:
         for o in other:
             if o.keys[0] not in given:
                 _set_nested(self.blackboard, o.keys, o.value)
-                self.writes.add(_root_key(o.keys[0]))
+                self.set_keys.setdefault(_root_key(o.keys[0]), o)
         tick_hz = self.tick_hz(data, ctx)
         root = None
         if "root" in data:
@@ -273,6 +277,7 @@ class _Loader:
             self.error("the tree has no root node", data.mark, ctx)
         expect = self.expectations(data, ctx, profile)
         self.check_reads()
+        self.check_set_keys(declared)
         if self.errors:
             raise self.fail()
         assert root is not None
@@ -672,6 +677,7 @@ class _Loader:
         declared = {p.name: p for p in declared_params(factory)}
         bindable = is_bindable(factory)
         writes = set(getattr(factory, "writes", ()))
+        reads = set(getattr(factory, "reads", ()))
         before = len(self.errors)
         incomplete = False
         params: dict[str, Any] = {}
@@ -724,6 +730,8 @@ class _Loader:
             if key in writes and isinstance(value, str):
                 self.writes.add(_root_key(value))
             self.check_on_rig(f"{node.type}.{key}", param, params[key], mark, ctx)
+            if key in reads:
+                self.literal_reads.update(_named_keys(value))
         for pname, param in declared.items():
             if pname in params or pname in options:
                 continue
@@ -864,9 +872,26 @@ class _Loader:
 
     # -------------------------------------------------------------- blackboard
 
+    def check_set_keys(self, declared: dict[str, Any] | None) -> None:
+        """A --set blackboard key that no node reads (nor the tree declares) is a typo."""
+        used = self.writes | self.literal_reads | {key for key, _, _ in self.reads}
+        for key, override in self.set_keys.items():
+            if key in used:
+                continue
+            options = sorted(used | set(declared or {}) | set(OVERRIDE_SECTIONS) | {"tick_hz"})
+            hint = did_you_mean(key, options)
+            self.errors.append(
+                error_at(
+                    f"no node of this tree reads blackboard key {shown(key)}{hint} (--set takes "
+                    "a key the tree reads or declares in blackboard:, a declared parameter, "
+                    "tick_hz or a profile section such as arm.port)",
+                    override.mark,
+                )
+            )
+
     def check_reads(self) -> None:
         for key, mark, included_from in self.reads:
-            if key not in self.writes:
+            if key not in self.writes and key not in self.set_keys:
                 message = (
                     f"blackboard key {shown(key)} is read here but nothing writes it: bind an output "
                     f'parameter to "{{{key}}}", give it in blackboard:, or --set {key}=VALUE'
@@ -925,6 +950,19 @@ def is_bindable(factory: Any) -> bool:
 
 def _root_key(key: str) -> str:
     return key.lstrip("/").split(".")[0]
+
+
+def _named_keys(value: Any) -> set[str]:
+    """Root keys a read parameter names: a key, or ``variable_name`` of each mapping in a list."""
+    if isinstance(value, str):
+        return {_root_key(value)}
+    if isinstance(value, list):
+        return {
+            _root_key(item["variable_name"])
+            for item in value
+            if isinstance(item, dict) and isinstance(item.get("variable_name"), str)
+        }
+    return set()
 
 
 def _file_mark(ctx: _Context) -> Mark:

@@ -260,7 +260,11 @@ def test_a_plugin_command_may_not_take_the_name_run(work, capsys):
 
 
 def test_set_overrides_reach_the_run_and_its_log(work):
-    args = ["ok.yaml", "--quiet", "--record", "r", "--set", "speed=3", "--set", "home=[1, 2]"]
+    write(
+        work / "keys.yaml",
+        "tree: keys\nblackboard: {speed: 1, home: [0, 0]}\nroot: {success: {}}\n",
+    )
+    args = ["keys.yaml", "--quiet", "--record", "r", "--set", "speed=3", "--set", "home=[1, 2]"]
     assert run_tree(args) == 0
     start = read_log(work / "r" / "run.jsonl")[0]
     assert start["blackboard"] == {"speed": 3, "home": [1, 2]}

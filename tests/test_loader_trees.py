@@ -372,10 +372,34 @@ def test_top_level_parameters_and_blackboard_overrides(tmp_path):
             - wait: {seconds: "{pause}"}
         """,
     )
-    tree = load(path, overrides=["delay=3.5", "pause=2", "goal.y=[1, 2]", "flag=yes"])
+    tree = load(path, overrides=["delay=3.5", "pause=2", "goal.y=[1, 2]"])
     assert tree.root.children[0].params == {"seconds": 3.5}
     assert tree.root.children[1].params == {"seconds": Binding("pause")}
-    assert tree.blackboard == {"goal": {"x": 1, "y": [1, 2]}, "pause": 2, "flag": True}
+    assert tree.blackboard == {"goal": {"x": 1, "y": [1, 2]}, "pause": 2}
+
+
+def test_a_set_key_no_node_reads_is_an_error_with_did_you_mean(tmp_path):
+    path = write(
+        tmp_path,
+        "t.yaml",
+        """
+        blackboard: {clean_up: true}
+        root:
+          sequence:
+            - check_blackboard_variable_value: {variable_name: clean_up, value: true}
+            - wait: {seconds: "{pause}"}
+            - eternal_guard: {variable_name: armed.ready, child: {success: {}}}
+        """,
+    )
+    with pytest.raises(armtree.ConfigError) as info:
+        load(path, overrides=["pause=1", "clean_upp=false", "flag=yes"])
+    messages = [(e.file, e.message) for e in info.value.errors]
+    assert [file for file, _ in messages] == ["--set clean_upp=false", "--set flag=yes"]
+    assert "no node of this tree reads blackboard key 'clean_upp'" in messages[0][1]
+    assert "did you mean 'clean_up'?" in messages[0][1]
+    # keys read by a binding, named by a py_trees blackboard behaviour or declared are fine
+    tree = load(path, overrides=["pause=1", "clean_up=false", "armed={ready: true}"])
+    assert tree.blackboard == {"clean_up": False, "pause": 1, "armed": {"ready": True}}
 
 
 def test_names_resolve_in_the_working_directory_then_the_shipped_trees(tmp_path, monkeypatch):

@@ -310,7 +310,9 @@ def test_with_overrides_revalidates_a_loaded_profile(tmp_path):
 
 def test_tree_passes_profile_overrides_and_reports_profile_errors(tmp_path):
     write(tmp_path, "bench.yaml", GOOD)
-    tree_path = write(tmp_path, "t.yaml", "rig: bench\nroot: {success: {}}\n")
+    tree_path = write(
+        tmp_path, "t.yaml", "rig: bench\nblackboard: {goal: 0}\nroot: {success: {}}\n"
+    )
     tree = armtree.load_tree(
         tree_path, overrides=["arm.port=/dev/ttyUSB0", "goal=1"], manager=manager()
     )
