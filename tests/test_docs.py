@@ -42,7 +42,7 @@ def test_profiles_md_component_reference_is_current():
         "docs/profiles.md's component reference is out of date: run "
         "python -m armtree.profile_reference --update docs/profiles.md"
     )
-    assert "#### `arm: {type: dobot_v1}`" in text and "| `l1_mm` | float, mm |" in text
+    assert "#### `arm: {type: dobot_v1}`" in text and "| `l1_mm` | float, mm" in text
 
 
 def test_profile_reference_update_needs_the_markers(tmp_path, capsys):
