@@ -59,6 +59,18 @@ def plugin_options(parser: argparse.ArgumentParser, suppress: bool = False) -> N
     )
 
 
+def version_text(prog: str) -> str:
+    """``PROG VERSION`` of the installed armtree, as ``--version`` prints it."""
+    from .plugin_checks import installed_version
+
+    return f"{prog} {installed_version()}"
+
+
+def add_version_option(parser: argparse.ArgumentParser, prog: str) -> None:
+    """Add ``--version``: print the installed armtree's version and exit 0."""
+    parser.add_argument("--version", action="version", version=version_text(prog))
+
+
 def add_set_option(parser: argparse.ArgumentParser, help: str) -> None:  # noqa: A002
     """Add the repeatable ``--set KEY=VALUE`` option (collected in ``args.overrides``)."""
     parser.add_argument(
@@ -185,6 +197,9 @@ def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
 def run_tree_main(argv: Sequence[str] | None = None) -> int:
     """``run-tree TREE [options]``: run a tree on its rig; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    if "--version" in argv:  # before any plugin loads: it answers even when one is broken
+        print(version_text("run-tree"))
+        return EXIT_OK
     pre = argparse.ArgumentParser(add_help=False)
     plugin_options(pre)
     known, _ = pre.parse_known_args(argv)
@@ -198,6 +213,7 @@ def run_tree_main(argv: Sequence[str] | None = None) -> int:
         )
         add_run_arguments(parser, manager)
         plugin_options(parser)
+        add_version_option(parser, "run-tree")
         holder["parser"] = parser
         return EXIT_OK
 
@@ -254,9 +270,27 @@ def _commands(manager: Any) -> dict[str, Any]:
     return commands
 
 
+def _asks_version(argv: Sequence[str]) -> bool:
+    """True when ``--version`` comes before the subcommand (after options only)."""
+    if "--version" not in argv:
+        return False
+    head, i = list(argv[: list(argv).index("--version")]), 0
+    while i < len(head):
+        if head[i] in ("-p", "--plugin"):
+            i += 2
+        elif head[i].startswith("-"):
+            i += 1
+        else:
+            return False
+    return True
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``armtree SUBCOMMAND [options]``; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    if _asks_version(argv):  # before any plugin loads: it answers even when one is broken
+        print(version_text("armtree"))
+        return EXIT_OK
     pre = argparse.ArgumentParser(add_help=False)
     plugin_options(pre)
     known, _ = pre.parse_known_args(argv)
@@ -275,6 +309,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="armtree", description="Behaviour trees in YAML for vision-guided robot arms."
     )
     plugin_options(parser, suppress=True)
+    add_version_option(parser, "armtree")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in sorted(commands):
         command = commands[name]

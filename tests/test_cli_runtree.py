@@ -269,3 +269,18 @@ def test_set_overrides_reach_the_run_and_its_log(work):
     start = read_log(work / "r" / "run.jsonl")[0]
     assert start["blackboard"] == {"speed": 3, "home": [1, 2]}
     assert start["clock"] == "virtual" and start["seed"] == 0
+
+
+def test_version_of_both_commands_even_with_a_broken_plugin(work, capsys):
+    version = importlib.metadata.version("armtree")
+    assert armtree(["--version"]) == 0
+    assert capsys.readouterr().out == f"armtree {version}\n"
+    assert run_tree(["--version"]) == 0
+    assert capsys.readouterr().out == f"run-tree {version}\n"
+    (work / "broken.py").write_text("raise ImportError('nope')\n")
+    assert run_tree(["ok.yaml", "--plugin", "broken.py", "--version"]) == 0
+    assert capsys.readouterr().out == f"run-tree {version}\n"
+    # after a subcommand, --version is that command's unknown option: a usage error
+    with pytest.raises(SystemExit) as exit_:
+        armtree(["check", "--version"])
+    assert exit_.value.code == 2
