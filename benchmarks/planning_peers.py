@@ -36,6 +36,14 @@ def fcl_task(args: dict) -> dict:
         fcl.CollisionObject(fcl.Box(*s), fcl.Transform(p[:3, :3], p[:3, 3]))
         for p, s in zip(obs_pose, obs_size, strict=True)
     ]
+    mesh = args.get("mesh")
+    if mesh is not None and len(mesh):
+        # a triangle mesh obstacle, as fcl takes one: a BVH model built once
+        model = fcl.BVHModel()
+        model.beginModel(3 * len(mesh), len(mesh))
+        model.addSubModel(mesh.reshape(-1, 3), np.arange(3 * len(mesh)).reshape(-1, 3))
+        model.endModel()
+        obstacles.append(fcl.CollisionObject(model, fcl.Transform()))
     # As fcl's users check a whole arm: a broad-phase manager (dynamic AABB tree) for the
     # static scene and one for the links, updated after each pose; the self pairs that
     # may collide (non-adjacent links) by narrow phase, as an allowed-pairs list is used.
