@@ -26,7 +26,7 @@ FREE = ("tool_offset_mm", "l1_mm", "l2_mm")
 
 
 class LoopModel:
-    """A Dobot model whose ``position`` loops over points (the baseline)."""
+    """A Dobot model whose ``position`` loops over points (a baseline, not a peer; no library peer is measured)."""
 
     def __init__(self, params: Mapping[str, float]) -> None:
         self.inner = DobotV1Model(**params)
@@ -68,7 +68,7 @@ def main() -> None:
     looped, _ = timed(LoopModel, data, max(1, args.repeat // 2))
     print(f"kinematic calibration, {args.n} points, free: {', '.join(FREE)} + joint offsets")
     print(f"  batched numpy residuals: {batched * 1e3:8.2f} ms CPU per fit")
-    print(f"  per-point loop baseline: {looped * 1e3:8.2f} ms CPU per fit")
+    print(f"  per-point loop (baseline, not a peer): {looped * 1e3:8.2f} ms CPU per fit")
     print(f"  ratio (loop / batched):  {looped / batched:8.1f}x")
     print(
         "  recovered (truth 48 / 136 / 159 mm; 0.5, 1.5, -2.0 deg): "

@@ -129,7 +129,11 @@ def dobot_fk(n: int, rng: np.random.Generator) -> Case:
     model, q = DobotV1Model(), _dobot_q(n, rng)
     small = q[: max(1, n // 10)]
     return Case(
-        lambda: model.position(q), n, lambda: _dobot_fk_loop(small), len(small), "python loop"
+        lambda: model.position(q),
+        n,
+        lambda: _dobot_fk_loop(small),
+        len(small),
+        "python loop (baseline, not a peer)",
     )
 
 
@@ -137,7 +141,13 @@ def dobot_fk_pose(n: int, rng: np.random.Generator) -> Case:
     """Dobot V1 4x4 tool poses, batched."""
     model, q = DobotV1Model(), _dobot_q(n, rng)
     small = q[: max(1, n // 10)]
-    return Case(lambda: model.fk(q), n, lambda: _dobot_fk_loop(small), len(small), "python loop")
+    return Case(
+        lambda: model.fk(q),
+        n,
+        lambda: _dobot_fk_loop(small),
+        len(small),
+        "python loop (baseline, not a peer)",
+    )
 
 
 def dobot_link_frames(n: int, rng: np.random.Generator) -> Case:
@@ -152,7 +162,11 @@ def dobot_ik(n: int, rng: np.random.Generator) -> Case:
     p = model.position(_dobot_q(n, rng))
     small = p[: max(1, n // 10)]
     return Case(
-        lambda: model.ik_all(p), n, lambda: _dobot_ik_loop(small), len(small), "python loop"
+        lambda: model.ik_all(p),
+        n,
+        lambda: _dobot_ik_loop(small),
+        len(small),
+        "python loop (baseline, not a peer)",
     )
 
 
@@ -162,7 +176,11 @@ def dobot_jacobian(n: int, rng: np.random.Generator) -> Case:
 
     model, q = DobotV1Model(), _dobot_q(n, rng)
     return Case(
-        lambda: model.jacobian(q), n, lambda: KinematicModel.jacobian(model, q), n, "finite diff."
+        lambda: model.jacobian(q),
+        n,
+        lambda: KinematicModel.jacobian(model, q),
+        n,
+        "finite diff. (baseline, not a peer)",
     )
 
 
@@ -410,7 +428,7 @@ def main() -> None:
     parser.add_argument("--n-ik-ours", type=int, default=20_000, help="IK batch size for armtree")
     args = parser.parse_args()
     table = Table(title=f"Batched kinematics, {args.n:,} configurations per call (CPU time)")
-    for col in ("arm", "what", "armtree /s", "baseline", "baseline /s", "ratio", "note"):
+    for col in ("arm", "what", "armtree /s", "peer or baseline", "its /s", "ratio", "note"):
         table.add_column(col, justify="right" if col.endswith("/s") or col == "ratio" else "left")
     measured = rows(args.n, n_ik=args.n_ik, n_ik_ours=args.n_ik_ours, repeat=args.repeat)
     for r in measured:
