@@ -1,6 +1,7 @@
 """armtree replay: a recording read back tick by tick; bad directories; recordings cut short."""
 
 import shutil
+import socket
 from collections import defaultdict
 
 import cv2
@@ -130,3 +131,13 @@ def test_without_run_mcap_the_tree_statuses_feedback_and_blackboard_come_from_ru
     assert state["feedback"][index[last["node"]]] == last["message"]
     assert state["letters"] == expected_letters(log, last["tick"])
     assert state["scene"] is None and rec.image_at(rec.time(rec.ticks)) is None
+
+
+def test_a_replay_port_in_use_is_exit_2(recorded_run, capsys):
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["replay", str(recorded_run), "--port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert f"--port: port {port} on 127.0.0.1 is already in use" in err and "Traceback" not in err
