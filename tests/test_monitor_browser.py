@@ -91,6 +91,7 @@ def test_replay_scrubbed_to_a_tick_shows_the_statuses_of_run_jsonl(recorded_run)
             assert page.inner_text("#outcome").startswith("success · ")
             wait_until(page, "Number(document.querySelector('#camera').dataset.frames || 0) >= 1")
             assert not errors, errors
+            code, _ = proc.interrupt()
+            assert code == 130
         finally:
-            proc.p.terminate()
             proc.kill()

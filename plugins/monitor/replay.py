@@ -8,6 +8,7 @@ speed is the page asking for ticks at that pace.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import threading
 from pathlib import Path
@@ -100,7 +101,7 @@ class ReplayCommand:
         )
 
     def run(self, args: argparse.Namespace) -> int:
-        """Serve until Ctrl-C; exit 2 for a directory that is not a run, 130 when stopped."""
+        """Serve until Ctrl-C or SIGTERM (exit 130); exit 2 for a directory that is not a run."""
         recording = Recording.open(Path(args.run_dir))
         feed = ReplayFeed(recording, args.host, args.port)
         url = feed.server.start()
@@ -112,11 +113,16 @@ class ReplayCommand:
             flush=True,
         )
         print("Ctrl-C stops the server", file=sys.stderr, flush=True)
+        stop = threading.Event()
+        previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+        for sig in previous:
+            signal.signal(sig, lambda *_: stop.set())
         try:
-            threading.Event().wait()
-        except KeyboardInterrupt:
-            pass
+            while not stop.wait(0.5):
+                pass
         finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
             feed.server.stop(grace=0.2)
         return EXIT_INTERRUPTED
 
