@@ -7,7 +7,10 @@ hot reload of the tree file.
 * :mod:`.scene`: the arm, the objects, the camera's view and the planned path in numbers;
 * :mod:`.recording` and :mod:`.schemas`: ``run.mcap`` with Foxglove's schemas;
 * :mod:`.server`: the page and its websocket (aiohttp, on a thread of its own);
-* :mod:`.live` and :mod:`.replay`: what feeds the page, from a run or from a recording;
+* :mod:`.session`: what the monitor keeps for one run, and hands to the page and the recording;
+* :mod:`.live`, :mod:`.recorded` and :mod:`.replay`: what feeds the page, from a run or
+  from a recording read back;
 * :mod:`.watch`: ``--watch``, swapping in a changed tree at a safe point;
+* :mod:`.chromium`: Debian's chromium as the browser tests and benchmarks start it;
 * :mod:`.plugin`: the hooks that tie them to a run, and ``armtree replay``.
 """

@@ -221,8 +221,9 @@ class PageServer:
                 loop.call_soon_threadsafe(function, *args)
 
     def broadcast(self, message: dict[str, Any]) -> None:
-        """Send ``message`` (JSON) to every open page."""
-        self.call(self._enqueue_all, json.dumps(message, separators=(",", ":")))
+        """Send ``message`` (JSON) to every open page (nothing is encoded while none is open)."""
+        if self.clients:
+            self.call(self._enqueue_all, json.dumps(message, separators=(",", ":")))
 
     def broadcast_binary(self, data: bytes, only_ready: bool = True) -> None:
         """Send a binary message (a camera frame) to every page ready for one."""

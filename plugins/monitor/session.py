@@ -33,7 +33,6 @@ class MonitorSession:
         self.scene: SceneSampler | None = None
         self.recorder: McapRecorder | None = None
         self.result: dict[str, Any] | None = None
-        self.records: list[dict[str, Any]] = []
         self.watcher: Any = None
         self._closed = False
 
@@ -117,7 +116,6 @@ class MonitorSession:
         kind = record.get("kind")
         if kind not in ("event", "result"):
             return
-        self.records.append(record)
         if kind == "result":
             self.result = record
         if self.recorder is not None:
