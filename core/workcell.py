@@ -14,6 +14,7 @@ workcell:
   grasp_offset_mm: 0       # tool height above an object's marker when gripping
   release_offset_mm: 35    # tool height above the target's marker when letting go
   sort: {trash: garbage_bin}   # the place each tag role belongs (sort.yaml)
+  marker_heights_mm: {ducky: 30, trash: 20, duckybot: 40}   # each role's marker above the table
 ```
 
 The camera mount (eye-in-hand or eye-to-hand, its pose) stays in ``camera:``.
@@ -116,6 +117,7 @@ class Workcell:
     release_offset_mm: float = 30.0
     survey: Survey | None = None
     sort: dict[str, str] = field(default_factory=dict)
+    marker_heights_mm: dict[str, float] = field(default_factory=dict)
 
     def need(self, name: str, what: str) -> Any:
         """The value of key ``name``; :class:`ConfigError` saying how to add it when absent."""
@@ -188,8 +190,10 @@ def check_workcell(data: MarkedDict, errors: list[ConfigError]) -> None:
             _check_survey(value, where, errors)
         elif key == "sort":
             _check_sort(value, where, data, errors)
+        elif key == "marker_heights_mm":
+            _check_heights(value, where, data, errors)
         else:
-            choices = [*known, "survey", "sort"]
+            choices = [*known, "survey", "sort", "marker_heights_mm"]
             errors.append(
                 error_at(
                     f"workcell: unknown key {key!r}{did_you_mean(str(key), choices)}",
@@ -282,6 +286,30 @@ def _check_survey(value: Any, where: Any, errors: list[ConfigError]) -> None:
             )
 
 
+def _check_heights(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
+    path = "workcell.marker_heights_mm"
+    if not isinstance(value, MarkedDict):
+        errors.append(error_at(f"{path}: expected a mapping of tag role: height (mm)", where))
+        return
+    tags = data.get("tags") if isinstance(data.get("tags"), dict) else {}
+    for role, height in value.items():
+        if role not in tags:
+            errors.append(
+                error_at(
+                    f"{path}: {role!r} is not a tag role (tags: {', '.join(map(str, tags)) or 'none'})",
+                    value.key_mark(role),
+                )
+            )
+        if not _number(height) or height < 0:
+            errors.append(
+                error_at(
+                    f"{path}.{role}: expected a height >= 0 (mm) of the marker above the table, "
+                    f"got {height!r}",
+                    value.value_mark(role),
+                )
+            )
+
+
 def _check_sort(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
     if not isinstance(value, MarkedDict):
         errors.append(error_at("workcell.sort: expected a mapping of tag role: place name", where))
@@ -335,7 +363,8 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
                 step_mm=float(body.get("step_mm", 40.0)),
             )
     sort = {str(k): str(v) for k, v in (cell.get("sort") or {}).items()}
-    return Workcell(survey=survey, sort=sort, **values)
+    heights = {str(k): float(v) for k, v in (cell.get("marker_heights_mm") or {}).items()}
+    return Workcell(survey=survey, sort=sort, marker_heights_mm=heights, **values)
 
 
 def workcell_of(profile: Any) -> Workcell:
@@ -417,6 +446,12 @@ def workcell_schema() -> dict[str, Any]:
         ],
     }
     properties["survey"] = survey
+    properties["marker_heights_mm"] = {
+        "type": "object",
+        "additionalProperties": {"type": "number", "minimum": 0},
+        "description": "height (mm) of each tag role's marker above the table when its object "
+        "stands on it: a marker seen near that height is put on it along the camera's ray",
+    }
     properties["sort"] = {
         "type": "object",
         "additionalProperties": {"type": "string"},

@@ -133,3 +133,26 @@ def test_viewpoints_keep_their_own_height_and_a_single_one_is_looked_at_every_le
     assert [p.tolist() for p in points] == [[10, 20, 1], [30, 40, 7]]
     one = Survey("viewpoints", points=((10.0, 20.0),))
     assert len(survey_points(one, 1.0, np.zeros(3), sweeps=3)) == 3
+
+
+def test_marker_heights_name_tag_roles_and_are_not_negative(tmp_path):
+    found = errors(tmp_path, "workcell: {marker_heights_mm: {trash: -1, ducky: 30}}\n")
+    assert len(found) == 2
+    assert "marker_heights_mm.trash: expected a height >= 0 (mm)" in found[0] + found[1]
+    assert "'ducky' is not a tag role" in found[0] + found[1]
+    cell = workcell_of(
+        load(tmp_path, "workcell: {table_z_mm: 5, marker_heights_mm: {trash: 20}}\n")
+    )
+    assert cell.marker_heights_mm == {"trash": 20.0}
+
+
+def test_a_marker_is_moved_along_the_camera_ray_onto_its_height():
+    from armtree.plugins.skills.eye import onto_plane
+
+    camera = np.eye(4)
+    camera[:3, 3] = [300.0, 0.0, 650.0]
+    measured = np.array([250.0, 250.0, 18.0])  # the range along the ray a little long
+    fixed = onto_plane(camera, measured, 25.0)
+    assert np.isclose(fixed[2], 25.0, atol=1e-9)
+    ray = measured - camera[:3, 3]
+    assert np.allclose(np.cross(fixed - camera[:3, 3], ray), 0.0, atol=1e-6)  # same ray

@@ -8,6 +8,8 @@ few centimetres of height.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from armtree import Param
@@ -131,16 +133,40 @@ def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
     return want if best is None else best
 
 
-def grip_point(skill: ArmSkill, target: np.ndarray, grasp_offset: float) -> np.ndarray:
+def has_gripper(arm: Any) -> bool:
+    """True when the arm's tool is a gripper (its driver's ``tool_kind``), not a suction cup.
+
+    A tool state's ``gripper`` field is no sign of one: the Dobot V1.0 reports a gripper
+    angle in every status frame whatever is mounted.
+    """
+    return getattr(arm, "tool_kind", "suction") == "gripper"
+
+
+def grip_point(
+    skill: ArmSkill, target: np.ndarray, grasp_offset: float, inward: float = 0.0
+) -> np.ndarray:
     """Where the tool touches ``target``: ``grasp_offset`` above it, or up to ``reach_slack_mm``
-    higher when that is out of reach (a suction cup grips within a few millimetres)."""
+    higher when that is out of reach (a suction cup grips within a few millimetres), or
+    up to ``inward`` mm nearer the arm's base on the same face (a cup holds anywhere on
+    an object's top, not only at its marker's centre)."""
     want = target + UP * grasp_offset
     model = skill.rig.arm.model
     if reachable(model, want):
         return want
     slack = float(skill.param("reach_slack_mm"))
     best = lowest_reachable(model, want, want[2], want[2] + slack)
-    return want if best is None else best
+    if best is not None or inward <= 0.0:
+        return want if best is None else best
+    radius = float(np.hypot(want[0], want[1]))
+    if radius < 1e-6:
+        return want
+    toward = -np.array([want[0], want[1], 0.0]) / radius
+    for step in np.arange(1.0, inward + 1e-9, 1.0):
+        moved = want + toward * step
+        best = lowest_reachable(model, moved, moved[2], moved[2] + slack)
+        if best is not None:
+            return best
+    return want
 
 
-__all__ = ["UP", "ArmSkill", "above", "camera_over", "grip_point"]
+__all__ = ["UP", "ArmSkill", "above", "camera_over", "grip_point", "has_gripper"]

@@ -179,7 +179,7 @@ class Skill(armtree.Behaviour):
                         self.note(
                             "halted",
                             step=_describe(action) if action is not None else "",
-                            tool=_tool_words(self.rig.arm.tool),
+                            tool=_tool_words(self.rig.arm),
                         )
             self._process = None
 
@@ -254,8 +254,9 @@ class Skill(armtree.Behaviour):
         return isinstance(self.params.get(pname), Binding)
 
 
-def _tool_words(tool: Any) -> str:
-    if tool.gripper is not None:
+def _tool_words(arm: Any) -> str:
+    tool = arm.tool
+    if getattr(arm, "tool_kind", "suction") == "gripper" and tool.gripper is not None:
         return f"gripper at {tool.gripper:g}, left as it is"
     return "suction on, holding what it holds" if tool.suction else "suction off, holding nothing"
 

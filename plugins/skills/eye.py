@@ -17,6 +17,7 @@ import numpy as np
 
 from armtree.perception import camera_in_base, marker_in_base
 from armtree.rig import Detection
+from armtree.workcell import workcell_of
 
 
 @dataclass
@@ -59,13 +60,42 @@ class View:
         return [s for s in self.sightings if s.role == role]
 
 
+#: A marker measured within this of the height the profile gives its role (mm) is taken
+#: to stand there (``workcell.marker_heights_mm``).
+PLANE_TOLERANCE_MM = 25.0
+
+
+def onto_plane(camera: np.ndarray, point: np.ndarray, z: float) -> np.ndarray:
+    """``point`` moved along the camera's ray through it to height ``z`` (mm, base frame)."""
+    origin = np.asarray(camera, dtype=float)[:3, 3]
+    ray = np.asarray(point, dtype=float) - origin
+    if abs(ray[2]) < 1e-9:
+        return np.asarray(point, dtype=float)
+    return origin + ray * ((z - origin[2]) / ray[2])
+
+
 class Eye:
-    """The newest frame of a rig's camera and the markers in it, read and detected once."""
+    """The newest frame of a rig's camera and the markers in it, read and detected once.
+
+    A marker's range along the camera's ray is what a monocular pose measures worst
+    (from 650 mm a 25 mm marker is 22 px wide: half a pixel is 15 mm of range), its
+    direction best. Where the profile gives a tag role's marker height above the
+    table (``workcell.marker_heights_mm``) and a marker is measured within
+    :data:`PLANE_TOLERANCE_MM` of it, it is put at that height along its ray.
+    """
 
     def __init__(self, rig: Any) -> None:
         self.rig = rig
         self.last: View | None = None
         self.frames = 0
+        #: Where the held object's marker sits in the tool frame (homogeneous, mm), set by
+        #: a grip and taken by the release that follows, so its check knows where to look.
+        self.held: np.ndarray | None = None
+        cell = workcell_of(getattr(rig, "profile", None))
+        table = cell.table_z_mm
+        self.planes = (
+            {} if table is None else {role: table + h for role, h in cell.marker_heights_mm.items()}
+        )
 
     def newest(self) -> View | None:
         """The view of a frame that arrived since the last read, else the last view (or None)."""
@@ -85,6 +115,9 @@ class Eye:
                 spec = rig.role_of(det.id)
                 role = spec.role if spec is not None else "unknown"
             pose = marker_in_base(base_T_camera, det.rvec, det.tvec)
+            plane = self.planes.get(role)
+            if plane is not None and abs(pose[2, 3] - plane) <= PLANE_TOLERANCE_MM:
+                pose[:3, 3] = onto_plane(base_T_camera, pose[:3, 3], plane)
             seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
         k = np.asarray(frame.camera_matrix, dtype=float)
         h, w = frame.image.shape[:2]
@@ -119,4 +152,4 @@ def eye_of(rig: Any) -> Eye:
     return eye
 
 
-__all__ = ["Eye", "Sighting", "View", "eye_of"]
+__all__ = ["Eye", "PLANE_TOLERANCE_MM", "Sighting", "View", "eye_of", "onto_plane"]

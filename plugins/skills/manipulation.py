@@ -33,34 +33,49 @@ from armtree.params import Binding
 from armtree.perception import EYE_IN_HAND
 
 from .actions import ArmHome, Look, Move, Pause, SkillFailure, Suction, fmt
-from .arm_skill import UP, ArmSkill, above, grip_point
+from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .eye import eye_of
-from .locate import AROUND, around, locate, look_over, nearest, out_of_view
+from .locate import locate, look_over, nearest, out_of_view
 from .reach import nearest_reachable, reachable
 
 #: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
 RISEN_MM = 10.0
 #: An object put on a target marker rests at least this much above it (mm).
 ON_TOP_MM = 5.0
+#: Steps of the look around a place the check did not see the object at, as a fraction
+#: of the camera's view on the table.
+CHECK_STEP = 0.3
 #: How far a release point may move to within reach (mm), and how much lower at most.
 RELEASE_SLACK_MM = 15.0
 RELEASE_DROP_MM = 3.0
 
 
 def pick_steps(
-    skill: ArmSkill, target: np.ndarray, approach: float, grasp_offset: float, dwell: float
+    skill: ArmSkill,
+    target: np.ndarray,
+    approach: float,
+    grasp_offset: float,
+    dwell: float,
+    marker_size: float = 0.0,
 ) -> Procedure:
-    """Approach above ``target``, descend, close the tool (suction on), let it grip, lift back."""
+    """Approach above ``target``, descend, close the tool (suction on), let it grip, lift back.
+
+    A marker ``marker_size`` mm wide whose centre is out of reach is touched nearer the
+    arm's base on its face instead (suction cups only)."""
     rig, speed = skill.rig, skill.speed()
-    over = above(skill, target, approach)
-    if rig.arm.tool.gripper is not None:
+    # a suction cup holds anywhere on the marker's face: up to 3 mm inside its edge
+    inward = 0.0 if has_gripper(rig.arm) else max(0.0, 0.5 * marker_size - 3.0)
+    grip = grip_point(skill, target, grasp_offset, inward)
+    over = above(skill, grip - UP * grasp_offset, approach + grasp_offset)
+    if has_gripper(rig.arm):
         yield Suction(rig, False)  # a gripper opens before it goes down
     yield Move(rig, over, speed=speed, label="approach")
-    yield Move(rig, grip_point(skill, target, grasp_offset), speed=speed, label="descend")
+    yield Move(rig, grip, speed=speed, label="descend")
     yield Suction(rig, True)
     yield Pause(skill.clock, dwell)
     yield Move(rig, over, speed=speed, label="lift")
+    return grip
 
 
 def release_steps(
@@ -89,13 +104,20 @@ def release_steps(
     yield Pause(skill.clock, dwell)
     if over[2] > point[2] + 1e-6:
         yield Move(rig, over, speed=speed, label="lift")
+    return point
+
+
+def tool_pose_at(rig: Any, xyz: np.ndarray) -> np.ndarray:
+    """The tool's pose (4x4) with its centre at ``xyz``, as the arm's model reaches it."""
+    model = rig.arm.model
+    return model.fk(model.ik(np.asarray(xyz, dtype=float), near=rig.arm.joints()))
 
 
 def tool_engaged(rig: Any) -> bool:
     """True when the tool reports gripping: suction on, or a gripper nearer closed than open."""
     arm = rig.arm
     tool = arm.tool
-    if tool.gripper is not None:
+    if has_gripper(arm) and tool.gripper is not None:
         closed = float(getattr(arm, "grip_closed", 0.0))
         opened = float(getattr(arm, "grip_open", 90.0))
         return abs(tool.gripper - closed) < abs(tool.gripper - opened)
@@ -170,6 +192,7 @@ def verify_place(
     on_marker: bool,
     tolerance: float,
     marker: int | None = None,
+    expected: np.ndarray | None = None,
 ) -> Procedure:
     """Check with the camera that an ``obj`` tag lies at ``target`` (on it when ``on_marker``).
 
@@ -187,15 +210,24 @@ def verify_place(
         # over the target, then around it: a marker turned near the image's corner
         # over a small view is seen whole from a little aside
         seen = None
-        views: list[np.ndarray] = [target]
+        # first where the object should have landed (its marker sat off the tool centre)
+        first = target if expected is None else expected
+        views: list[np.ndarray] = [first]
         while views and seen is None:
             point = views.pop(0)
             after = yield from look_over(skill, point, cell.look_height_mm, obj, 2)
             seen = nearest([s for s in after if marker is None or s.id == marker], obj, target)
-            if seen is None and point is target:
+            if seen is None and point is first:
+                # an object let go a little aside (gripped off its marker's centre, let go
+                # where the arm reached) sits at the view's edge: look in small steps
                 view = eye_of(rig).last
                 size = None if view is None else view.footprint(float(target[2]))
-                views = around(target, 0.5 * min(size) if size else limit, size)[:AROUND]
+                step = CHECK_STEP * (min(size) if size else limit)
+                views = [
+                    first + np.array([r * np.cos(a), r * np.sin(a), 0.0])
+                    for r in (step, 2.0 * step)
+                    for a in np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)
+                ]
     else:
         yield from move_out_of_view(skill, target)
         after = yield Look(rig, skill.clock, want=obj, frames=2, settle=skill.settle())
@@ -277,12 +309,14 @@ class Gripping(ArmSkill):
     def grip(self, target: np.ndarray, tag: str | None, marker: int | None) -> Procedure:
         """Grip at ``target`` and check the grip; a failure lets go on purpose and skips the marker."""
         try:
-            yield from pick_steps(
+            spec = self.rig.tags.get(tag) if tag else None
+            grip = yield from pick_steps(
                 self,
                 target,
                 self.param("approach_mm"),
                 self.workcell.grasp_offset_mm,
                 self.param("dwell_s"),
+                spec.size_mm if spec is not None else 0.0,
             )
             if not tool_engaged(self.rig):
                 raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
@@ -293,6 +327,11 @@ class Gripping(ArmSkill):
             elif self.param("verify"):
                 self.feedback_message = yield from verify_pick(
                     self, tag, marker, target, float(self.param("verify_tolerance_mm"))
+                )
+            # where the marker sits on the tool: the place check looks where it will land
+            with contextlib.suppress(ValueError):  # the grip point's IK (Unreachable)
+                eye_of(self.rig).held = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(
+                    target, 1.0
                 )
         except SkillFailure:
             if marker is not None:
@@ -491,10 +530,17 @@ class PuttingDown(ArmSkill):
         """Let go over ``target`` (``workcell.release_offset_mm`` above a marker, at a place
         itself) and check where the object went."""
         release = self.workcell.release_offset_mm if on_marker else 0.0
-        yield from release_steps(
+        eye = eye_of(self.rig)
+        held, eye.held = eye.held, None
+        point = yield from release_steps(
             self, target, self.param("approach_mm"), release, self.param("dwell_s")
         )
         released = target + UP * release
+        expected = None
+        if held is not None:
+            with contextlib.suppress(ValueError):  # the release point's IK (Unreachable)
+                landed = (tool_pose_at(self.rig, point) @ held)[:3]
+                expected = np.array([landed[0], landed[1], target[2]])
         self.output("pose", as_list(released))
         obj = self.param("object")
         if not self.param("verify"):
@@ -512,6 +558,7 @@ class PuttingDown(ArmSkill):
                 on_marker,
                 float(self.param("place_tolerance_mm")),
                 None if marker is None else int(marker),
+                expected,
             )
         return released
 

@@ -16,7 +16,7 @@ import numpy as np
 from armtree import Param
 
 from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
-from .arm_skill import ArmSkill, above, camera_over, grip_point
+from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .eye import Sighting
 from .manipulation import release_steps
@@ -62,7 +62,7 @@ def clean_one(
     rig, speed = skill.rig, skill.speed()
     log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
     over = above(skill, item.position, skill.param("approach_mm"))
-    if rig.arm.tool.gripper is not None:
+    if has_gripper(rig.arm):
         yield Suction(rig, False)  # a gripper opens before it goes down
     try:
         yield Move(rig, over, speed=speed, label="approach trash")
