@@ -241,6 +241,8 @@ class Profile:
         kind = COMPONENT_SECTIONS[section]
         if registry.has(kind, out.get("type", "")):
             for param in registry.get(kind, out["type"]).params:
+                if param.name in out and out[param.name] is None and param.default is None:
+                    continue
                 if param.name in out:
                     out[param.name] = check_value(param, out[param.name])
                 elif not param.required:
@@ -619,6 +621,8 @@ def _check_component(
                 )
             )
             continue
+        if value is None and param.default is None and not param.required:
+            continue  # null: "none", where nothing is the default (arm.gripper: null)
         try:
             check_value(param, value)
         except ValueError as exc:

@@ -760,6 +760,7 @@ class Run:
         if i is None:
             return ""
         return str(getattr(self._nodes[i], "feedback_message", "") or "")
+
     def _new_failures(
         self, last: Sequence[str], current: Sequence[str], now: float
     ) -> dict[str, str] | None:

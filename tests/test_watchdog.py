@@ -14,6 +14,7 @@ from pathlib import Path
 
 import py_trees
 import pytest
+from hostile_corpus import STUCK_PLUGIN
 from py_trees.common import Status
 
 import armtree
@@ -114,35 +115,6 @@ def test_a_profile_sets_the_limit_and_refuses_a_bad_one(tmp_path: Path) -> None:
     assert (info.value.line, info.value.column) == (2, 20)
     assert "watchdog.tick_s" in info.value.message
 
-
-STUCK_PLUGIN = '''
-import time
-import armtree
-from py_trees.common import Status
-
-
-class Spin(armtree.Behaviour):
-    """Busy-loops in update."""
-
-    def update(self):
-        open("stuck", "w").close()
-        while True:
-            pass
-
-
-class Sleep(armtree.Behaviour):
-    """Sleeps for ever in update."""
-
-    def update(self):
-        open("stuck", "w").close()
-        time.sleep(1e6)
-        return Status.RUNNING
-
-
-@armtree.hookimpl
-def armtree_behaviours():
-    return {"spin_forever": Spin, "sleep_forever": Sleep}
-'''
 
 #: Only the core plugins: these runs are about signals, not arms or skills.
 ISOLATE = [

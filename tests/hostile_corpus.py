@@ -1,0 +1,391 @@
+"""The hostile inputs of issue 17, kept as a fixed corpus so each stays fixed.
+
+Each :class:`Case` is a set of files written to an empty folder and the arguments
+of ``armtree check``; ``code`` is the exit code it must give, ``message`` a piece
+of the error and ``where`` the start of the error's first line (a ``FILE:LINE:COL``
+or the command-line option it is about; ending in ": ", a file without a line). ``tests/test_hostile_corpus.py`` runs
+them in the suite; ``benchmarks/bench_hostile.py`` uses them as one family of its
+figures.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Case:
+    """One hostile input for ``armtree check`` and what it must give."""
+
+    name: str
+    argv: tuple[str, ...]
+    code: int = 2
+    message: str = ""
+    where: str = ""
+    files: dict[str, str | bytes] = field(default_factory=dict)
+
+
+def laughs(prefix: str = "l", levels: int = 10) -> str:
+    """The "billion laughs": ten levels of ten aliases each (10**10 values expanded)."""
+    lines = [f"{prefix}0: &{prefix}0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for i in range(1, levels):
+        refs = ", ".join([f"*{prefix}{i - 1}"] * 10)
+        lines.append(f"{prefix}{i}: &{prefix}{i} [{refs}]")
+    return "\n".join(lines) + "\n"
+
+
+def _indented_bomb() -> str:
+    """A bomb (anchors b0..b9) indented to sit under a key of a mapping."""
+    return "\n".join("  " + line for line in laughs("b").splitlines())
+
+
+def _nested_inverters(n: int) -> str:
+    text = "success: {}"
+    for _ in range(n):
+        text = f"inverter: {{child: {{{text}}}}}"
+    return "root: {" + text + "}\n"
+
+
+def _include_bomb() -> dict[str, str]:
+    """Ten files, each including the next ten times: 10**9 nodes if built."""
+    files = {}
+    for i in range(9):
+        kids = "\n".join([f"      - subtree: {{file: f{i + 1}.yaml}}"] * 10)
+        files[f"f{i}.yaml"] = f"root:\n  sequence:\n    children:\n{kids}\n"
+    files["f9.yaml"] = "root: {success: {}}\n"
+    return files
+
+
+#: A plugin whose behaviours never return from a tick: they touch a file named "stuck"
+#: first, so a test knows the tick has started, then spin or sleep for ever.
+STUCK_PLUGIN = '''
+import time
+import armtree
+from py_trees.common import Status
+
+
+class Spin(armtree.Behaviour):
+    """Busy-loops in update."""
+
+    def update(self):
+        open("stuck", "w").close()
+        while True:
+            pass
+
+
+class Sleep(armtree.Behaviour):
+    """Sleeps for ever in update."""
+
+    def update(self):
+        open("stuck", "w").close()
+        time.sleep(1e6)
+        return Status.RUNNING
+
+
+@armtree.hookimpl
+def armtree_behaviours():
+    return {"spin_forever": Spin, "sleep_forever": Sleep}
+'''
+
+SIMPLE = "rig: sim_dobot\nroot: {move_to: {to: home}}\n"
+
+TREES: list[Case] = [
+    Case(
+        "bomb in the blackboard",
+        ("t.yaml",),
+        message="aliases expanded",
+        where="t.yaml:6:10",
+        files={"t.yaml": laughs() + "blackboard: {x: *l9}\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "bomb in a parameter",
+        ("t.yaml",),
+        message="aliases expanded",
+        where="t.yaml:",
+        files={"t.yaml": "anchors:\n" + _indented_bomb() + "\nroot: {success: {name: *b9}}\n"},
+    ),
+    Case(
+        "bomb in a node name",
+        ("t.yaml",),
+        message="aliases expanded",
+        where="t.yaml:",
+        files={"t.yaml": "junk:\n" + _indented_bomb() + "\nroot: {success: {name: *b9}}\n"},
+    ),
+    Case(
+        "bomb in a default",
+        ("t.yaml",),
+        message="aliases expanded",
+        where="t.yaml:",
+        files={
+            "t.yaml": "x:\n" + _indented_bomb() + "\nparams: {p: {default: *b9}}\n"
+            "root: {success: {}}\n"
+        },
+    ),
+    Case(
+        "bomb in an included file",
+        ("t.yaml",),
+        message="aliases expanded",
+        where="inner.yaml:",
+        files={
+            "t.yaml": "root: {subtree: {file: inner.yaml}}\n",
+            "inner.yaml": laughs() + "root: {success: {}}\n",
+        },
+    ),
+    Case(
+        "recursive alias",
+        ("t.yaml",),
+        message="recursive alias",
+        where="t.yaml:1:",
+        files={"t.yaml": "blackboard: {x: &a [*a]}\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "498 nested inverters",
+        ("t.yaml",),
+        message="nesting deeper than",
+        where="t.yaml:1:",
+        files={"t.yaml": _nested_inverters(498)},
+    ),
+    Case(
+        "a 2,000-deep --set list",
+        ("t.yaml", "--set", "x=" + "[" * 2000 + "]" * 2000),
+        message="not valid YAML",
+        where="--set",
+        files={"t.yaml": "root: {success: {}}\n"},
+    ),
+    Case(
+        "a 400-digit tick_hz",
+        ("t.yaml",),
+        message="tick_hz",
+        where="t.yaml:1:10",
+        files={"t.yaml": "tick_hz: " + "9" * 400 + "\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "a 4,300-digit tick_hz",
+        ("t.yaml",),
+        message="tick_hz",
+        where="t.yaml:1:10",
+        files={"t.yaml": "tick_hz: " + "9" * 4300 + "\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "a 5,000-digit tick_hz",
+        ("t.yaml",),
+        message="as int",
+        where="t.yaml:1:10",
+        files={"t.yaml": "tick_hz: " + "9" * 5000 + "\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "!!float abc",
+        ("t.yaml",),
+        message="cannot read 'abc' as float",
+        where="t.yaml:1:10",
+        files={"t.yaml": "tick_hz: !!float abc\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "tick_hz 1e-300",
+        ("t.yaml", "--set", "tick_hz=1.0e-300"),
+        message="expected a rate from 0.1 to 1000 Hz",
+        where="--set tick_hz",
+        files={"t.yaml": "root: {success: {}}\n"},
+    ),
+    Case(
+        "rig: ''",
+        ("t.yaml",),
+        message="no hardware profile ''",
+        where="t.yaml:1:6",
+        files={"t.yaml": "rig: ''\nroot: {success: {}}\n"},
+    ),
+    Case(
+        "a 5,000-character include name",
+        ("t.yaml",),
+        message="not found",
+        where="t.yaml:1:",
+        files={"t.yaml": "root: {subtree: {file: " + "a" * 5000 + ".yaml}}\n"},
+    ),
+    Case(
+        "an include bomb",
+        ("f0.yaml",),
+        message="more than 20,000 nodes",
+        where="f",
+        files=_include_bomb(),
+    ),
+    Case(
+        "search sweeps 1e9",
+        ("t.yaml",),
+        message="search.sweeps",
+        where="t.yaml:1:",
+        files={"t.yaml": "root: {search: {tag: duckybot, sweeps: 1000000000}}\n"},
+    ),
+    Case(
+        "an unknown place",
+        ("t.yaml",),
+        message="unknown place 'nowhere'",
+        where="t.yaml:2:22",
+        files={"t.yaml": "rig: sim_dobot\nroot: {move_to: {to: nowhere}}\n"},
+    ),
+    Case(
+        "an unknown tag role",
+        ("t.yaml",),
+        message="unknown tag role 'duckyboot'",
+        where="t.yaml:2:",
+        files={"t.yaml": "rig: sim_dobot\nroot: {search: {tag: duckyboot}}\n"},
+    ),
+    Case(
+        'a "{}" binding',
+        ("t.yaml",),
+        message="names no blackboard key",
+        where="t.yaml:2:22",
+        files={"t.yaml": 'rig: sim_dobot\nroot: {move_to: {to: "{}"}}\n'},
+    ),
+    Case(
+        "a position out of reach",
+        ("t.yaml",),
+        message="out of the reach",
+        where="t.yaml:2:22",
+        files={"t.yaml": "rig: sim_dobot\nroot: {move_to: {to: [900, 0, 0]}}\n"},
+    ),
+    Case(
+        "a place out of reach, at the profile's line",
+        ("t.yaml",),
+        message="out of the arm's reach",
+        where="p.yaml:2:",
+        files={
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nplaces: {far: [900, 0, 0]}\n",
+            "t.yaml": "rig: p.yaml\nroot: {move_to: {to: far}}\n",
+        },
+    ),
+    Case(
+        "a camera the rig lacks",
+        ("t.yaml",),
+        message="needs a camera",
+        where="t.yaml:2:",
+        files={
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\ntags: {ducky: {id: 0, size_mm: 25}}\n"
+            "places: {garbage_bin: [0, 185, 30]}\n",
+            "t.yaml": "rig: p.yaml\nroot: {search: {tag: ducky, trash: ducky}}\n",
+        },
+    ),
+    Case(
+        "a tool the rig lacks",
+        ("t.yaml", "--set", "arm.gripper=null"),
+        message="needs a tool",
+        where="t.yaml:",
+        files={"t.yaml": "rig: sim_dh\nroot: {pick: {tag: ducky}}\n"},
+    ),
+    Case(
+        "undecodable bytes",
+        ("t.yaml",),
+        message="not UTF-8",
+        where="t.yaml:2:22",
+        files={"t.yaml": b"root:\n  success: {name: caf\xe9}\n"},
+    ),
+    Case(
+        "a control character",
+        ("t.yaml",),
+        message="U+0007",
+        where="t.yaml:2:20",
+        files={"t.yaml": "root:\n  success: {name: a\x07b}\n"},
+    ),
+    Case(
+        "a file above the size limit",
+        ("t.yaml",),
+        message="larger than 2,000,000 bytes",
+        where="t.yaml: ",  # the whole file: no line to point at
+        files={"t.yaml": "root: {success: {}}\n" + "# padding\n" * 210_000},
+    ),
+    Case("a valid tree", ("t.yaml",), code=0, files={"t.yaml": SIMPLE}),
+]
+
+PROFILES: list[Case] = [
+    Case(
+        "bomb in world:",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="aliases expanded",
+        where="p.yaml:",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nworld:\n" + _indented_bomb() + "\n",
+        },
+    ),
+    Case(
+        "recursive alias in world:",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="recursive alias",
+        where="p.yaml:2:",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nworld: &w {objects: *w}\n",
+        },
+    ),
+    Case(
+        "a bad number in the file",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="camera.fps",
+        where="p.yaml:2:",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\ncamera: {type: sim, fps: 0}\n",
+        },
+    ),
+    Case(
+        "a watchdog limit of 0",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="watchdog.tick_s",
+        where="p.yaml:2:20",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nwatchdog: {tick_s: 0}\n",
+        },
+    ),
+    Case(
+        "the planner's cache folder in YAML",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="no parameter 'cache_dir'",
+        where="p.yaml:2:",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nplanner: {type: prm, cache_dir: /tmp/x}\n",
+        },
+    ),
+]
+
+#: ``--set`` values on a shipped profile, each with the message it must give.
+SETS: list[tuple[str, str, str]] = [
+    ("sim_dobot", "camera.fps=0", "camera.fps"),
+    ("sim_dobot", "arm.joint_scales=[0,1,1]", "arm.joint_scales"),
+    ("sim_dobot", "planner.milestones=0", "planner.milestones"),
+    ("sim_dobot", "arm.baud=-1", "arm.baud"),
+    ("sim_dobot", "arm.status_period=0", "arm.status_period"),
+    ("sim_dobot", "arm.status_period=-1", "arm.status_period"),
+    ("sim_dobot", "arm.status_period=1e-9", "arm.status_period"),
+    ("sim_dobot", "world.seed=-1", "world.seed"),
+    ("sim_dobot", "world.faults={missed_steps: {joint: 99, amount: 5}}", "joint"),
+    ("sim_dobot", "world.faults={missed_steps: {joint: 5, amount: 5}}", "does not exist"),
+    ("sim_dobot", "world.faults={missed_steps: {joint: 1}}", "needs amount"),
+    ("sim_dobot", "planner.cache_dir=5", "cache_dir"),
+    ("sim_dobot", "arm.start_pose=[1,2]", "arm.start_pose"),
+    ("sim_dobot", "camera.intrinsics={fx: a}", "camera.intrinsics.fx"),
+    ("sim_dobot", "camera.width=100000", "camera.width"),
+    ("sim_dobot", "camera.blur=1e6", "camera.blur"),
+    ("sim_dobot", "tracker.detector={adaptiveThreshWinSizeMin: -5}", "OpenCV refuses"),
+    ("sim_vicra", "arm.links_mm=[0,0]", "arm.links_mm"),
+    ("sim_dh", "arm.servos=[]", "arm.servos"),
+    ("sim_dobot", "workcell.survey={ring: {radius_mm: 185, step_deg: 1.0e-9}}", "step_deg"),
+    (
+        "sim_dobot",
+        "workcell.survey={ring: {radius_mm: 185, range_deg: [-1.0e+300, 1.0e+300]}}",
+        "range_deg",
+    ),
+]
+
+PROFILES += [
+    Case(
+        f"--set {value} on {rig}",
+        ("t.yaml", "--rig", rig, "--set", value),
+        message=message,
+        where="--set",
+        files={"t.yaml": "root: {success: {}}\n"},
+    )
+    for rig, value, message in SETS
+]
+
+CASES: list[Case] = TREES + PROFILES

@@ -1,0 +1,43 @@
+"""The fixed corpus of issue 17's hostile inputs: each gives its exit code and position."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from hostile_corpus import CASES, Case
+
+from armtree import cli
+
+#: Text that must never reach a user: a traceback or a raw exception's name.
+RAW = re.compile(r"Traceback|^error: [A-Za-z]+(Error|Exception)\b", re.M)
+
+
+def check(case: Case, folder: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    for name, content in case.files.items():
+        path = folder / name
+        if isinstance(content, bytes):
+            path.write_bytes(content)
+        else:
+            path.write_text(content)
+    code = cli.main(["check", *case.argv])
+    return code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+def test_hostile_input_gives_its_exit_code_and_position(
+    case: Case, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    code, err = check(case, tmp_path, capsys)
+    assert not RAW.search(err), err
+    assert code == case.code, err
+    if case.code == 2:
+        first = err.splitlines()[0]
+        for folder in (str(tmp_path.resolve()), str(tmp_path)):
+            first = first.replace(folder + "/", "")
+        assert first.startswith(case.where), first
+        assert case.message in err, err
+        if not first.startswith("--") and not case.where.endswith(": "):
+            assert re.match(r"^[^:\s]+:\d+:\d+: ", first), first
