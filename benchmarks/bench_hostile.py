@@ -87,7 +87,9 @@ for line in sys.stdin:
             traceback.print_exc()
             code = -1
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(json.dumps({"code": code, "err": err.getvalue()[-4000:], "out": out.getvalue()[-2000:],
+    text = err.getvalue()
+    text = text if len(text) <= 8000 else text[:4000] + "\n...\n" + text[-4000:]
+    print(json.dumps({"code": code, "err": text, "out": out.getvalue()[-2000:],
                       "seconds": time.monotonic() - t, "rss_mb": rss}), flush=True)
 """
 

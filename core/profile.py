@@ -352,7 +352,11 @@ def _finish(
     if data is None:
         data = MarkedDict(mark=Mark(file, 1, 1))
     if not isinstance(data, MarkedDict):
-        raise error_at("a profile must be a mapping of sections", getattr(data, "mark", None), file)
+        raise error_at(
+            "a profile must be a mapping of sections",
+            getattr(data, "mark", None) or Mark(file, 1, 1),
+            file,
+        )
     for item in overrides:
         try:
             override = parse_override(item) if isinstance(item, str) else item

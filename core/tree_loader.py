@@ -238,7 +238,8 @@ class _Loader:
             )
         if data is not None and not isinstance(data, MarkedDict):
             self.error(
-                "a tree file must be a mapping with a root node", getattr(data, "mark", None)
+                "a tree file must be a mapping with a root node",
+                getattr(data, "mark", None) or Mark(str(path), 1, 1),
             )
         if self.errors:
             raise self.fail()
@@ -835,7 +836,7 @@ class _Loader:
         if not isinstance(data, MarkedDict):
             self.error(
                 "an included tree file must be a mapping with a root node",
-                getattr(data, "mark", None),
+                getattr(data, "mark", None) or Mark(str(path), 1, 1),
                 inner,
             )
             return None
