@@ -356,7 +356,9 @@ class Schema:
 
 @hookimpl
 def armtree_commands() -> dict[str, Any]:
-    """Register check, show, plugins, schema, hooks and new-plugin."""
+    """Register check, show, plugins, schema, hooks, new-plugin and sweep."""
+    from .sweep import SweepCommand
+
     return {
         "check": Check(),
         "show": Show(),
@@ -364,4 +366,5 @@ def armtree_commands() -> dict[str, Any]:
         "schema": Schema(),
         "hooks": HooksCommand(),
         "new-plugin": NewPluginCommand(),
+        "sweep": SweepCommand(),
     }
