@@ -54,7 +54,7 @@ root:
 
 
 def test_every_command_has_help_configure_and_run():
-    assert set(COMMANDS) == {"check", "show", "plugins", "schema", "hooks", "new-plugin"}
+    assert set(COMMANDS) == {"check", "show", "plugins", "schema", "hooks", "new-plugin", "sweep"}
     for command in COMMANDS.values():
         assert command.help and callable(command.configure) and callable(command.run)
 

@@ -242,7 +242,17 @@ def test_the_report_counts_false_outcomes_apart_and_groups_reasons():
 
 
 @pytest.mark.slow
-def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsys):
+def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsys, monkeypatch):
+    import armtree.sweep.command as command
+
+    written = []
+    monkeypatch.setattr(command, "CHECKPOINT_S", 0.0)  # a report after every run, as it goes
+    real_write = command.write_report
+    monkeypatch.setattr(
+        command,
+        "write_report",
+        lambda out, report: (written.append(report["summary"]["runs"]), real_write(out, report)),
+    )
     code = main(
         [
             "sweep",
@@ -260,6 +270,8 @@ def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsy
     printed = capsys.readouterr().out
     assert code == 1, printed
     report = json.loads((work / "out" / "sweep.json").read_text())
+    assert "in_progress" not in report["sweep"]
+    assert written == [1, 2, 3, 4, 5, 6, 6], "a report while it ran, then the final one"
     s = report["summary"]
     assert (s["runs"], s["successes"], s["failures"], s["timeouts"], s["retried"]) == (
         6,
@@ -416,7 +428,11 @@ def test_a_sweep_on_dask_processes_reports_a_worker_without_armtree_once(work, c
         for process in reversed(processes):
             process.terminate()
         for process in processes:
-            process.wait(timeout=30)
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:  # a worker still closing its connections
+                process.kill()
+                process.wait(timeout=15)
     printed = capsys.readouterr().out
     assert code == 0, printed
     assert printed.count("cannot import armtree") == 1

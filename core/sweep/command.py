@@ -42,6 +42,8 @@ from .task import DIED, Outcome, RunTask
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_UNREACHABLE = 0, 1, 2, 3
 #: Files that mark a folder as holding a sweep.
 SWEEP_FILES = ("sweep.json", "report.md", "runs")
+#: Wall seconds between the reports a sweep writes while it runs.
+CHECKPOINT_S = 300.0
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -253,7 +255,13 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
         "bad_workers": dict(getattr(pool, "bad", {}) or {}),
     }
     started = time.monotonic()
-    outcomes, interrupted = _with_progress(pool, tasks, console, tree.name)
+
+    def checkpoint(done: list[Outcome]) -> None:
+        partial = {**sweep, "wall_seconds": time.monotonic() - started, "in_progress": True}
+        partial["where"] = pool.describe()
+        write_report(out, summarise(partial, done))
+
+    outcomes, interrupted = _with_progress(pool, tasks, console, tree.name, checkpoint)
     sweep["wall_seconds"] = time.monotonic() - started
     sweep["interrupted"] = interrupted
     sweep["where"] = pool.describe()
@@ -273,10 +281,16 @@ def LocalPoolFactory(workers: int, run_timeout: float | None, log: Path) -> Any:
 
 
 def _with_progress(
-    pool: Any, tasks: Sequence[RunTask], console: Console, name: str
+    pool: Any,
+    tasks: Sequence[RunTask],
+    console: Console,
+    name: str,
+    checkpoint: Callable[[list[Outcome]], None],
 ) -> tuple[list[Outcome], bool]:
     failed = 0
     started = time.monotonic()
+    finished: list[Outcome] = []
+    last_checkpoint = started
     columns = (
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -294,11 +308,17 @@ def _with_progress(
             return [], True
 
         def done(outcome: Outcome) -> None:
-            nonlocal failed
+            nonlocal failed, last_checkpoint
             failed += outcome["verdict"] != "success"
-            finished = progress.tasks[0].completed + 1
-            rate = finished / max(1e-9, time.monotonic() - started) * 60
+            finished.append(outcome)
+            now = time.monotonic()
+            rate = len(finished) / max(1e-9, now - started) * 60
             progress.update(bar, advance=1, failed=failed, rate=f"{rate:.1f} runs/min")
+            if now - last_checkpoint >= CHECKPOINT_S:
+                # A long sweep that is killed outright still leaves a report of what finished.
+                last_checkpoint = now
+                with contextlib.suppress(Exception):
+                    checkpoint(list(finished))
 
         try:
             return drive(

@@ -163,7 +163,12 @@ def markdown(report: Mapping[str, Any]) -> str:
     sweep, s = report["sweep"], report["summary"]
     seeds = sweep["seeds"]
     where = sweep["scheduler"] or f"{sweep['workers']} local worker(s)"
-    status = "interrupted: partial report" if sweep.get("interrupted") else "complete"
+    if sweep.get("in_progress"):
+        status = "still running: a report of what has finished so far"
+    elif sweep.get("interrupted"):
+        status = "interrupted: partial report"
+    else:
+        status = "complete"
     lines = [
         f"# Sweep of {sweep.get('tree_name') or sweep['tree']} on {sweep.get('rig') or 'no rig'}, seeds {seeds[0]}-{seeds[1]}",
         "",
