@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from armtree.profile import parse_override
-from armtree.yamlio import MarkedDict, MarkedList, load_yaml
+from armtree.yamlio import _FLOAT_12, MarkedDict, MarkedList, load_yaml
 
 # Keys PyYAML writes unquoted and reads back as strings (not booleans or nulls).
 RESERVED = {"y", "n", "yes", "no", "on", "off", "true", "false", "null"}
@@ -19,7 +19,11 @@ scalars = (
     | st.booleans()
     | st.integers(-(10**9), 10**9)
     | st.floats(-1e6, 1e6, allow_nan=False).map(lambda x: round(x, 3))
-    | st.text(st.characters(codec="utf-8", exclude_categories=("Cs", "Cc")), max_size=12)
+    # Text that YAML 1.2 reads as a float (``0E0``), as the marked reader does on purpose and
+    # PyYAML's YAML 1.1 does not, is left out: the two readers differ there by design.
+    | st.text(st.characters(codec="utf-8", exclude_categories=("Cs", "Cc")), max_size=12).filter(
+        lambda t: not _FLOAT_12.match(t)
+    )
 )
 documents = st.recursive(
     scalars,
