@@ -29,9 +29,9 @@ pytestmark = pytest.mark.skipif(
 class Bench:
     """``armtree serve-sim PROFILE`` as a subprocess, with its port and camera URL."""
 
-    def __init__(self, profile: str, cwd: Path) -> None:
+    def __init__(self, profile: str, cwd: Path, *extra: str) -> None:
         self.proc = subprocess.Popen(
-            [str(BIN / "armtree"), "serve-sim", profile],
+            [str(BIN / "armtree"), "serve-sim", profile, *extra],
             cwd=cwd,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -142,9 +142,9 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
 @pytest.mark.slow
 @pytest.mark.timeout(300)  # a whole run in real time
 def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path):
-    bench = Bench("sim_magician", tmp_path)
+    bench = Bench("sim_magician", tmp_path, "--tree", "load_ducky.yaml")
     try:
-        assert "--rig dobot_magician.yaml" in bench.hint
+        assert bench.hint.startswith("run-tree load_ducky.yaml --rig dobot_magician.yaml")
         run = start_run(bench, "load_ducky.yaml", "dobot_magician.yaml", tmp_path / "ok", tmp_path)
         out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
@@ -152,6 +152,9 @@ def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path)
         code, served = bench.interrupt()
         assert code == 130
         assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served
+        # the tree's declared outcomes, judged on the served world (the run saw none of it)
+        assert "expect: ✓ ducky on duckybot" in served
+        assert "expect: ✓ held: nothing" in served and "expect: ✓ collisions <= 0" in served
     finally:
         bench.kill()
 

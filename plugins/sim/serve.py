@@ -12,7 +12,8 @@ of a stream, the wall clock and real-time ticks::
 
 It prints the port, the camera URL and that command line, then serves until
 Ctrl-C or SIGTERM (exit 130), and prints the world's score (ground truth: the
-run never sees it) before it exits. The world is stepped and the camera
+run never sees it) before it exits; with ``--tree TREE``, also that tree's
+declared outcomes (its ``expect:``) judged on the world as the run left it. The world is stepped and the camera
 rendered on one thread, so a frame never shows a world half-way through a step;
 the emulator serves itself on its own thread.
 """
@@ -41,6 +42,7 @@ from armtree.rig import Rig, RigContext
 from .camera import SimCamera
 from .mjpeg import MjpegServer
 from .plugin import WorldStepper, armtree_rig_ready, score_line
+from .truth import world_truth
 
 #: The shipped real-hardware profile that matches a sim profile's arm, for the hint line.
 REAL_PROFILES = {
@@ -249,6 +251,12 @@ class ServeSimCommand:
             "--json", action="store_true", help="print the final score as JSON as well"
         )
         parser.add_argument(
+            "--tree",
+            metavar="TREE",
+            help="the tree the bench is for: its declared outcomes (expect:) are judged "
+            "on the world when serving ends",
+        )
+        parser.add_argument(
             "--frame-log",
             metavar="FILE",
             help="write each frame's index and render/publish times (JSON lines) at the end",
@@ -273,6 +281,7 @@ class ServeSimCommand:
         if not 0 <= args.camera_port <= 65535:
             raise ConfigError(f"--camera-port {args.camera_port}: give a TCP port, 0 for any")
         profile = load_profile(args.profile, args.overrides, manager=manager)
+        expectations = _declared_outcomes(args.tree, profile, manager)
         try:
             bench = SimBench(
                 profile,
@@ -294,7 +303,8 @@ class ServeSimCommand:
             print(f"camera: {bench.camera_url}", flush=True)
             if real is not None:
                 print(
-                    f"run: run-tree TREE --rig {real} --set arm.port={bench.port_path} "
+                    f"run: run-tree {args.tree or 'TREE'} --rig {real} "
+                    f"--set arm.port={bench.port_path} "
                     f"--set camera.device={bench.camera_url}",
                     flush=True,
                 )
@@ -310,6 +320,8 @@ class ServeSimCommand:
             score = bench.close()
             restore()
         print(f"score: {score_line(score)}", flush=True)
+        if expectations is not None:
+            print(_judged_outcomes(expectations, bench, profile, manager), flush=True)
         print(
             f"served {bench.stats.frames} frames, {bench.stats.world_steps} world steps",
             file=sys.stderr,
@@ -322,6 +334,34 @@ class ServeSimCommand:
                     log.write(json.dumps({"index": index, "render": began, "sent": published}))
                     log.write("\n")
         return EXIT_INTERRUPTED
+
+
+def _declared_outcomes(tree: str | None, profile: Any, manager: Any) -> list[Any] | None:
+    """The ``expect:`` list of ``tree`` loaded against the served profile (None: no tree).
+
+    Loaded before serving starts, so a bad tree is exit 2 with its position.
+    """
+    if tree is None:
+        return None
+    from armtree.tree_loader import load_tree
+
+    return list(load_tree(tree, rig=profile, manager=manager).expect or ())
+
+
+def _judged_outcomes(expectations: list[Any], bench: SimBench, profile: Any, manager: Any) -> str:
+    """One ``expect:`` line per declared outcome, judged on the served world now."""
+    from armtree.display import EXPECT_MARKS
+    from armtree.outcomes import judge, predicates_for
+
+    if not expectations:
+        return "expect: the tree declares no outcomes"
+    world = bench.world
+    truth = None if world is None else world_truth(world, profile)
+    lines = []
+    for r in judge(expectations, truth, predicates_for(manager)):
+        status = "not checked: " if r.status == "not checked" else ""
+        lines.append(f"expect: {EXPECT_MARKS.get(r.status, '?')} {r.expect} ({status}{r.detail})")
+    return "\n".join(lines)
 
 
 def _route_signals(stop: Any) -> Any:

@@ -323,30 +323,37 @@ class VicraDriver(SerialArmDriver):
     # ------------------------------------------------------------------ replies
 
     def _on_position(self, replies: list[str]) -> None:
-        believed = False
+        believed = checked = False
         for text in replies:
             pos = G.parse_m114(text)
             if pos is None:
                 continue
             q = np.array([pos.axes.get(a, math.nan) for a in ("Z", "X", "Y")] + [self._wrist])
             now = self._now if math.isfinite(self._now) else 0.0
+            checked = True  # the guard counts a refused position itself
             if self.guard.check(q, now) is None:
                 self._joints = q
                 self.status_wall = time.perf_counter()
                 believed = True
         if believed:
             self.mark_alive()
-        else:
-            self.guard.refused("an M114 answer without a plausible position")
+        elif not checked:
+            self.guard.refused("an M114 answer without a position")
         self._update_motions()
 
     def _on_servo_report(self, replies: list[str]) -> None:
         for text in replies:
             if text.startswith("echo: Servo 0:") or text.startswith("echo:Servo 0:"):
                 try:
-                    self._wrist = float(text.split(":")[-1]) - 90.0
+                    wrist = float(text.split(":")[-1]) - 90.0
                 except ValueError:
                     continue
+                # the servo's own report is doubted like a position: finite, within limits
+                lo, hi = self.guard.lower[3], self.guard.upper[3]
+                if math.isfinite(wrist) and lo <= wrist <= hi:
+                    self._wrist = wrist
+                else:
+                    self.guard.refused(f"a wrist servo report of {wrist + 90.0:.4g} degrees")
 
     def _on_endstops(self, replies: list[str]) -> None:
         for text in replies:
