@@ -317,7 +317,7 @@ def did_you_mean(name: str, options: Iterable[str]) -> str:
     """``"; did you mean 'x'?"`` for the closest option, or a list of the choices."""
     import difflib
 
-    options = sorted(options)
+    options = sorted(set(options))  # a place and a body may share a name
     close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
     if close:
         return f"; did you mean {close[0]!r}?"

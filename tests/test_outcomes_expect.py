@@ -287,6 +287,23 @@ def test_the_loader_checks_names_against_the_profiles_world(tmp_path):
     assert "no body or tag role 'duckie' in this world; did you mean 'ducky'?" in str(info.value)
 
 
+def test_an_unknown_place_lists_each_choice_once(tmp_path):
+    path = write(
+        tmp_path,
+        "t.yaml",
+        """\
+        rig: sim_dobot
+        expect: [{object: ducky, at: nowhere}]
+        root: {success: {}}
+        """,
+    )
+    with pytest.raises(ConfigError) as info:
+        load_tree(path)
+    assert info.value.errors[0].location() == f"{path}:2:30"
+    choices = str(info.value).split("choose one of: ", 1)[1].split(", ")
+    assert "garbage_bin" in choices and len(choices) == len(set(choices))
+
+
 def test_on_a_rig_without_ground_truth_names_come_from_tags_and_places(tmp_path):
     profile_path = write(
         tmp_path,

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -134,6 +137,32 @@ def test_a_scheduler_that_does_not_answer_exits_3_naming_it(work, capsys):
     assert main(["sweep", "seeds.yaml", "--seeds", "1", "--scheduler", "tcp://127.0.0.1:9"]) == 3
     assert time.monotonic() - started < 20
     assert "no Dask scheduler answers at tcp://127.0.0.1:9" in capsys.readouterr().out
+
+
+def test_something_that_answers_but_is_not_a_scheduler_exits_3_naming_it(work, capsys):
+    """A web server where the scheduler should be (the dashboard's port, a proxy)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+
+    def answer_http():
+        with contextlib.suppress(OSError):
+            while True:
+                conn, _ = server.accept()
+                with conn:
+                    conn.recv(1024)
+                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\ncontent-length: 0\r\n\r\n")
+
+    threading.Thread(target=answer_http, daemon=True).start()
+    try:
+        started = time.monotonic()
+        args = ["sweep", "seeds.yaml", "--seeds", "1", "--scheduler", f"tcp://127.0.0.1:{port}"]
+        assert main(args) == 3
+        assert time.monotonic() - started < 20
+    finally:
+        server.close()
+    out = capsys.readouterr()
+    assert f"something answers at tcp://127.0.0.1:{port} but it is not a Dask scheduler" in out.out
+    assert "Traceback" not in out.out + out.err
 
 
 def test_check_address():

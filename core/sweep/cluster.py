@@ -11,6 +11,7 @@ load the tree: one that cannot is reported once, by address, and gets no seeds.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import signal
 import threading
@@ -30,6 +31,43 @@ PLUGIN_NAME = "armtree-forker"
 
 class SchedulerUnreachable(RuntimeError):
     """No Dask scheduler answered at the address (exit 3)."""
+
+
+async def _identity(address: str, timeout: float) -> Any:
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await asyncio.wait_for(comm.read(), timeout)
+    finally:
+        comm.abort()
+
+
+def probe_scheduler(address: str, timeout: float = CONNECT_S) -> None:
+    """Return when a Dask scheduler answers at ``address`` within ``timeout`` seconds.
+
+    Raises :class:`SchedulerUnreachable` naming the address when nothing answers, when
+    what answers does not speak Dask (a web server, the dashboard's port) or is not the
+    scheduler (a worker's address). Asked before a ``Client`` exists, because a client
+    pointed at something else fails with the other end's bytes read as a message size.
+    """
+    hint = "start one with `dask scheduler` and point --scheduler at the address it prints"
+    try:
+        answer = asyncio.run(_identity(address, timeout))
+    except (OSError, TimeoutError) as exc:
+        raise SchedulerUnreachable(
+            f"no Dask scheduler answers at {address} within {timeout:g} s ({exc}); {hint}"
+        ) from None
+    except Exception as exc:  # noqa: BLE001 - whatever answered is not speaking Dask
+        raise SchedulerUnreachable(
+            f"something answers at {address} but it is not a Dask scheduler "
+            f"({type(exc).__name__} reading its reply; is it the dashboard's port?); {hint}"
+        ) from None
+    kind = answer.get("type") if isinstance(answer, dict) else None
+    if kind != "Scheduler":
+        what = f"a Dask {kind}" if kind else "not a Dask scheduler"
+        raise SchedulerUnreachable(f"{address} answers but is {what}, not the scheduler; {hint}")
 
 
 class ForkerPlugin(WorkerPlugin):
@@ -107,7 +145,7 @@ def check_tree_on_worker(task: RunTask) -> str:
 class DaskPool:
     """Runs on the workers of the Dask scheduler at ``address``.
 
-    Raises :class:`SchedulerUnreachable` when nothing answers within a few seconds.
+    Raises :class:`SchedulerUnreachable` when no scheduler answers within a few seconds.
     """
 
     def __init__(self, address: str, run_timeout: float | None) -> None:
@@ -115,6 +153,7 @@ class DaskPool:
 
         self.address = check_address(address)
         self.run_timeout = run_timeout
+        probe_scheduler(address)
         try:
             self.client = Client(address, timeout=CONNECT_S, set_as_default=False)
         except (OSError, TimeoutError) as exc:
