@@ -72,6 +72,33 @@ def test_a_failure_while_the_world_is_fine_is_reported_as_a_false_failure(tmp_pa
     assert result_record(tmp_path / "run")[1]["verdict"] == "false failure"
 
 
+@pytest.mark.parametrize(
+    ("root", "code", "verdict"), [("success", 0, "success"), ("failure", 1, "failure")]
+)
+def test_without_ground_truth_each_expectation_is_not_checked_and_the_tree_decides(
+    tmp_path, capsys, root, code, verdict
+):
+    """A rig with no simulated world (hardware): nothing can contradict the tree, nor confirm it."""
+    tree = write(
+        tmp_path / "t.yaml",
+        f"""\
+        tree: bare
+        expect: [{{collisions: 0}}, {{held: nothing}}]
+        root: {{{root}: {{name: Done}}}}
+        """,
+    )
+    assert run_tree_main([str(tree), "--quiet", "--record", str(tmp_path / "run")]) == code
+    lines = capsys.readouterr().out.splitlines()
+    assert "expect: ? collisions <= 0 (not checked: no ground truth on this rig)" in lines
+    assert not [line for line in lines if "false" in line.lower()]
+    _, result = result_record(tmp_path / "run")
+    assert result["verdict"] == verdict
+    assert [(e["status"], e["measured"]) for e in result["expectations"]] == [
+        ("not checked", None),
+        ("not checked", None),
+    ]
+
+
 COLLIDE = """\
 rig: sim_dobot
 expect: [{collisions: 0}]
