@@ -91,11 +91,13 @@ def pids(work):
 def test_seed_ranges():
     assert parse_seeds("1-1000") == range(1, 1001)
     assert parse_seeds(" 7 ") == range(7, 8)
+    assert len(parse_seeds("10-1000009")) == 1_000_000
     for text, message in [
         ("5-1", "write 1-5"),
         ("x", "range A-B"),
         ("-3", "range A-B"),
         ("1-", "range A-B"),
+        ("0-1000000", "1000001 runs; one sweep takes at most 1,000,000"),
     ]:
         with pytest.raises(ConfigError, match=message) as info:
             parse_seeds(text)

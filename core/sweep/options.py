@@ -7,6 +7,9 @@ import re
 from ..errors import ConfigError
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
+#: The most seeds one sweep takes: a typo with three zeros too many is refused, not a
+#: list of a billion runs built in memory before the first one starts.
+MAX_SEEDS = 1_000_000
 _ADDRESS = re.compile(r"^(tcp|tls|ws|wss)://(\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):(\d{1,5})$")
 
 
@@ -14,7 +17,7 @@ def parse_seeds(text: str) -> range:
     """The seeds ``text`` names: ``"1-1000"`` is 1 to 1000 inclusive, ``"7"`` is seed 7.
 
     Raises :class:`ConfigError` (at ``--seeds``) for anything else, or a range
-    whose end comes before its start.
+    whose end comes before its start, or one of more than :data:`MAX_SEEDS` seeds.
     """
     match = _RANGE.match(text or "")
     if match is None:
@@ -27,6 +30,12 @@ def parse_seeds(text: str) -> range:
     if last < first:
         raise ConfigError(
             f"--seeds {text}: the range ends before it starts; write {last}-{first}",
+            file="--seeds",
+        )
+    if last - first + 1 > MAX_SEEDS:
+        raise ConfigError(
+            f"--seeds {text}: {last - first + 1} runs; one sweep takes at most {MAX_SEEDS:,} "
+            "(split it into several --out folders)",
             file="--seeds",
         )
     return range(first, last + 1)
