@@ -115,6 +115,7 @@ def test_seed_ranges():
         ),
         (["--seeds", "1-2", "--workers", "0"], "--workers 0: give at least 1"),
         (["--seeds", "1-2", "--run-timeout", "0"], "give a positive number of seconds"),
+        (["--seeds", "1-2", "--out", "seeds.yaml/x"], "--out seeds.yaml/x: cannot write there"),
     ],
 )
 def test_bad_options_exit_2_before_anything_runs(work, capsys, args, message):

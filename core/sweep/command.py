@@ -108,9 +108,16 @@ def _out_dir(value: str | None, tree_name: str, overwrite: bool) -> Path:
             "or --overwrite to replace it",
             file="--out",
         )
-    for name in held:
-        target = out / name
-        shutil.rmtree(target) if target.is_dir() else target.unlink()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for name in held:
+            target = out / name
+            shutil.rmtree(target) if target.is_dir() else target.unlink()
+    except OSError as exc:
+        raise ConfigError(
+            f"--out {value}: cannot write there ({exc.strerror or exc}); give a folder you can write to",
+            file="--out",
+        ) from None
     return out
 
 
