@@ -172,7 +172,7 @@ def dobot_ik(n: int, rng: np.random.Generator) -> Case:
 
 def dobot_jacobian(n: int, rng: np.random.Generator) -> Case:
     """Dobot V1 analytic Jacobian vs the base class's central differences."""
-    from armtree.kinematics import KinematicModel
+    from armtree.motion.kinematics import KinematicModel
 
     model, q = DobotV1Model(), _dobot_q(n, rng)
     return Case(

@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from .kinematics import KinematicModel
+from .motion.kinematics import KinematicModel
 from .rig import ToolState
 
 #: Key under which an arm plugin publishes its emulator in ``RigContext.shared``.

@@ -74,7 +74,7 @@ def armtree_arms() -> dict[str, Any]:
         factory declares them) and a :class:`armtree.rig.RigContext`, and returns
         a connected-on-demand :class:`armtree.rig.ArmDriver`. A factory may also
         offer ``factory.model(config)`` returning the arm's
-        :class:`armtree.kinematics.KinematicModel` without opening a port.
+        :class:`armtree.motion.kinematics.KinematicModel` without opening a port.
     """
 
 

@@ -416,7 +416,7 @@ def _check_construction(component: Any, report: _Reporter) -> None:
 
 
 def _check_model(component: Any, report: _Reporter, notes: list[str]) -> None:
-    from .kinematics import KinematicModel
+    from .motion.kinematics import KinematicModel
 
     make = component.factory.model
     config = {"type": component.name, **_defaults(component)}
@@ -438,7 +438,7 @@ def _check_model(component: Any, report: _Reporter, notes: list[str]) -> None:
             make,
             "factory.model(defaults)",
             f"a {type(model).__name__}",
-            "an armtree.kinematics.KinematicModel",
+            "an armtree.motion.kinematics.KinematicModel",
         )
         return
     for member, found, expected in model_problems(model):
@@ -456,7 +456,7 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
     out: list[tuple[str, str, str]] = []
     n = len(model.joints)
     if n == 0:
-        return [("joints", "no joints", "a tuple of armtree.kinematics.Joint")]
+        return [("joints", "no joints", "a tuple of armtree.motion.kinematics.Joint")]
     for joint in model.joints:
         if not joint.lower < joint.upper:
             out.append(

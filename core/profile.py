@@ -14,7 +14,7 @@ the whole file before returning, collecting every problem into one
   (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
   ``table: {z: MM}`` (or ``table: MM``): the table top in the arm's base frame;
 * ``workcell``: the task geometry skills use (:mod:`armtree.workcell`);
-* then the planning scene these make (:meth:`armtree.scene.Scene.from_profile`):
+* then the planning scene these make (:meth:`armtree.motion.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
 * ``world`` (simulation only) is a mapping; ``plugins`` is a list of modules or
   ``.py`` files loaded before validation; ``watchdog: {tick_s: S}`` is the longest
@@ -37,11 +37,11 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ConfigError, Mark, shown
+from .motion.scene import Scene
 from .params import check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .resolve import available, resolve
 from .rig import TagSpec
-from .scene import Scene
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file
@@ -763,7 +763,7 @@ def _check_places(data: MarkedDict, errors: list[ConfigError]) -> None:
 
 
 def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """``table: {z: MM}`` or ``table: MM``, as :meth:`armtree.scene.Scene.from_profile` reads it."""
+    """``table: {z: MM}`` or ``table: MM``, as :meth:`armtree.motion.scene.Scene.from_profile` reads it."""
     table = data.get("table")
     if table is None or _is_number(table):
         return

@@ -19,7 +19,7 @@ import numpy as np
 
 from .clock import Clock
 from .errors import HardwareFault, PlanningError, Unreachable
-from .kinematics import KinematicModel
+from .motion.kinematics import KinematicModel
 
 # ---------------------------------------------------------------------------
 # Motion

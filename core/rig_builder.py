@@ -3,7 +3,7 @@
 Components come from the plugin registry by ``type``: ``factory(config,
 context)`` for the arm, camera and tracker, ``factory(config, context, model,
 scene)`` for the planner (``model`` is the arm driver's kinematic model,
-``scene`` what :mod:`armtree.scene` makes of the profile's obstacles, or the raw
+``scene`` what :mod:`armtree.motion.scene` makes of the profile's obstacles, or the raw
 ``obstacles`` list when that module is absent). Then the ``armtree_rig_ready``
 hook lets plugins wire components together, the context's steppers and closers
 move into the rig, and :meth:`Rig.start` starts the components in
@@ -52,11 +52,11 @@ def uses_real_hardware(profile: Any) -> bool:
 
 
 def make_scene(profile: Any) -> Any:
-    """The planning scene of a profile: :mod:`armtree.scene`'s if present, else raw obstacles."""
+    """The planning scene of a profile: :mod:`armtree.motion.scene`'s if present, else raw obstacles."""
     obstacles = profile_section(profile, "obstacles") or []
-    if importlib.util.find_spec("armtree.scene") is None:
+    if importlib.util.find_spec("armtree.motion.scene") is None:
         return obstacles
-    scene_module = importlib.import_module("armtree.scene")
+    scene_module = importlib.import_module("armtree.motion.scene")
     scene_cls = getattr(scene_module, "Scene", None)
     if scene_cls is not None and hasattr(scene_cls, "from_profile"):
         return scene_cls.from_profile(profile)

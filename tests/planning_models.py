@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.geometry import rot_y, rot_z, transform
-from armtree.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.motion.geometry import rot_y, rot_z, transform
+from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
 
 
 def _offset(x: float, y: float = 0.0, z: float = 0.0) -> np.ndarray:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree.emulation import FirmwareEmulator
-from armtree.kinematics import Joint, KinematicModel, LinkBox
+from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
 from armtree.rig import ToolState
 
 

@@ -15,7 +15,7 @@ import serial
 
 from armtree.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault
-from armtree.kinematics import Joint, KinematicModel
+from armtree.motion.kinematics import Joint, KinematicModel
 from armtree.plugins.arms.common import (
     FixedFrameParser,
     PtyEmulator,

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from armtree.errors import ConfigError
-from armtree.kinematic_calibration import (
+from armtree.motion.kinematic_calibration import (
     CalibrationPoints,
     fit_kinematics,
     read_points,

@@ -6,12 +6,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from planning_models import PlanarArm, wide_dobot
 
-from armtree.collision import CollisionChecker, obb_overlap
 from armtree.errors import ConfigError
-from armtree.geometry import box_corners, box_triangles, from_rpy_deg, transform
-from armtree.meshio import load_mesh, write_stl_ascii, write_stl_binary
-from armtree.scene import Scene
-from armtree.tritri import intersect_matrix
+from armtree.motion.collision import CollisionChecker, obb_overlap
+from armtree.motion.geometry import box_corners, box_triangles, from_rpy_deg, transform
+from armtree.motion.meshio import load_mesh, write_stl_ascii, write_stl_binary
+from armtree.motion.scene import Scene
+from armtree.motion.tritri import intersect_matrix
 
 WALL = {"box": {"center": [0, 250, 50], "size": [400, 20, 300], "name": "wall"}}
 

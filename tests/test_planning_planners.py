@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from planning_models import PlanarArm, wide_dobot
 
-from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError, PlanningError, Unreachable
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.scene import Scene
+from armtree.motion.validation import validate_samples
 from armtree.plugin_manager import make_plugin_manager
 from armtree.plugins.planners.direct import DirectPlanner, direct_factory, sample_segment
 from armtree.plugins.planners.prm import PRMPlanner, Roadmap, default_cache_dir, prm_factory
 from armtree.rig import RigContext
-from armtree.scene import Scene
-from armtree.validation import validate_samples
 
 WALL = {"box": {"center": [0, 250, 50], "size": [400, 20, 300], "name": "wall"}}
 PROFILE = {"table": {"z": -110}, "obstacles": [WALL]}

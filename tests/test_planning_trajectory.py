@@ -6,10 +6,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from planning_models import PlanarArm, wide_dobot
 
-from armtree.collision import CollisionChecker
 from armtree.errors import PlanningError
-from armtree.scene import Scene
-from armtree.trajectory import (
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.scene import Scene
+from armtree.motion.trajectory import (
     cubic_coefficients,
     plan_trajectory,
     quintic_coefficients,

@@ -13,7 +13,7 @@ import pytest
 import armtree
 from armtree import builtin_behaviours
 from armtree.cli import main
-from armtree.kinematics import Joint, KinematicModel, LinkBox
+from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
 from armtree.plugin_checks import installed_version, model_problems, version_problem
 from armtree.plugin_manager import PluginManager
 

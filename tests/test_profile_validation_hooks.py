@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from armtree.errors import ConfigError
+from armtree.motion.scene import Scene
 from armtree.profile import PROFILE_KEYS, load_profile
-from armtree.scene import Scene
 
 # A simulated Dobot whose world and tags agree; each test breaks one line of it.
 SIM = """\

@@ -179,7 +179,7 @@ def test_tags_accept_id_or_ids_and_need_a_size():
 def test_scene_falls_back_to_the_raw_obstacles_only_without_armtree_scene():
     scene = make_scene({"obstacles": []})
     try:
-        from armtree.scene import Scene
+        from armtree.motion.scene import Scene
     except ImportError:
         assert scene == []
     else:

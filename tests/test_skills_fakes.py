@@ -20,7 +20,7 @@ from py_trees.common import Status
 
 from armtree.clock import VirtualClock
 from armtree.errors import PlanningError, Unreachable
-from armtree.kinematics import Joint, KinematicModel
+from armtree.motion.kinematics import Joint, KinematicModel
 from armtree.rig import (
     ArmDriver,
     Camera,

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from armtree.errors import ConfigError
-from armtree.filters import PoseFilter
+from armtree.perception.filters import PoseFilter
 from armtree.plugins.trackers.preprocess import Preprocessing, to_gray
 from armtree.rig import Detection
 

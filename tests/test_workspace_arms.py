@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
+from armtree.motion.workspace import ArmWorkspace
 from armtree.plugins.arms.dobot_magician.plugin import magician_factory
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.vicra.plugin import vicra_factory
-from armtree.workspace import ArmWorkspace
 
 MODELS = {
     "dobot_v1": lambda: DobotV1Model(),

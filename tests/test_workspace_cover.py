@@ -8,10 +8,10 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from planning_models import DobotLike, PlanarArm, wide_dobot
 
-from armtree import interval as iv
 from armtree.errors import ConfigError
-from armtree.interval import Interval
-from armtree.workspace import ArmWorkspace, cover, satisfied, sector_constraint
+from armtree.motion import interval as iv
+from armtree.motion.interval import Interval
+from armtree.motion.workspace import ArmWorkspace, cover, satisfied, sector_constraint
 
 finite = st.floats(-20, 20, allow_nan=False, allow_subnormal=False)
 

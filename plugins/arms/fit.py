@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.kinematics import KinematicModel
-from armtree.perception import EYE_IN_HAND
+from armtree.motion.kinematics import KinematicModel
+from armtree.perception.frames import EYE_IN_HAND
 from armtree.profile import Profile, Swap
 
 #: Angle (degrees) between the two arms' tool z axes at home beyond which a camera

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from armtree.perception import camera_in_base
+from armtree.perception.frames import camera_in_base
 
 from .taps import RigTaps
 

@@ -12,15 +12,15 @@ from typing import Any
 
 import numpy as np
 
-from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError
-from armtree.kinematics import KinematicModel
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.kinematics import KinematicModel
+from armtree.motion.scene import Scene
+from armtree.motion.validation import check_config, validate_samples
+from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
 from armtree.profile import profile_section
 from armtree.rig import Planner
-from armtree.scene import Scene
-from armtree.validation import check_config, validate_samples
-from armtree.workspace import ArmWorkspace
 
 
 class DirectPlanner(Planner):

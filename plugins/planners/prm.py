@@ -29,14 +29,14 @@ import numpy as np
 import platformdirs
 from scipy.spatial import cKDTree
 
-from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError, PlanningError
-from armtree.kinematics import KinematicModel
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.kinematics import KinematicModel
+from armtree.motion.validation import check_config
+from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
 from armtree.plugins.planners.direct import planner_checker
 from armtree.rig import Planner
-from armtree.validation import check_config
-from armtree.workspace import ArmWorkspace
 
 #: Bump when the cache file layout or the construction changes meaning.
 CACHE_VERSION = 1

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
+from armtree.motion.scene import Scene
+from armtree.motion.workspace import ArmWorkspace, Covering
 from armtree.profile import profile_source
-from armtree.scene import Scene
-from armtree.workspace import ArmWorkspace, Covering
 
 
 def arm_model(profile: Any, manager: Any = None) -> Any:

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.perception import camera_in_base, marker_in_base
+from armtree.perception.frames import camera_in_base, marker_in_base
 from armtree.rig import Detection
 from armtree.workcell import workcell_of
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.perception import EYE_IN_HAND
+from armtree.perception.frames import EYE_IN_HAND
 
 from .actions import Look, Move
 from .arm_skill import ArmSkill, camera_over

@@ -30,7 +30,7 @@ import numpy as np
 
 from armtree import Param
 from armtree.params import Binding
-from armtree.perception import EYE_IN_HAND
+from armtree.perception.frames import EYE_IN_HAND
 
 from .actions import ArmHome, Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper

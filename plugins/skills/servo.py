@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param, Unreachable
-from armtree.perception import LinearCorrection
+from armtree.perception.frames import LinearCorrection
 
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure

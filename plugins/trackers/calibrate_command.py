@@ -203,7 +203,7 @@ class CalibrateCommand:
     # -- hand-eye (seed 000) -------------------------------------------------
 
     def _hand_eye(self, args: argparse.Namespace) -> int:
-        from armtree.perception import eye_to_hand_from_three_positions
+        from armtree.perception.frames import eye_to_hand_from_three_positions
 
         intr = intrinsics_from_args(args)
         if intr is None:

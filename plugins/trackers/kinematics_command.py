@@ -29,7 +29,7 @@ import yaml
 from armtree.clock import VirtualClock
 from armtree.emulation import FirmwareEmulator
 from armtree.errors import ConfigError
-from armtree.kinematic_calibration import (
+from armtree.motion.kinematic_calibration import (
     CalibrationPoints,
     KinematicFit,
     fit_kinematics,

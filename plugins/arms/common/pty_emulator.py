@@ -34,7 +34,7 @@ import numpy as np
 
 from armtree.clock import Clock
 from armtree.emulation import FirmwareEmulator
-from armtree.kinematics import KinematicModel
+from armtree.motion.kinematics import KinematicModel
 
 from .barrier import StepBarrier
 from .motion import JointState

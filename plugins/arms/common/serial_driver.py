@@ -33,7 +33,7 @@ import serial
 
 from armtree.clock import Clock
 from armtree.errors import HardwareFault, Unreachable
-from armtree.kinematics import KinematicModel
+from armtree.motion.kinematics import KinematicModel
 from armtree.rig import ArmDriver, MotionHandle, MotionStatus
 
 from .barrier import StepBarrier

@@ -28,13 +28,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.collision import CollisionChecker
 from armtree.errors import HardwareFault, PlanningError, Unreachable
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.scene import Scene
+from armtree.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.rig import MotionHandle, MotionStatus, ToolState
-from armtree.scene import Scene
-from armtree.trajectory import Trajectory, plan_trajectory, validate_trajectory
 
 from . import ssc32 as S
 from .kinematics import DHModel

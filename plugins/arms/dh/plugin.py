@@ -8,12 +8,12 @@ import numpy as np
 
 import armtree
 from armtree.clock import Clock
-from armtree.collision import CollisionChecker
 from armtree.errors import ConfigError
+from armtree.motion.collision import CollisionChecker
+from armtree.motion.scene import Scene
 from armtree.params import Param
 from armtree.plugins.arms.common import driver_port
 from armtree.rig import RigContext
-from armtree.scene import Scene
 
 from .driver import TRAJECTORY_KINDS, SSC32Driver
 from .emulator import SSC32Emulator

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
 
 #: Rear arm (shoulder to elbow), mm (seed 004).
 L1 = 135.0

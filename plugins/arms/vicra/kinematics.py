@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from armtree.kinematics import Joint, KinematicModel, LinkBox
+from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
 
 #: Degrees / mm by which an IK solution may miss a limit through round-off and be clamped.
 LIMIT_SLACK = 1e-5

@@ -22,7 +22,7 @@ import armtree
 import numpy as np
 import py_trees
 from armtree.constructor_params import declared_params
-from armtree.perception import camera_in_base, marker_in_base
+from armtree.perception.frames import camera_in_base, marker_in_base
 from armtree.plugin_manager import get_plugin_manager
 from armtree.tree_loader import construct
 from py_trees.common import Status

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kinematics import KinematicModel
+from ..motion.kinematics import KinematicModel
 
 EYE_IN_HAND = "eye_in_hand"
 EYE_TO_HAND = "eye_to_hand"

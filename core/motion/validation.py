@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PlanningError
 from .collision import CollisionChecker
-from .errors import PlanningError
 from .kinematics import KinematicModel
 
 

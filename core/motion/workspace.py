@@ -5,7 +5,7 @@
 ``g_j > 0`` on all of it (eq. 7), *inside* when every ``g_j <= 0`` on all of it
 (eq. 8), and *boundary* when neither holds and its diameter is at most delta
 (eq. 9); any other box is halved along its longest edge. The bounds of each
-``g_j`` over a box (eq. 11) come from :mod:`armtree.interval`. armtree runs the
+``g_j`` over a box (eq. 11) come from :mod:`armtree.motion.interval`. armtree runs the
 method level by level: all boxes of one level are evaluated in one batch.
 
 :class:`ArmWorkspace` applies it to an arm: the set of tool positions (mm)
@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ConfigError, Unreachable
 from . import interval as iv
-from .errors import ConfigError, Unreachable
 from .interval import Interval
 from .kinematics import KinematicModel
 
@@ -89,7 +89,7 @@ def cover(
 ) -> Covering:
     """Seed 003's covering of ``{x in [lower, upper] : g_j(x) <= 0 for all j}`` to diameter ``delta``.
 
-    ``constraints`` is a function of an :class:`~armtree.interval.Interval` ``x``
+    ``constraints`` is a function of an :class:`~armtree.motion.interval.Interval` ``x``
     whose last axis holds the coordinates (``x[..., 0]`` ...) returning the
     ``g_j`` as intervals, or a list of such functions, one per ``g_j``.
     Raises ValueError if more than ``max_boxes`` boxes would be live at once.
@@ -542,7 +542,7 @@ class ArmWorkspace:
 
     The constraint system comes from the model's ``workspace_constraints`` and
     ``workspace_bounds()`` when it has them (``g_j(p) <= 0`` for p ``(..., 3)``,
-    written with :mod:`armtree.interval` functions). Otherwise models with link
+    written with :mod:`armtree.motion.interval` functions). Otherwise models with link
     lengths ``l1`` and ``l2`` are recognised from their forward kinematics as the
     Dobot family (seed 004's geometry: base, rear arm, forearm, horizontal tool
     offset) or as a SCARA arm (vertical axis, two planar links). Other models

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PlanningError
 from .collision import CollisionChecker
-from .errors import PlanningError
 from .validation import PathReport, validate_samples
 
 

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 from .geometry import box_triangles, from_rpy_deg, transform
 from .meshio import load_mesh
 
@@ -211,7 +211,7 @@ def _place_blocked(name: str, point: np.ndarray, blocker: str) -> str:
 
 def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
     # imported here: armtree.profile builds Scenes, so it imports this module first
-    from .profile import profile_source
+    from ..profile import profile_source
 
     source = profile_source(profile)
     if isinstance(profile, Mapping):
@@ -230,7 +230,7 @@ class _Fail:
         self.profile = profile
 
     def __call__(self, path: str, message: str) -> ConfigError:
-        from .profile import profile_error
+        from ..profile import profile_error
 
         err = profile_error(self.profile, path, message)
         # positioned by the dotted path; shown with list items as [i]

@@ -1,6 +1,6 @@
-"""Collision checking of an arm's link boxes against a :class:`~armtree.scene.Scene`.
+"""Collision checking of an arm's link boxes against a :class:`~armtree.motion.scene.Scene`.
 
-The arm is the set of link boxes its :class:`~armtree.kinematics.KinematicModel`
+The arm is the set of link boxes its :class:`~armtree.motion.kinematics.KinematicModel`
 places for a configuration (seed 004, eqs. 11-13: each link's box rotated by the
 joints before it and offset by the preceding link lengths). A configuration
 collides when a moving link box
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 from .geometry import BOX_CORNER_SIGNS, BOX_TRIANGLES
 from .kinematics import KinematicModel
 from .scene import Scene

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import Unreachable
+from ..errors import Unreachable
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ angles, and fitted the model's parameters (tool offset ``d``, angle offsets,
 angle scale factors; the link lengths held fixed against overfitting) with a
 damped least-squares fit (MATLAB's ``lsqcurvefit``) so that the forward
 kinematics (seed 004, eqs. 5-7) agree with the measured positions. This module
-does the same for any :class:`~armtree.kinematics.KinematicModel`:
+does the same for any :class:`~armtree.motion.kinematics.KinematicModel`:
 
 * structural parameters (link lengths, tool offset, ...) are set by a
   ``build(params) -> KinematicModel`` callable (for a plugin arm:
@@ -29,7 +29,7 @@ import yaml
 from scipy.optimize import least_squares
 
 from armtree.errors import ConfigError
-from armtree.kinematics import KinematicModel
+from armtree.motion.kinematics import KinematicModel
 
 #: Builds a model from structural parameters (mm), e.g. ``{"tool_offset_mm": 53.4}``.
 ModelBuilder = Callable[[Mapping[str, float]], KinematicModel]
