@@ -11,7 +11,8 @@ found here, with the tree's (or the profile's) file, line and column:
 * ``kind="position"``: an ``[x, y, z]`` the arm reaches;
 * a string that looks like a blackboard binding but names no key (``"{}"``);
 * a behaviour's ``NEEDS`` (``"camera"``: a camera and a tracker) and a ``"tool"``
-  among its ``RESOURCES`` (an arm that grips with something) are on the rig.
+  among its ``RESOURCES`` (an arm that grips with something) are on the rig, and the
+  ``workcell:`` keys in its ``WORKCELL`` (a sweep's ``survey``) are in the profile.
 
 Reach is judged with the arm's kinematic model (``factory.model(config)``, which
 opens no port): some inverse-kinematics solution within the joint limits.
@@ -28,6 +29,7 @@ import numpy as np
 
 from .errors import ConfigError, Mark, shown
 from .plugin_manager import did_you_mean
+from .workcell import workcell_of
 from .yamlio import error_at
 
 #: A string that is written like a ``{key}`` binding, whatever is between the braces.
@@ -44,6 +46,7 @@ class RigChecks:
         self._model: Any = None
         self._model_built = False
         self._place_reach: dict[str, bool] = {}
+        self._workcell = workcell_of(profile)
 
     # ------------------------------------------------------------------ values
 
@@ -124,9 +127,15 @@ class RigChecks:
     # ---------------------------------------------------------------- the rig
 
     def needs(
-        self, ntype: str, needs: Sequence[str], resources: Sequence[str], mark: Mark | None
+        self,
+        ntype: str,
+        needs: Sequence[str],
+        resources: Sequence[str],
+        mark: Mark | None,
+        workcell: Sequence[str] = (),
     ) -> list[ConfigError]:
-        """Errors for rig parts a behaviour cannot run without that the profile lacks."""
+        """Errors for rig parts a behaviour cannot run without that the profile lacks, and
+        for ``workcell:`` keys it needs (its ``WORKCELL``) that the profile leaves out."""
         out = []
         profile = self.profile
         for part in needs:
@@ -152,6 +161,11 @@ class RigChecks:
                         f"{ntype} needs a {part}, but the profile {profile.name} has none", mark
                     )
                 )
+        for key in workcell:
+            try:
+                self._workcell.need(key, ntype)
+            except ConfigError as exc:
+                out.append(error_at(exc.message, mark))
         if "tool" in resources and self._grips_with() is None:
             out.append(
                 error_at(

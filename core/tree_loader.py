@@ -594,7 +594,11 @@ class _Loader:
         params = self.check_params(factory, options, node, ctx)
         if self.rig_checks is not None:
             for error in self.rig_checks.needs(
-                ntype, getattr(factory, "NEEDS", ()), getattr(factory, "RESOURCES", ()), type_mark
+                ntype,
+                getattr(factory, "NEEDS", ()),
+                getattr(factory, "RESOURCES", ()),
+                type_mark,
+                getattr(factory, "WORKCELL", ()),
             ):
                 self.error(error.message, type_mark, ctx)
         built_children: Any = None

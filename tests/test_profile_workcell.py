@@ -156,3 +156,17 @@ def test_a_marker_is_moved_along_the_camera_ray_onto_its_height():
     assert np.isclose(fixed[2], 25.0, atol=1e-9)
     ray = measured - camera[:3, 3]
     assert np.allclose(np.cross(fixed - camera[:3, 3], ray), 0.0, atol=1e-6)  # same ray
+
+
+def test_a_sweep_on_a_profile_without_a_survey_is_refused_at_load(tmp_path):
+    profile = tmp_path / "rig.yaml"
+    profile.write_text(
+        "arm: {type: vicra}\ncamera: {type: sim}\ntracker: {type: aruco}\n"
+        "tags: {duckybot: {id: 1, size_mm: 25}}\n"
+    )
+    tree = tmp_path / "t.yaml"
+    tree.write_text("root:\n  sweep: {tag: duckybot}\n")
+    with pytest.raises(armtree.ConfigError) as info:
+        armtree.load_tree(tree, rig=profile)
+    messages = [f"{e.line}:{e.column}: {e.message}" for e in info.value.errors]
+    assert any(m.startswith("2:3: sweep needs workcell.survey") for m in messages), messages
