@@ -16,6 +16,7 @@ from armtree.plugins.skills.conditions import (
     TagVisible,
 )
 from armtree.resources import Resources
+from armtree.rig import ToolState
 
 
 def tick(node, rig, ticks=1):
@@ -103,6 +104,20 @@ def test_holding_follows_the_tool_report():
     node = Holding("h2", tag="ducky")
     assert tick(node, rig) is Status.SUCCESS
     assert "cannot look under it" in node.feedback_message  # eye-in-hand: the report only
+
+
+def test_a_gripper_angle_beside_a_suction_cup_is_not_a_grip(monkeypatch):
+    # The Dobot V1.0 reports a gripper angle (0.0) in every status frame whatever is
+    # mounted; with its suction cup and the pump off, that is no grip.
+    rig = make_rig()
+    monkeypatch.setattr(type(rig.arm), "tool", property(lambda arm: ToolState(arm.suction, 0.0)))
+    node = Holding("h", tag="ducky")
+    assert tick(node, rig) is Status.FAILURE and "not gripping" in node.feedback_message
+    rig.arm.suction = True
+    assert tick(Holding("h2", tag="ducky"), rig) is Status.SUCCESS
+    rig.arm.tool_kind = "gripper"  # a real gripper: 0.0 is its closed end (grip_closed)
+    rig.arm.suction = False
+    assert tick(Holding("h3", tag="ducky"), rig) is Status.SUCCESS
 
 
 def test_holding_eye_to_hand_fails_when_the_marker_is_seen_away_from_the_tool():

@@ -74,3 +74,16 @@ def test_load_ducky_with_dropped_frames_succeeds():
     for seed, result, score in run_seeds("sim_dobot", (2,), "camera.drop_rate=0.2"):
         check_loaded(seed, result, score)
         assert "trash_b" in score["in_bin"], f"seed {seed}: {score['in_bin']}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("rig", "seed"), [("sim_magician", 3), ("sim_dh", 5)])
+def test_load_ducky_in_a_randomised_world_on_the_magician_and_the_dh_arm(rig, seed):
+    # world.randomize on: the seed draws the ducky's yaw, the trash, the Duckybot's
+    # parking spot, camera noise and drops and missed steps; sim_dh drives its SSC-32
+    # along timed trajectories, with a gripper and a fixed camera (eye-to-hand)
+    tree = load_tree("load_ducky.yaml", rig=rig)
+    run = Run(tree, None, seed=seed, record=False, max_ticks=4000, quiet=True)
+    result = run.execute()
+    check_loaded(seed, result, run.rig.camera.world.score())
+    assert result.verdict == "success", result.expectations
