@@ -56,6 +56,7 @@ from .outcomes import FailureLog, judge, predicates_for, verdict
 from .resources import Resources
 from .rig import Rig
 from .rig_builder import build_rig, uses_real_hardware
+from .run_hooks import RunHooks
 from .runlog import RunLog, default_run_dir, jsonable
 from .watchdog import (
     DEFAULT_TICK_S,
@@ -253,8 +254,7 @@ class Run:
         self._index: dict[str, int] = {}
         self._feedback: list[str] = []
         self._feedback_t: list[float] = []
-        self._hook_impls: dict[str, list[Any]] = {}
-        self._hook_errors_reported: set[tuple[str, str]] = set()
+        self.hooks = RunHooks(self)
         self._executed = False
         self._end_status = ""
         # Filled in as the run ends: what failed, where, and what was running.
@@ -383,7 +383,7 @@ class Run:
             ):
                 self._owns_process = owns_signals
                 # A plugin may refuse the run here (a ConfigError: exit 2, nothing built).
-                self._manager_hook("armtree_run_opening", run=self)
+                self.hooks.call("armtree_run_opening", run=self)
                 self._open_log()
                 self._prepare_blackboard()
                 try:
@@ -398,7 +398,7 @@ class Run:
                         )
                     self._setup(bt)
                     self._index_nodes()
-                    self._call_hook("armtree_run_started", run=self)
+                    self.hooks.notify("armtree_run_started", run=self)
                     self.view.start(self)
                     self._start_watchdog(owns_signals)
                     try:
@@ -493,7 +493,7 @@ class Run:
         interrupts = self.interrupts
         period = self.period
         timeout, max_ticks = self.timeout, self.max_ticks
-        tick_hooks = bool(self._impls("armtree_tick"))
+        tick_hooks = self.hooks.has("armtree_tick")
         logging = self.log.enabled
         control = self.control
         next_poll = time.monotonic()
@@ -537,7 +537,7 @@ class Run:
             watchdog.end()
             self._track(now, logging)
             if tick_hooks:
-                self._call_hook("armtree_tick", run=self)
+                self.hooks.notify("armtree_tick", run=self)
             wall = time.monotonic()
             self.tick_wall = wall - tick_start
             if wall >= next_poll:
@@ -651,7 +651,7 @@ class Run:
             halt_errors=errors,
         )
         self.view.message(f"tree replaced at tick {self.tick_count}: {tree.name}")
-        self._call_hook("armtree_tree_replaced", run=self, previous=previous)
+        self.hooks.notify("armtree_tree_replaced", run=self, previous=previous)
 
     def _hold(self, keys: StopKey | None) -> None:
         """Stand still (clock held, nothing halted) until resumed, stepped or stopped."""
@@ -661,7 +661,7 @@ class Run:
         self.log.event(self.tick_count, clock.now(), "paused")
         self.log.flush()
         self.view.message(f"paused after tick {self.tick_count}: p resume, n step, q stop")
-        self._call_hook("armtree_run_paused", run=self, paused=True)
+        self.hooks.notify("armtree_run_paused", run=self, paused=True)
         while control.must_wait() and not self.interrupts.requested:
             wake.wait(_POLL_S)
             wake.clear()
@@ -673,7 +673,7 @@ class Run:
         self._anchor = None
         if not self.interrupts.requested:
             self.log.event(self.tick_count, clock.now(), "step" if stepping else "resumed")
-            self._call_hook("armtree_run_paused", run=self, paused=False)
+            self.hooks.notify("armtree_run_paused", run=self, paused=False)
 
     def _pace(self, t: float, speed: float) -> None:
         """On a virtual clock, wait until run time ``t`` is due at ``speed`` run s per wall s."""
@@ -840,7 +840,7 @@ class Run:
         self.view.message(f"interrupted: {reason}")
         if fault is not None:
             self.report_event("fault", f"fault: {fault}", error=str(fault))
-        self._call_hook("armtree_interrupt", run=self, reason=reason)
+        self.hooks.notify("armtree_interrupt", run=self, reason=reason)
         where = ", ".join(self._running) if self._running else "no running behaviour"
         message = f"interrupted by {reason} at tick {self.tick_count} (t={self.clock.now():.3f} s) in {where}"
         if fault is not None:
@@ -1039,7 +1039,7 @@ class Run:
             )
         self._judge(result)
         self.view.stop(self)
-        self._call_hook("armtree_run_finished", run=self, result=result)
+        self.hooks.notify("armtree_run_finished", run=self, result=result)
         record = {
             "kind": "result",
             "tick": result.ticks,
@@ -1078,7 +1078,7 @@ class Run:
         expect = list(getattr(self.tree, "expect", None) or ())
         world = None
         if expect:
-            world = self._first_answer("armtree_ground_truth", run=self)
+            world = self.hooks.notify("armtree_ground_truth", run=self)
         try:
             predicates = predicates_for(self.manager)
         except Exception:  # noqa: BLE001 - a clash was reported when the tree loaded
@@ -1091,18 +1091,6 @@ class Run:
             result.message = (
                 f"false success: the tree ended SUCCESS but the world disagrees: {failed}"
             )
-
-    def _first_answer(self, name: str, **kwargs: Any) -> Any:
-        """The first implementation's answer that is not None; one that raises is reported."""
-        for impl in reversed(self._impls(name)):
-            try:
-                answer = impl.function(*[kwargs[a] for a in impl.argnames])
-            except Exception as exc:  # noqa: BLE001 - a plugin must not break the run
-                self._hook_error(name, impl, exc)
-                continue
-            if answer is not None:
-                return answer
-        return None
 
     def _cleanup(self) -> None:
         self.interrupts.stopping = True
@@ -1202,48 +1190,6 @@ class Run:
         from .interrupts import _exit_now
 
         _exit_now()
-
-    # ------------------------------------------------------------------
-    # Hooks
-    # ------------------------------------------------------------------
-
-    def _impls(self, name: str) -> list[Any]:
-        if name not in self._hook_impls:
-            if self.manager is None:
-                self._hook_impls[name] = []
-            else:
-                self._hook_impls[name] = list(getattr(self.manager.hook, name).get_hookimpls())
-        return self._hook_impls[name]
-
-    def _manager_hook(self, name: str, **kwargs: Any) -> None:
-        """Call every implementation of ``name``, letting an exception end the run."""
-        for impl in self._impls(name):
-            impl.function(*[kwargs[a] for a in impl.argnames])
-
-    def _call_hook(self, name: str, **kwargs: Any) -> None:
-        """Call every implementation of ``name``; one that raises is reported and skipped."""
-        for impl in self._impls(name):
-            try:
-                impl.function(*[kwargs[a] for a in impl.argnames])
-            except Exception as exc:  # noqa: BLE001 - a plugin must not break the run
-                self._hook_error(name, impl, exc)
-
-    def _hook_error(self, name: str, impl: Any, exc: Exception) -> None:
-        """Log a hook implementation's exception; tell the user once per plugin and hook."""
-        self.log.event(
-            self.tick_count,
-            self.clock.now(),
-            "hook_error",
-            hook=name,
-            plugin=impl.plugin_name,
-            error=f"{type(exc).__name__}: {exc}",
-        )
-        key = (name, impl.plugin_name)
-        if key not in self._hook_errors_reported:
-            self._hook_errors_reported.add(key)
-            text = f"plugin {impl.plugin_name!r}: {name} raised {type(exc).__name__}: {exc}"
-            self.view.message(text)
-            print(f"warning: {text} (the run goes on)", file=sys.stderr)
 
 
 def _profile_tick_limit(profile: Any) -> float:

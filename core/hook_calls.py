@@ -1,0 +1,97 @@
+"""Calling a hook through pluggy so that one plugin's exception does not silence the others.
+
+Plugins are called as pluggy calls them (``pm.hook.armtree_x(...)``): wrappers wrap,
+``tryfirst`` / ``trylast`` order, ``firstresult`` hooks stop at the first answer.
+When an implementation raises, the exception is handed to ``on_error`` with the
+plugin that raised it, and the hook is called again without that plugin, so the
+rest still hear of the event.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pluggy
+
+#: ``on_error(hook name, plugin name, exception)``.
+ErrorHandler = Callable[[str, str, BaseException], None]
+
+
+def has_implementations(pm: pluggy.PluginManager | None, name: str) -> bool:
+    """True when some registered plugin implements hook ``name``."""
+    return pm is not None and bool(getattr(pm.hook, name).get_hookimpls())
+
+
+def call_isolated(
+    pm: pluggy.PluginManager | None,
+    name: str,
+    on_error: ErrorHandler,
+    *,
+    call_again: bool = False,
+    **kwargs: Any,
+) -> Any:
+    """Call hook ``name`` through pluggy; a plugin that raises is reported and left out.
+
+    Returns what pluggy returns (a list of results, or the first result of a
+    ``firstresult`` hook) from the last call, the one no plugin raised in.
+    After an exception the hook is called again without the plugin that raised.
+    Plain implementations that already ran in the failed call are left out of the
+    next one as well, unless ``call_again`` (for hooks whose results are wanted
+    and whose implementations have no side effects, such as checks). An exception
+    that cannot be traced to a plugin is reported under ``"?"`` and ends the call.
+    """
+    if pm is None:
+        return None
+    caller = getattr(pm.hook, name)
+    removed: list[Any] = []
+    while True:
+        try:
+            return caller(**kwargs)
+        except Exception as exc:  # noqa: BLE001 - a plugin must not silence the others
+            impls = getattr(pm.hook, name).get_hookimpls()
+            culprit = _raiser(impls, exc)
+            if culprit is None or culprit.plugin in removed:
+                on_error(name, "?", exc)
+                return None
+            on_error(name, pm.get_name(culprit.plugin) or repr(culprit.plugin), exc)
+            if _is_wrapper(culprit):
+                # A wrapper that raised has decided the call's outcome for everyone inside it.
+                return None
+            removed.append(culprit.plugin)
+            if not call_again:
+                removed.extend(_ran_before(impls, culprit))
+            caller = pm.subset_hook_caller(name, remove_plugins=removed)
+
+
+def _raiser(impls: list[Any], exc: BaseException) -> Any:
+    """The implementation deepest in ``exc``'s traceback: the one that raised it.
+
+    A frame matches an implementation by its code and, for a method, by its ``self``,
+    so two instances of one plugin class are told apart.
+    """
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        frame = tb.tb_frame
+        for impl in impls:
+            function = impl.function
+            if getattr(function, "__code__", None) is not frame.f_code:
+                continue
+            owner = getattr(function, "__self__", None)
+            if owner is None or frame.f_locals.get("self") is owner:
+                found = impl
+                break
+        tb = tb.tb_next
+    return found
+
+
+def _is_wrapper(impl: Any) -> bool:
+    return bool(impl.hookwrapper or getattr(impl, "wrapper", False))
+
+
+def _ran_before(impls: list[Any], culprit: Any) -> list[Any]:
+    """Plugins whose plain implementations pluggy called before ``culprit`` (it calls
+    the list of implementations from its end)."""
+    index = impls.index(culprit)
+    return [impl.plugin for impl in impls[index + 1 :] if not _is_wrapper(impl)]
