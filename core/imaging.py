@@ -1,4 +1,5 @@
-"""Camera intrinsics from a profile or a calibration file, and that file's format.
+"""What cameras and trackers share: camera intrinsics from a profile or a calibration file,
+that file's format, and the frame rate a video file declares.
 
 A camera section gives its intrinsics either inline (seed 004's C270 values)::
 
@@ -20,13 +21,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import yaml
 
-from armtree.errors import ConfigError
-from armtree.params import Param
-from armtree.plugins.trackers.common import config_error
-from armtree.profile import profile_source
+from .component_config import config_error
+from .errors import ConfigError
+from .params import Param
+from .profile import profile_source
 
 #: The keys every camera type accepts for its intrinsics and mounting.
 INTRINSICS_PARAMS: tuple[Param, ...] = (
@@ -222,3 +224,13 @@ def extrinsics_from(value: Any, where: Any = None) -> np.ndarray:
             where, "camera.extrinsics", f"a 4x4 matrix of numbers (mm), got {value!r}"
         )
     return arr
+
+
+def video_fps(path: Path) -> float | None:
+    """The frame rate a video file declares, or None."""
+    cap = cv2.VideoCapture(str(path))
+    try:
+        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
+    finally:
+        cap.release()
+    return float(fps) if fps and np.isfinite(fps) and fps > 0 else None

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from armtree.errors import ConfigError
-from armtree.plugins.cameras.intrinsics import load_calibration
+from armtree.imaging import load_calibration
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.calibrate_command import CalibrateCommand
 from armtree.plugins.trackers.calibration import Board, calibrate

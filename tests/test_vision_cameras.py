@@ -8,7 +8,7 @@ import pytest
 
 from armtree.clock import VirtualClock
 from armtree.errors import ConfigError, HardwareFault
-from armtree.plugins.cameras.intrinsics import (
+from armtree.imaging import (
     Intrinsics,
     IntrinsicsBySize,
     load_calibration,

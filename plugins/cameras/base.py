@@ -7,11 +7,15 @@ from typing import Any
 import numpy as np
 
 from armtree.clock import Clock
+from armtree.component_config import check_config
+from armtree.imaging import (
+    INTRINSICS_PARAMS,
+    IntrinsicsBySize,
+    extrinsics_from,
+    intrinsics_from_config,
+)
 from armtree.params import Param
-from armtree.plugins.trackers.common import check_config
 from armtree.rig import Camera, Frame, RigContext
-
-from .intrinsics import INTRINSICS_PARAMS, IntrinsicsBySize, extrinsics_from, intrinsics_from_config
 
 
 class FrameSourceCamera(Camera):

@@ -23,13 +23,13 @@ from typing import Any
 import cv2
 import numpy as np
 
+from armtree.component_config import config_error
 from armtree.errors import HardwareFault
+from armtree.imaging import IntrinsicsBySize
 from armtree.params import Param
-from armtree.plugins.trackers.common import config_error
 from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
-from .intrinsics import IntrinsicsBySize
 
 # Read by OpenCV when FFmpeg is first used; -8 is FFmpeg's "quiet".
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")

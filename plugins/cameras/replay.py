@@ -21,9 +21,10 @@ from typing import Any
 import cv2
 import numpy as np
 
+from armtree.component_config import config_error
 from armtree.errors import ConfigError, HardwareFault
+from armtree.imaging import video_fps
 from armtree.params import Param
-from armtree.plugins.trackers.common import config_error
 from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
@@ -160,16 +161,6 @@ class VideoCamera(ReplayCamera):
         if self._capture is not None:
             self._capture.release()
             self._capture = None
-
-
-def video_fps(path: Path) -> float | None:
-    """The frame rate a video file declares, or None."""
-    cap = cv2.VideoCapture(str(path))
-    try:
-        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
-    finally:
-        cap.release()
-    return float(fps) if fps and np.isfinite(fps) and fps > 0 else None
 
 
 def image_paths(spec: str, where: Any = None) -> list[Path]:

@@ -1,16 +1,15 @@
 """Marker images for the renderer, cached by family, dictionary, id and resolution.
 
-The vision plugin's generator (``armtree.plugins.trackers.markers``) is used
-when it is installed, so the sim draws exactly what the trackers read; ArUco
-markers fall back to OpenCV's own generator without it.
+The images come from the trackers plugin's generator
+(``armtree.plugins.trackers.markers``), so the sim draws exactly what the
+trackers read and what ``armtree markers`` prints.
 """
 
 from __future__ import annotations
 
-import importlib
-
-import cv2
 import numpy as np
+
+from armtree.plugins.trackers.markers import marker_square as generated_marker
 
 from .scene import MarkerSpec
 
@@ -19,30 +18,9 @@ from .scene import MarkerSpec
 LEVELS = (16, 32, 64, 128, 256)
 
 
-def _aruco_square(dictionary: str, marker_id: int, side: int) -> np.ndarray:
-    name = dictionary.lower().removeprefix("dict_")
-    attrs = [f"DICT_{name.upper()}"]
-    if name.startswith("apriltag_"):
-        attrs.append("DICT_APRILTAG_" + name.split("_", 1)[1])
-    for attr in attrs:
-        const = getattr(cv2.aruco, attr, None)
-        if const is not None:
-            d = cv2.aruco.getPredefinedDictionary(const)
-            return cv2.aruco.generateImageMarker(d, int(marker_id), int(side), borderBits=1)
-    raise ValueError(f"unknown ArUco dictionary {dictionary!r}")
-
-
 def marker_square(spec: MarkerSpec, side: int) -> np.ndarray:
     """The marker's black square with its code, ``side`` pixels, grey uint8, no quiet zone."""
-    try:
-        vision = importlib.import_module("armtree.plugins.trackers.markers")
-    except ImportError:
-        vision = None
-    if vision is not None and hasattr(vision, "marker_square"):
-        return vision.marker_square(spec.family, spec.id, side, spec.dictionary)
-    if spec.family == "aruco":
-        return _aruco_square(spec.dictionary, spec.id, side)
-    raise ValueError("hamming markers need the vision plugin (armtree.plugins.trackers.markers)")
+    return generated_marker(spec.family, spec.id, side, spec.dictionary)
 
 
 class MarkerAtlas:

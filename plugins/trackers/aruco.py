@@ -20,17 +20,12 @@ from typing import Any
 import cv2
 import numpy as np
 
+from armtree.component_config import check_config, config_error
 from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import (
-    TagRoles,
-    check_config,
-    config_error,
-    finish_detection,
-    probe,
-)
+from .common import TagRoles, finish_detection, probe
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
 

@@ -136,7 +136,7 @@ class CalibrateCommand:
         for name in result.skipped:
             print(f"  {name}: board not found, skipped")
         if args.output:
-            from armtree.plugins.cameras.intrinsics import save_calibration
+            from armtree.imaging import save_calibration
 
             save_calibration(
                 args.output,

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.plugins.cameras.intrinsics import Intrinsics
+from armtree.imaging import Intrinsics
 
 from .aruco import get_dictionary
 from .preprocess import to_gray

@@ -20,7 +20,7 @@ import numpy as np
 
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
-from armtree.plugins.cameras.intrinsics import Intrinsics, intrinsics_from_config
+from armtree.imaging import Intrinsics, intrinsics_from_config
 from armtree.rig import Detection, Frame, RigContext
 
 from . import hamming_code
@@ -183,7 +183,7 @@ class DetectCommand:
             return float(args.fps)
         videos = [p for p in args.images if is_video(p)]
         if videos:
-            from armtree.plugins.cameras.replay import video_fps
+            from armtree.imaging import video_fps
 
             fps = video_fps(videos[0])
             if fps:

@@ -9,62 +9,17 @@ marker facing the camera has its z axis pointing back at it.
 
 from __future__ import annotations
 
-import difflib
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from armtree.errors import ConfigError
-from armtree.params import Param, check_value
-from armtree.profile import profile_error, profile_section
+from armtree.component_config import config_error
+from armtree.profile import profile_section
 from armtree.rig import Detection, Frame, TagSpec
-
-
-def config_error(where: Any, path: str, message: str) -> ConfigError:
-    """A :class:`ConfigError` about the value at dotted ``path`` (``tracker.size_mm``).
-
-    ``where`` is a loaded Profile (its ``error()`` gives the file, line and
-    column the value was written at), a file name, or None.
-    """
-    if isinstance(where, (str, Path)):
-        return ConfigError(f"{path}: {message}", file=str(where))
-    return profile_error(where, path, message)
-
-
-def check_config(
-    config: Any, params: tuple[Param, ...], section: str, where: Any = None
-) -> dict[str, Any]:
-    """A component's mapping checked against its PARAMS, defaults filled in.
-
-    ``type`` (the registry key) is ignored; an unknown key gets a did-you-mean,
-    a wrong type names the key. Raises :class:`ConfigError` (see :func:`config_error`).
-    """
-    if config is None:
-        config = {}
-    if not isinstance(config, Mapping):
-        raise config_error(where, f"{section}", f"expected a mapping, got {config!r}")
-    known = {p.name: p for p in params}
-    values = {p.name: p.default for p in params}
-    for key, value in config.items():
-        if key == "type":
-            continue
-        if key not in known:
-            close = difflib.get_close_matches(str(key), list(known), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(known)}"
-            raise config_error(where, f"{section}", f"unknown key {key!r}{hint}")
-        if value is None and known[key].default is None:
-            values[key] = None
-            continue
-        try:
-            values[key] = check_value(known[key], value)
-        except ValueError as exc:
-            raise config_error(where, f"{section}.{key}", f"{exc}") from None
-    return values
 
 
 def tag_table(profile: Any) -> dict[int, TagSpec]:

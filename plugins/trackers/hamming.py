@@ -26,10 +26,11 @@ from typing import Any
 import cv2
 import numpy as np
 
+from armtree.component_config import check_config
 from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
-from .common import TagRoles, check_config, finish_detection, probe
+from .common import TagRoles, finish_detection, probe
 from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
 from .kernels import best_of_overlapping, clockwise_quads, read_markers, sample_cells
 from .preprocess import Preprocessing, threshold_image, to_gray

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.plugins.cameras.intrinsics import Intrinsics, distortion_from, load_calibration
+from armtree.imaging import Intrinsics, distortion_from, load_calibration
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".webm", ".mpg", ".mpeg", ".m4v", ".wmv")
 

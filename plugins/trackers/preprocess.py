@@ -21,9 +21,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from armtree.component_config import config_error
 from armtree.params import Param, check_value
-
-from .common import config_error
 
 #: The keys of a ``preprocess:`` mapping.
 PREPROCESS_PARAMS: tuple[Param, ...] = (
