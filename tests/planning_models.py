@@ -11,6 +11,8 @@ import numpy as np
 
 from armtree.motion.geometry import rot_y, rot_z, transform
 from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.motion.workspace import WorkspaceShape
+from armtree.plugins.arms.common.workspace_shapes import dobot_shape
 
 
 def _offset(x: float, y: float = 0.0, z: float = 0.0) -> np.ndarray:
@@ -119,6 +121,10 @@ class DobotLike(KinematicModel):
         f3 = rz @ transform(None, wrist)  # eq. 13
         tcp = f3 @ _offset(self.d)
         return np.stack([base, f1, f2, f3, tcp], axis=-3)
+
+    def workspace_shape(self) -> WorkspaceShape:
+        """The workspace as the Dobot family's constraints, as an arm plugin describes it."""
+        return dobot_shape(self, self.l1, self.l2, self.d, 0.0)
 
     def ik_all(self, target: np.ndarray) -> np.ndarray:
         p = np.asarray(target, dtype=float)

@@ -25,7 +25,7 @@ def _fk_points(model, n, rng):
 def test_reachable_agrees_with_inverse_kinematics(name):
     model = MODELS[name]()
     ws = ArmWorkspace(model)
-    assert ws.kind in ("dobot", "scara") and ws.has_covering
+    assert ws.kind == "model" and ws.has_covering
     rng = np.random.default_rng(11)
     lo, hi = ws.bounds
     near = _fk_points(model, 8000, rng)
@@ -64,3 +64,12 @@ def test_finer_coverings_have_less_boundary():
     coarse, fine = ws.cover(12.0), ws.cover(6.0)
     assert fine.boundary_measure < coarse.boundary_measure
     assert fine.inner_measure >= coarse.inner_measure * 0.99
+
+
+def test_a_calibrated_dobot_falls_back_to_its_inverse_kinematics():
+    # Angle offsets change the geometry the constraints describe: IK decides instead.
+    model = DobotV1Model(joint_offsets_deg=(0.0, 2.0, -1.5))
+    ws = ArmWorkspace(model)
+    assert ws.kind == "ik" and not ws.has_covering
+    p = model.position(model.home)
+    assert ws.reachable(p) and not ws.reachable(p + np.array([400.0, 0.0, 0.0]))

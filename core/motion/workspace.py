@@ -1,4 +1,4 @@
-"""Workspace approximation by box covering (seed 003), and each arm's reachable workspace.
+"""Workspace approximation by box covering (seed 003), and an arm's reachable workspace.
 
 :func:`cover` is seed 003's non-uniform covering method for a system
 ``g_j(x) <= 0`` on a starting box P (eq. 4): a box is *outside* when some
@@ -9,8 +9,10 @@
 method level by level: all boxes of one level are evaluated in one batch.
 
 :class:`ArmWorkspace` applies it to an arm: the set of tool positions (mm)
-reachable within the joint limits and coupled constraints, with a fast exact
-:meth:`ArmWorkspace.reachable` test for refusing targets early.
+reachable within the joint limits and coupled constraints, as the arm plugin's
+kinematic model describes it (:class:`WorkspaceShape`; each arm's geometry
+lives with its plugin), with a fast exact :meth:`ArmWorkspace.reachable` test
+for refusing targets early.
 """
 
 from __future__ import annotations
@@ -214,14 +216,18 @@ def _joint_vector(
     return np.stack([0.5 * (a + b) for a, b in zip(lo_cols, hi_cols, strict=True)], axis=-1)
 
 
-def _limits(
+def limits_constraint(
     theta: dict[int, Any],
     lower: Sequence[float],
     upper: Sequence[float],
     coupled: Sequence[Callable[[Any], Any]],
     like: Any,
 ) -> Any:
-    """``max`` of every limit ``lower - t <= 0``, ``t - upper <= 0`` and coupled constraint."""
+    """``max`` of every limit ``lower - t <= 0``, ``t - upper <= 0`` and coupled constraint.
+
+    ``theta`` maps joint indices to their values (points or Intervals, degrees);
+    joints not given span their whole range in the ``coupled`` constraints.
+    """
     g = None
     for k, t in theta.items():
         for val in (lower[k] - t, t - upper[k]):
@@ -249,110 +255,6 @@ def _bound(c: Callable[[Any], Any], q: Any) -> Any:
         corners = np.array([[(k >> j) & 1 for j in range(n)] for k in range(2**n)], dtype=bool)
         vals = np.stack([np.asarray(c(np.where(m, q.hi, q.lo)), dtype=float) for m in corners])
         return Interval(vals.min(axis=0), vals.max(axis=0))
-
-
-def dobot_constraints(
-    l1: float,
-    l2: float,
-    d: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
-    coupled: Sequence[Callable[[Any], Any]] = (),
-    drop: float = 0.0,
-) -> ConstraintSystem:
-    """Reachability of a Dobot-style arm (seed 004 geometry) as ``g_j(x, y, z) <= 0``, mm.
-
-    The inverse kinematics of seed 004 (eqs. 8-10) written in interval-friendly
-    operations: theta1 = 90 deg - phi - alpha, theta2 = 180 deg - phi - alpha -
-    gamma for the elbow-up branch (and the elbow-down branch too, the union of
-    both), each held to the joint limits ``lower``/``upper`` (deg; joint 0 is
-    the base, 1 the rear arm, 2 the forearm, any further joints do not move the
-    tool) and to the ``coupled`` constraints ``c(q_deg) <= 0`` (seed 004, eq. 4).
-    ``d`` is the horizontal wrist-to-tool offset, ``drop`` the tool below the wrist.
-    """
-    profile = dobot_profile(l1, l2, d, lower, upper, coupled, drop)
-    sector = sector_constraint(lower[0], upper[0])
-
-    def system(p: Any) -> list[Any]:
-        gs = profile(iv.hypot(p[..., 0], p[..., 1]), p[..., 2])
-        if sector is not None:
-            gs.append(sector(p))
-        return gs
-
-    return system
-
-
-def dobot_profile(
-    l1: float,
-    l2: float,
-    d: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
-    coupled: Sequence[Callable[[Any], Any]] = (),
-    drop: float = 0.0,
-) -> Callable[[Any, Any], list[Any]]:
-    """The part of :func:`dobot_constraints` in the arm's plane: ``g_j(r, z)``, mm.
-
-    ``r`` is the tool's distance from the base axis: everything but the base
-    joint's sector depends on (r, z) alone.
-    """
-    deg = 180.0 / np.pi
-
-    def system(r: Any, z: Any) -> list[Any]:
-        z = z + drop
-        rw = r - d  # seed 004, eq. 8
-        rho2 = rw**2 + z**2
-        rho = iv.sqrt(rho2)
-        gs = [rho2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - rho2]
-        alpha = iv.acos((l1**2 - l2**2 + rho2) / (2 * l1 * rho))  # eq. 9
-        gamma = iv.acos((l1**2 + l2**2 - rho2) / (2 * l1 * l2))
-
-        def joints(phi: Any) -> Any:
-            up = {
-                1: (np.pi / 2 - phi - alpha) * deg,
-                2: (np.pi - phi - alpha - gamma) * deg,
-            }  # eq. 10
-            down = {1: (np.pi / 2 - phi + alpha) * deg, 2: (gamma - np.pi - phi + alpha) * deg}
-            return iv.minimum(
-                _limits(up, lower, upper, coupled, rw), _limits(down, lower, upper, coupled, rw)
-            )
-
-        g = joints(iv.atan2(z, rw))
-        if isinstance(g, Interval):
-            # Boxes behind the wrist axis (rw < 0) across z = 0 straddle atan2's branch
-            # cut, where one interval is the whole circle. Bound each side of the cut on
-            # its own and take the hull, so those boxes can still be decided.
-            cut = (rw.lo < 0) & (z.lo < 0) & (z.hi >= 0)
-            if cut.any():
-                top = _atan2_corners(Interval(np.maximum(z.lo, 0.0), z.hi), rw, np.pi)
-                bottom = _atan2_corners(Interval(z.lo, np.minimum(z.hi, 0.0)), rw, -np.pi)
-                ga, gb = joints(top), joints(bottom)
-                g = Interval(
-                    np.where(cut, np.minimum(ga.lo, gb.lo), g.lo),
-                    np.where(cut, np.maximum(ga.hi, gb.hi), g.hi),
-                )
-        gs.append(g)
-        return gs
-
-    return system
-
-
-def _atan2_corners(y: Interval, x: Interval, on_cut: float) -> Interval:
-    """atan2 over boxes on one side of the branch cut, from the corners.
-
-    ``on_cut`` is the value atan2 tends to on the cut from this side (``pi``
-    from above, ``-pi`` from below); corners lying on the cut are given it.
-    Boxes holding the origin get the whole circle.
-    """
-    vals = []
-    for a in (y.lo, y.hi):
-        for b in (x.lo, x.hi):
-            v = np.arctan2(a, b)
-            vals.append(np.where((a == 0) & (b < 0), on_cut, v))
-    lo = np.minimum(np.minimum(vals[0], vals[1]), np.minimum(vals[2], vals[3]))
-    hi = np.maximum(np.maximum(vals[0], vals[1]), np.maximum(vals[2], vals[3]))
-    origin = (x.lo <= 0) & (x.hi >= 0) & (y.lo <= 0) & (y.hi >= 0)
-    return Interval(np.where(origin, -np.pi, lo), np.where(origin, np.pi, hi))
 
 
 class RevolvedInclusion:
@@ -454,139 +356,52 @@ class RevolvedInclusion:
         return gs
 
 
-def scara_constraints(
-    l1: float,
-    l2: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
-    z_offset: float = 0.0,
-    coupled: Sequence[Callable[[Any], Any]] = (),
-) -> ConstraintSystem:
-    """Reachability of a SCARA arm as ``g_j(x, y, z) <= 0``, mm.
+@dataclass
+class WorkspaceShape:
+    """An arm's reachable tool positions as a constraint system ``g_j(p) <= 0`` (mm).
 
-    Joint 0 is the vertical axis (mm; the tool at ``z = q0 + z_offset``), joints
-    1 and 2 the shoulder and elbow (deg) of a planar two-link arm ``l1``, ``l2``.
-    For each elbow branch the elbow angle is ``+-acos(c2)`` and the shoulder the
-    tool's azimuth less the elbow's deflection: the azimuth test is done in the
-    frame turned by that deflection, with half-planes (no atan2 branch cut).
+    ``lower`` / ``upper`` bound the set (the covering's starting box). An arm
+    whose reachable set is a plane section swept round its base axis also gives
+    that ``section(r, z)`` (a list of ``g_j``) and its base's ``sector(p)``
+    (None for a full turn), so the covering can bound boxes through the section.
+    An arm plugin's kinematic model returns one from ``workspace_shape()``.
     """
-    deg = 180.0 / np.pi
-    a1, b1 = np.radians(lower[1]), np.radians(upper[1])
-    wide = upper[1] - lower[1] > 180.0
 
-    def shoulder_ok(u: Any, v: Any) -> Any:
-        left = np.sin(a1) * u - np.cos(a1) * v
-        right = np.cos(b1) * v - np.sin(b1) * u
-        return iv.minimum(left, right) if wide else iv.maximum(left, right)
-
-    def system(p: Any) -> list[Any]:
-        x, y, z = p[..., 0], p[..., 1], p[..., 2] - z_offset
-        r2 = x**2 + y**2
-        r = iv.sqrt(r2)
-        gs = [lower[0] - z, z - upper[0], r2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - r2]
-        c2 = (r2 - l1**2 - l2**2) / (2 * l1 * l2)
-        t2 = iv.acos(c2)
-        s2 = iv.sqrt(1.0 - iv.minimum(c2**2, 1.0))
-        branches = []
-        for sign in (1.0, -1.0):
-            # The tool's azimuth is theta1 + beta with cos(beta) = (l1 + l2 c2) / r,
-            # sin(beta) = sign l2 s2 / r; turn the point back by beta (times r).
-            cb, sb = l1 + l2 * c2, (l2 * s2) * sign
-            u, v = x * cb + y * sb, y * cb - x * sb
-            elbow = t2 * (sign * deg)
-            g = iv.maximum(shoulder_ok(u, v), _limits({2: elbow}, lower, upper, coupled, r))
-            branches.append(g)
-        gs.append(iv.minimum(branches[0], branches[1]))
-        return gs
-
-    return system
-
-
-def _probe(model: KinematicModel) -> tuple[str, dict[str, float]] | None:
-    """Recognise the Dobot family or a SCARA arm from its forward kinematics, numerically."""
-    l1, l2 = getattr(model, "l1", None), getattr(model, "l2", None)
-    if l1 is None or l2 is None or model.dof < 3:
-        return None
-    l1, l2 = float(l1), float(l2)
-    rng = np.random.default_rng(7)
-    q = model.lower + rng.random((16, model.dof)) * (model.upper - model.lower)
-    p = model.position(q)
-    t = np.radians(q)
-    if model.joints[0].kind == "revolute" and all(j.kind == "revolute" for j in model.joints[:3]):
-        wrist_r = l1 * np.sin(t[:, 1]) + l2 * np.cos(t[:, 2])
-        wrist_z = l1 * np.cos(t[:, 1]) - l2 * np.sin(t[:, 2])
-        r = np.hypot(p[:, 0], p[:, 1])
-        d, drop = r - wrist_r, wrist_z - p[:, 2]
-        az = np.arctan2(p[:, 1], p[:, 0])
-        same_az = np.abs(np.angle(np.exp(1j * (az - t[:, 0])))) < 1e-6
-        if np.ptp(d) < 1e-6 and np.ptp(drop) < 1e-6 and np.all(same_az) and d[0] >= 0:
-            return "dobot", {"d": float(d[0]), "drop": float(drop[0])}
-    if (
-        model.joints[0].kind == "prismatic"
-        and model.joints[1].kind == model.joints[2].kind == "revolute"
-    ):
-        x = l1 * np.cos(t[:, 1]) + l2 * np.cos(t[:, 1] + t[:, 2])
-        y = l1 * np.sin(t[:, 1]) + l2 * np.sin(t[:, 1] + t[:, 2])
-        dz = p[:, 2] - q[:, 0]
-        if (
-            np.allclose(p[:, 0], x, atol=1e-6)
-            and np.allclose(p[:, 1], y, atol=1e-6)
-            and np.ptp(dz) < 1e-6
-        ):
-            return "scara", {"z_offset": float(dz[0])}
-    return None
+    constraints: ConstraintSystem
+    lower: np.ndarray
+    upper: np.ndarray
+    section: Callable[[Any, Any], list[Any]] | None = None
+    sector: Callable[[Any], Any] | None = None
 
 
 class ArmWorkspace:
     """The reachable tool positions of an arm (mm), from its joint limits and constraints.
 
-    The constraint system comes from the model's ``workspace_constraints`` and
-    ``workspace_bounds()`` when it has them (``g_j(p) <= 0`` for p ``(..., 3)``,
-    written with :mod:`armtree.motion.interval` functions). Otherwise models with link
-    lengths ``l1`` and ``l2`` are recognised from their forward kinematics as the
-    Dobot family (seed 004's geometry: base, rear arm, forearm, horizontal tool
-    offset) or as a SCARA arm (vertical axis, two planar links). Other models
-    get an IK-based :meth:`reachable` and no covering.
+    The arm's kinematic model describes its workspace: ``workspace_shape()``
+    returning a :class:`WorkspaceShape`, or the older pair ``workspace_constraints``
+    (``g_j(p) <= 0`` for p ``(..., 3)``, written with :mod:`armtree.motion.interval`
+    functions) and ``workspace_bounds()``. A model that describes none gets an
+    IK-based :meth:`reachable` and no covering.
     """
 
     def __init__(self, model: KinematicModel) -> None:
         self.model = model
         self.system: ConstraintSystem | None = None
         self.bounds: tuple[np.ndarray, np.ndarray] | None = None
-        #: Which description is in use: ``"model"``, ``"dobot"``, ``"scara"`` or ``"ik"``.
+        #: Which description is in use: ``"model"`` (the model's constraints) or ``"ik"``.
         self.kind = "ik"
-        self._profile: Callable[[Any, Any], list[Any]] | None = None
+        self._section: Callable[[Any, Any], list[Any]] | None = None
         self._sector: Callable[[Any], Any] | None = None
-        coupled = [c.g for c in model.constraints]
-        lo, hi = model.lower, model.upper
-        if hasattr(model, "workspace_constraints"):
+        describe = getattr(model, "workspace_shape", None)
+        shape = describe() if callable(describe) else None
+        if shape is not None:
+            self.kind, self.system = "model", shape.constraints
+            self.bounds = (np.asarray(shape.lower, float), np.asarray(shape.upper, float))
+            self._section, self._sector = shape.section, shape.sector
+        elif hasattr(model, "workspace_constraints"):
             self.kind, self.system = "model", model.workspace_constraints
             b_lo, b_hi = model.workspace_bounds()
             self.bounds = (np.asarray(b_lo, dtype=float), np.asarray(b_hi, dtype=float))
-            return
-        found = _probe(model)
-        if found is None:
-            return
-        self.kind, extra = found
-        l1, l2 = float(model.l1), float(model.l2)
-        if self.kind == "dobot":
-            d, drop = extra["d"], extra["drop"]
-            self.system = dobot_constraints(l1, l2, d, lo, hi, coupled, drop)
-            self._profile = dobot_profile(l1, l2, d, lo, hi, coupled, drop)
-            self._sector = sector_constraint(lo[0], hi[0])
-            reach = l1 + l2 + d
-            self.bounds = (
-                np.array([-reach, -reach, -(l1 + l2) - drop]),
-                np.array([reach, reach, l1 + l2 - drop]),
-            )
-        else:
-            zo = extra["z_offset"]
-            self.system = scara_constraints(l1, l2, lo, hi, zo, coupled)
-            reach = l1 + l2
-            self.bounds = (
-                np.array([-reach, -reach, lo[0] + zo]),
-                np.array([reach, reach, hi[0] + zo]),
-            )
 
     @property
     def has_covering(self) -> bool:
@@ -602,10 +417,10 @@ class ArmWorkspace:
             )
         lo, hi = self.bounds
         system = self.system
-        if self._profile is not None:
+        if self._section is not None:
             # A solid of revolution: bound boxes through its tabulated (r, z) section.
             system = RevolvedInclusion(
-                self._profile, self._sector, hi[0], (lo[2], hi[2]), delta / 4
+                self._section, self._sector, hi[0], (lo[2], hi[2]), delta / 4
             )
         return cover(system, lo, hi, delta, max_boxes)
 

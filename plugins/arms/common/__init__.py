@@ -26,6 +26,9 @@ Modules
                   :class:`LineMove` (a straight tool line through IK) and
                   :class:`JointState` (reported vs true joints).
 ``checks``        :func:`check_joint_target`, :func:`check_position_target`.
+``workspace_shapes`` the reachable workspaces of the Dobot family and of SCARA arms as
+                  constraints (:func:`dobot_shape`, :func:`scara_shape`), which the
+                  models return from ``workspace_shape()``.
 
 Conventions for an arm plugin's factory (``armtree_arms`` returns ``{type: factory}``)
 ---------------------------------------------------------------------------------------

@@ -24,6 +24,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
+from armtree.motion.workspace import WorkspaceShape
+
+from ..common.workspace_shapes import dobot_shape
 
 #: Degrees / mm by which an IK solution may miss a limit through round-off and be clamped.
 LIMIT_SLACK = 1e-5
@@ -118,6 +121,14 @@ class MagicianModel(KinematicModel):
         c1, s1 = np.cos(j1), np.sin(j1)
         z = self.l1 * np.cos(j2) - self.l2 * np.sin(j3) - tz
         return np.stack([c1 * reach - s1 * ty, s1 * reach + c1 * ty, z], axis=-1)
+
+    def workspace_shape(self) -> WorkspaceShape | None:
+        """The reachable tool positions as constraints: the Dobot family's geometry
+        (seed 004) while the tool sits straight ahead of the wrist (no sideways offset)."""
+        tx, ty, tz = self.tool_offset
+        if ty != 0.0 or tx < 0.0:
+            return None
+        return dobot_shape(self, self.l1, self.l2, float(tx), float(tz))
 
     def ik_all(self, target: np.ndarray) -> np.ndarray:
         """Both elbow branches for each target, ``(..., 2, 4)`` degrees; NaN outside limits."""

@@ -13,6 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.motion.workspace import WorkspaceShape
+
+from ..common.workspace_shapes import dobot_shape
 
 #: Rear arm (shoulder to elbow), mm (seed 004).
 L1 = 135.0
@@ -205,6 +208,13 @@ class DobotV1Model(KinematicModel):
         return j * (np.pi / 180.0) * self.joint_scales
 
     # ------------------------------------------------------------------ inverse
+
+    def workspace_shape(self) -> WorkspaceShape | None:
+        """The reachable tool positions as constraints (seed 004's geometry), or None
+        with calibrated angle offsets or scales, which the constraints do not model."""
+        if np.any(self.joint_offsets != 0.0) or np.any(self.joint_scales != 1.0):
+            return None
+        return dobot_shape(self, self.l1, self.l2, self.d, self.drop)
 
     def ik_all(self, target: np.ndarray) -> np.ndarray:
         """Both elbow branches ``(..., 2, 3)`` in degrees for tool positions ``(..., 3)`` mm.

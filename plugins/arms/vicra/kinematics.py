@@ -22,6 +22,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
+from armtree.motion.workspace import WorkspaceShape
+
+from ..common.workspace_shapes import scara_shape
 
 #: Degrees / mm by which an IK solution may miss a limit through round-off and be clamped.
 LIMIT_SLACK = 1e-5
@@ -119,6 +122,10 @@ class VicraModel(KinematicModel):
         x = self.l1 * np.cos(t1) + self.l2 * np.cos(t12)
         y = self.l1 * np.sin(t1) + self.l2 * np.sin(t12)
         return np.stack([x, y, q[..., 0]], axis=-1)
+
+    def workspace_shape(self) -> WorkspaceShape:
+        """The reachable tool positions as a SCARA arm's constraints (mm)."""
+        return scara_shape(self, self.l1, self.l2)
 
     def ik_all(self, target: np.ndarray) -> np.ndarray:
         """Elbow-right and elbow-left solutions, ``(..., 2, 4)``; NaN outside limits or reach."""
