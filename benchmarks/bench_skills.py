@@ -21,6 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from armtree.plugins.sim.plugin import sim_world
 from armtree.runtime import Run
 from armtree.tree_loader import load_tree
 
@@ -55,7 +56,7 @@ def run_once(tree_name: str, overrides: list[str]) -> dict:
     wall = time.perf_counter() - t0
     out = {"status": result.status, "sim": result.seconds, "wall": wall, "ticks": result.ticks}
     if run.rig is not None and run.rig.camera is not None:
-        out["score_ok"] = float(run.rig.camera.world.score()["ducky_on_duckybot"])
+        out["score_ok"] = float(sim_world(run).score()["ducky_on_duckybot"])
     return out
 
 

@@ -57,6 +57,7 @@ def parse_seeds(text: str) -> list[int]:
 
 def one_run(tree: str, rig: str, seed: int, overrides: tuple[str, ...]) -> dict[str, Any]:
     """Run ``tree`` on ``rig`` with ``seed``; the record the summary is made of."""
+    from armtree.plugins.sim.plugin import sim_world
     from armtree.runtime import Run
     from armtree.tree_loader import load_tree
 
@@ -66,7 +67,7 @@ def one_run(tree: str, rig: str, seed: int, overrides: tuple[str, ...]) -> dict[
         loaded = load_tree(tree, rig=rig, overrides=list(overrides))
         run = Run(loaded, None, seed=seed, record=False, max_ticks=40000, quiet=True)
         result = run.execute()
-        score = run.rig.camera.world.score()
+        score = sim_world(run).score()
     except Exception as exc:  # noqa: BLE001 - a crash is a failed run with its reason
         record.update(status="CRASH", ok=False, false_success=False, message=repr(exc)[:300])
         return record

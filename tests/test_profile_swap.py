@@ -5,6 +5,7 @@ from pathlib import Path
 import pytest
 
 import armtree
+from armtree.plugins.sim.plugin import sim_world
 
 
 def test_swapped_arm_type_drops_the_keys_only_the_previous_type_takes(tmp_path):
@@ -113,7 +114,7 @@ def test_the_readme_swap_loads_the_ducky_with_a_magician_in_sim_dobots_world():
     tree = load_tree("load_ducky.yaml", rig="sim_dobot", overrides=["arm.type=dobot_magician"])
     run = Run(tree, None, seed=0, record=False, max_ticks=4000, quiet=True)
     result = run.execute()
-    score = run.rig.camera.world.score()
+    score = sim_world(run).score()
     assert type(run.rig.arm).__name__ == "MagicianDriver"
     assert result.status == "SUCCESS", result.message
     assert score["ducky_on_duckybot"] and score["collision_count"] == 0, score["collisions"]

@@ -16,6 +16,7 @@ from collections.abc import Iterable
 
 import pytest
 
+from armtree.plugins.sim.plugin import sim_world
 from armtree.runtime import Run
 from armtree.tree_loader import load_tree
 
@@ -31,7 +32,7 @@ def run_seeds(rig: str, seeds: Iterable[int], *overrides: str) -> list[tuple[int
         tree = load_tree("load_ducky.yaml", rig=rig, overrides=[NOMINAL, *overrides])
         run = Run(tree, None, seed=seed, record=False, max_ticks=4000, quiet=True)
         result = run.execute()
-        out.append((seed, result, run.rig.camera.world.score()))
+        out.append((seed, result, sim_world(run).score()))
     return out
 
 

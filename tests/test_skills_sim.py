@@ -14,6 +14,7 @@ import pytest
 
 import armtree
 from armtree.plugin_manager import PluginManager
+from armtree.plugins.sim.plugin import sim_world
 from armtree.runtime import Run
 from armtree.tree_loader import load_tree
 
@@ -24,7 +25,7 @@ def run_sim(tree_name: str, *overrides: str):
     t0 = time.perf_counter()
     result = run.execute()
     wall = time.perf_counter() - t0
-    world = run.rig.camera.world
+    world = sim_world(run)
     return result, world.score(), wall
 
 
@@ -47,7 +48,7 @@ class StopWhileCarrying:
 
     @armtree.hookimpl
     def armtree_tick(self, run) -> None:
-        world = run.rig.camera.world
+        world = sim_world(run)
         if self.tick is None and world.held and world.bodies[world.held].kind == "trash":
             self.tick = run.tick_count
             run.interrupt("test: stop while carrying")
@@ -62,7 +63,7 @@ def test_an_interrupt_while_carrying_trash_keeps_holding_it():
     tree = load_tree("load_ducky.yaml", manager=manager)
     run = Run(tree, None, seed=0, record=False, max_ticks=6000, quiet=True, manager=manager)
     result = run.execute()
-    score = run.rig.camera.world.score()
+    score = sim_world(run).score()
     assert stopper.tick is not None and result.status == "INTERRUPTED"
     assert result.ticks <= stopper.tick + 1  # halted within one tick
     assert score["held"] is not None and score["objects"][score["held"]]["kind"] == "trash"

@@ -53,7 +53,7 @@ class SimCamera(Camera):
 
     def __init__(self, config: dict[str, Any], context: RigContext) -> None:
         self.config = dict(config)
-        self.context = context
+        self._context = context
         self.mount = self.config.get("mount", "eye_to_hand")
         self.width = int(self.config.get("width", 640))
         self.height = int(self.config.get("height", 480))
@@ -71,7 +71,7 @@ class SimCamera(Camera):
         self.distortion[: min(5, len(dist))] = dist[:5]
         self.extrinsics = camera_extrinsics(self.config)
         self.drop_rate = float(self.config.get("drop_rate", 0.0))
-        self.world: World | None = None
+        self._world: World | None = None
         self.renderer: Renderer | None = None
         self._last_index = -1
         self._previous: tuple[int, np.ndarray] | None = None
@@ -84,16 +84,16 @@ class SimCamera(Camera):
         """Build the renderer for this camera and the world it looks at."""
         if self.renderer is not None:
             return
-        self.world = world_for(self.context)
+        self._world = world_for(self._context)
         # A randomised world may have drawn the sensor's noise, blur and frame drops.
-        drawn = self.world.scene.camera
+        drawn = self._world.scene.camera
         self.drop_rate = float(drawn.get("drop_rate", self.drop_rate))
         model = CameraModel(self.width, self.height, self.camera_matrix, self.distortion)
         self.renderer = Renderer(
             model,
-            self.world.table,
-            self.world.scene.light,
-            seed=self.world.seed * 1000 + self.world.scene.seed,
+            self._world.table,
+            self._world.scene.light,
+            seed=self._world.seed * 1000 + self._world.scene.seed,
             noise=float(drawn.get("noise", self.config.get("noise", 2.5))),
             blur=float(drawn.get("blur", self.config.get("blur", 0.5))),
             exposure=float(self.config.get("exposure_s", 0.02)),
@@ -103,19 +103,19 @@ class SimCamera(Camera):
     def pose(self) -> np.ndarray:
         """The camera's current pose in the base frame (4x4, mm; OpenCV axes)."""
         self.start()
-        assert self.world is not None
-        return self.world.camera_pose(self.mount, self.extrinsics)
+        assert self._world is not None
+        return self._world.camera_pose(self.mount, self.extrinsics)
 
     def read(self) -> Frame | None:
         """The frame due at the run's current time, rendered now; None if not new or dropped."""
         self.start()
-        index = int(math.floor(self.context.clock.now() * self.fps + 1e-9))
+        index = int(math.floor(self._context.clock.now() * self.fps + 1e-9))
         with self._lock:
             if index <= self._last_index:
                 return None
             self._last_index = index
             if self.drop_rate > 0:
-                rng = np.random.default_rng([self.context.seed, 13, index])
+                rng = np.random.default_rng([self._context.seed, 13, index])
                 if rng.random() < self.drop_rate:
                     return None
             return self._render(index)
@@ -123,14 +123,14 @@ class SimCamera(Camera):
     def render_now(self) -> Frame:
         """Render the frame due now even if it was already read (for tools and recordings)."""
         self.start()
-        index = int(math.floor(self.context.clock.now() * self.fps + 1e-9))
+        index = int(math.floor(self._context.clock.now() * self.fps + 1e-9))
         with self._lock:
             return self._render(index)
 
     def _render(self, index: int) -> Frame:
-        assert self.world is not None and self.renderer is not None
-        cam_pose = self.world.camera_pose(self.mount, self.extrinsics)
-        drawables = self.world.drawables()
+        assert self._world is not None and self.renderer is not None
+        cam_pose = self._world.camera_pose(self.mount, self.extrinsics)
+        drawables = self._world.drawables()
         if self.mount == "eye_in_hand":
             drawables = [d for d in drawables if not d.tool_mounted]
         previous, frame_dt = None, 1.0 / self.fps

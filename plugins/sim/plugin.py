@@ -33,17 +33,22 @@ from .world import SHARED_KEY, World, WorldEvent, world_for
 
 
 class WorldStepper:
-    """The per-tick stepper of a world; the run hooks find the world through it."""
+    """The per-tick stepper of a world; the run hooks find the world through it.
+
+    It sits in the rig's steppers, which a skill is handed with the rig, so it keeps
+    the world, the camera and the recorder to itself: what judges a run gets the
+    world through :func:`sim_world`, which a skill cannot import.
+    """
 
     def __init__(self, world: World, camera: SimCamera | None) -> None:
-        self.world = world
-        self.camera = camera
-        self.recorder: Recorder | None = None
+        self._world = world
+        self._camera = camera
+        self._recorder: Recorder | None = None
 
     def __call__(self, now: float) -> None:
-        self.world.step(now)
-        if self.recorder is not None:
-            self.recorder.step(now)
+        self._world.step(now)
+        if self._recorder is not None:
+            self._recorder.step(now)
 
 
 def _uses_sim(profile: Any) -> bool:
@@ -73,6 +78,15 @@ def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError
             f"{scene.table.height:g} mm (world.table.height): give both the same height",
         )
     ]
+
+
+def sim_world(run: Any) -> World | None:
+    """The simulated world of a run (or of a served bench), for judging it; None off the sim.
+
+    For tests, benchmarks and the sim's own hooks: skills never see it.
+    """
+    stepper = _stepper(run)
+    return None if stepper is None else stepper._world
 
 
 def _stepper(run: Any) -> WorldStepper | None:
@@ -195,23 +209,23 @@ def armtree_run_started(run: Any) -> None:
     stepper = _stepper(run)
     if stepper is None:
         return
-    if not stepper.world.listeners:
-        _forward_events(run, stepper.world)
-    if stepper.recorder is not None:
+    if not stepper._world.listeners:
+        _forward_events(run, stepper._world)
+    if stepper._recorder is not None:
         return
     directory = getattr(run, "record_dir", None)
     if not run.record_requested or directory is None:
         return
     planner = getattr(getattr(run, "rig", None), "planner", None)
-    stepper.recorder = Recorder(directory, stepper.world, stepper.camera, planner)
-    run.rig.closers.append(stepper.recorder.close)
+    stepper._recorder = Recorder(directory, stepper._world, stepper._camera, planner)
+    run.rig.closers.append(stepper._recorder.close)
 
 
 @armtree.hookimpl
 def armtree_scene_objects(run: Any) -> list[Any] | None:
     """The world's table and bodies as boxes, for monitors and recordings."""
     stepper = _stepper(run)
-    return None if stepper is None else scene_objects(stepper.world)
+    return None if stepper is None else scene_objects(stepper._world)
 
 
 @armtree.hookimpl
@@ -231,8 +245,8 @@ def armtree_ground_truth(run: Any) -> Any:
     stepper = _stepper(run)
     if stepper is None:
         return None
-    stepper.world.settle()
-    return world_truth(stepper.world, run.rig.profile)
+    stepper._world.settle()
+    return world_truth(stepper._world, run.rig.profile)
 
 
 @armtree.hookimpl
@@ -241,7 +255,7 @@ def armtree_run_finished(run: Any, result: Any) -> None:
     stepper = _stepper(run)
     if stepper is None:
         return
-    score = stepper.world.score()
+    score = stepper._world.score()
     score["run"] = {
         "status": getattr(result, "status", None),
         "ticks": getattr(result, "ticks", None),
@@ -252,8 +266,8 @@ def armtree_run_finished(run: Any, result: Any) -> None:
     score_path = None if log_path is None else log_path.parent / "score.json"
     if score_path is not None:
         write_score(score, score_path)
-    if stepper.recorder is not None:
-        stepper.recorder.finish(score)
+    if stepper._recorder is not None:
+        stepper._recorder.finish(score)
     details = getattr(result, "details", None)
     if isinstance(details, dict):
         details["score"] = score_line(score)

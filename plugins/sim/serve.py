@@ -119,7 +119,7 @@ class SimBench:
     @property
     def world(self) -> Any:
         """The simulated world (ground truth; never handed to a run)."""
-        return None if self._stepper is None else self._stepper.world
+        return None if self._stepper is None else self._stepper._world
 
     def start(self) -> None:
         """Start the emulator, build the world and the camera, and start serving."""
