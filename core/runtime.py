@@ -31,15 +31,12 @@ A run:
 from __future__ import annotations
 
 import contextlib
-import math
 import sys
 import threading
 import time
 import traceback as tb_module
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from itertools import compress
-from operator import attrgetter, ne
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +48,7 @@ from .clock import Clock, VirtualClock, WallClock
 from .control import RunControl
 from .display import NullView, make_view
 from .errors import HardwareFault
+from .feedback_log import FeedbackLog
 from .interrupts import EXIT_INTERRUPTED, Interrupts, StopKey
 from .outcomes import FailureLog, judge, predicates_for, verdict
 from .resources import Resources
@@ -79,9 +77,6 @@ _LOGGED_ACTIVITIES = frozenset(
 _POLL_S = 0.05
 #: How often the run log is flushed during a run, in wall seconds.
 _FLUSH_S = 1.0
-#: Run-clock seconds between two feedback records of a node whose status stays the same.
-FEEDBACK_INTERVAL_S = 1.0
-_FEEDBACK = attrgetter("feedback_message")
 #: py_trees' name of the FAILURE status (the status tuples hold these strings).
 _FAILURE = Status.FAILURE._value_
 #: Events reported by components (``Run.report_event``) kept for the summary.
@@ -250,10 +245,9 @@ class Run:
         # (py_trees' halt resets nodes to INVALID) and whether it was halted from RUNNING.
         self._shown: list[str] = []
         self._halted: list[bool] = []
-        # Per node: the feedback message last written to the run log, and when.
         self._index: dict[str, int] = {}
-        self._feedback: list[str] = []
-        self._feedback_t: list[float] = []
+        #: Writes the run log's feedback records (replaced with the log in _open_log).
+        self.feedback = FeedbackLog(self.log)
         self.hooks = RunHooks(self)
         self._executed = False
         self._end_status = ""
@@ -445,6 +439,7 @@ class Run:
         else:
             self.record_dir = Path(self._record)
         self.log = RunLog(self.record_dir / "run.jsonl")
+        self.feedback = FeedbackLog(self.log)
         self.log.write(
             {
                 "kind": "start",
@@ -482,8 +477,7 @@ class Run:
         self._shown = list(self._last)
         self._halted = [False] * len(self._nodes)
         self._index = {path: i for i, path in enumerate(self._paths)}
-        self._feedback = [""] * len(self._nodes)
-        self._feedback_t = [-math.inf] * len(self._nodes)
+        self.feedback.reset(self._nodes, self._paths)
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -698,7 +692,7 @@ class Run:
         current = tuple([n.status._value_ for n in self._nodes])
         changes: Sequence[tuple[str, str, str]] = ()
         if logging:
-            self._log_feedback(now, last, current)
+            self.feedback.record(self.tick_count, now, last, current)
         if current != last:
             self._last = current
             why = self._new_failures(last, current, now) if _FAILURE in current else None
@@ -720,39 +714,6 @@ class Run:
             if stream is not None and stream.data:
                 self._log_blackboard(stream.data, now)
                 stream.clear()
-
-    def _log_feedback(self, now: float, last: Sequence[str], current: Sequence[str]) -> None:
-        """Write a ``feedback`` record for each node whose ``feedback_message`` changed.
-
-        Always when the node's status changed in this tick; while its status stays
-        the same, at most once per :data:`FEEDBACK_INTERVAL_S` of run time, so a
-        countdown does not write a line every tick. Cleared messages are not written.
-        """
-        messages = list(map(_FEEDBACK, self._nodes))
-        logged = self._feedback
-        if messages == logged:
-            return
-        times = self._feedback_t
-        for i in compress(range(len(messages)), map(ne, messages, logged)):
-            message = messages[i]
-            if not isinstance(message, str):
-                message = str(message)
-            if not message:
-                logged[i] = message
-                continue
-            if last[i] == current[i] and now - times[i] < FEEDBACK_INTERVAL_S - 1e-9:
-                continue
-            logged[i], times[i] = messages[i], now
-            self.log.write(
-                {
-                    "kind": "feedback",
-                    "tick": self.tick_count,
-                    "t": now,
-                    "node": self._paths[i],
-                    "status": current[i],
-                    "message": message,
-                }
-            )
 
     def feedback_message(self, path: str) -> str:
         """The current ``feedback_message`` of the node at ``path`` ("" if none or unknown)."""
