@@ -20,6 +20,7 @@ from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.rig import Camera, Frame, RigContext
 
+from .drawing import world_drawables
 from .geometry import look_at, pose, rpy_matrix
 from .renderer import CameraModel, Renderer
 from .world import World, world_for
@@ -130,7 +131,7 @@ class SimCamera(Camera):
     def _render(self, index: int) -> Frame:
         assert self._world is not None and self.renderer is not None
         cam_pose = self._world.camera_pose(self.mount, self.extrinsics)
-        drawables = self._world.drawables()
+        drawables = world_drawables(self._world)
         if self.mount == "eye_in_hand":
             drawables = [d for d in drawables if not d.tool_mounted]
         previous, frame_dt = None, 1.0 / self.fps

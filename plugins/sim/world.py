@@ -28,7 +28,6 @@ from .duckybot import Duckybot
 from .geometry import obb_penetration, point_in_polygon, pose, rot_z
 from .physics import CollisionMonitor, SolidBox
 from .randomize import draw_scene
-from .renderer import Drawable
 from .scene import MarkerSpec, ObjectSpec, SceneSpec, _Errors, parse_scene
 
 #: Kinds an end effector can lift.
@@ -37,8 +36,6 @@ MOVABLE = ("ducky", "trash", "block")
 GRAVITY = 9810.0
 #: Where an object that falls off the table ends up, below the table top (mm).
 FLOOR_DROP = 750.0
-#: Colour of the arm's links (dark anodised aluminium), BGR.
-LINK_COLOR = (70, 70, 75)
 #: A fall longer than this (mm) outside a bin is a drop: a place let go too high.
 DROP_MM = 15.0
 #: Step (s) and longest time (s) :meth:`World.settle` lets falling bodies fall.
@@ -179,7 +176,7 @@ class World:
                 bot.route.legs,
                 bot.params,
                 np.random.default_rng(bot_rng.integers(2**63)),
-                loaded=lambda name=name: bool(self._carried_by(name, kinds=("ducky",))),
+                loaded=lambda name=name: bool(self.carried_by(name, kinds=("ducky",))),
                 loop=bot.route.loop,
             )
         self.emulator: Any = None
@@ -247,7 +244,7 @@ class World:
                 body = self.bodies[name]
                 body.pose = pose(rot_z(bot.state.theta), [bot.state.x, bot.state.y, body.bottom])
                 delta = body.pose @ np.linalg.inv(before)
-                for carried in self._carried_by(name):
+                for carried in self.carried_by(name):
                     carried.pose = delta @ carried.pose
             self._tool_physics(now)
             self._fall(dt, now)
@@ -499,7 +496,7 @@ class World:
 
     # -- queries --------------------------------------------------------------------
 
-    def _carried_by(self, name: str, kinds: tuple[str, ...] | None = None) -> list[Body]:
+    def carried_by(self, name: str, kinds: tuple[str, ...] | None = None) -> list[Body]:
         """Bodies resting on ``name``, directly or on top of each other."""
         out: list[Body] = []
         frontier = [name]
@@ -525,71 +522,6 @@ class World:
                 return support.name if point_in_polygon(body.pose[:2, 3], inner) else None
             current = support
         return None
-
-    def drawables(self) -> list[Drawable]:
-        """What a camera can see now: bodies, the arm's link boxes, the tool's marker."""
-        with self.lock:
-            out = []
-            velocity: dict[str, np.ndarray] = {}
-            for name, bot in self.duckybots.items():
-                v = bot.command[0]
-                vel = np.array([v * math.cos(bot.state.theta), v * math.sin(bot.state.theta), 0.0])
-                velocity[name] = vel
-                for carried in self._carried_by(name):
-                    velocity[carried.name] = vel
-            for b in self.bodies.values():
-                if b.off_table:
-                    continue
-                size = b.size.copy()
-                centre = b.center_pose()
-                if b.kind == "spot":
-                    size[2] = 0.4  # a painted patch: just above the table so it shows
-                    centre = b.pose @ pose(np.eye(3), [0.0, 0.0, 0.2])
-                shape = b.kind if b.kind in ("bin", "spot") else b.spec.shape
-                out.append(
-                    Drawable(
-                        name=b.name,
-                        shape=shape,
-                        pose=centre,
-                        size=size,
-                        color=b.spec.color,
-                        marker=b.marker,
-                        marker_pose=b.top_pose() if b.marker is not None else None,
-                        wall=b.spec.wall,
-                        container=self.in_bin(b),
-                        velocity=velocity.get(b.name),
-                    )
-                )
-            if self.arm is not None:
-                for i, (name, p, s) in enumerate(
-                    zip(self.arm.box_names, self.arm.box_poses, self.arm.box_sizes, strict=True)
-                ):
-                    out.append(
-                        Drawable(
-                            f"link {name}",
-                            "link",
-                            p,
-                            s,
-                            LINK_COLOR,
-                            tool_mounted=i in self.tool_boxes,
-                        )
-                    )
-                if self.scene.tool_marker is not None:
-                    plate = self.arm.tool_pose @ pose(np.eye(3), self.scene.tool_marker_offset)
-                    plate[:3, :3] = rot_z(math.atan2(plate[1, 0], plate[0, 0]))
-                    side = self.scene.tool_marker.size_mm * 1.3
-                    out.append(
-                        Drawable(
-                            "tool marker",
-                            "plate",
-                            plate @ pose(np.eye(3), [0.0, 0.0, -1.0]),
-                            np.array([side, side, 2.0]),
-                            (220, 220, 220),
-                            marker=self.scene.tool_marker,
-                            marker_pose=plate,
-                        )
-                    )
-            return out
 
     def camera_pose(self, mount: str, extrinsics: np.ndarray) -> np.ndarray:
         """The camera's pose in the base frame: on the tool (eye-in-hand) or fixed."""
@@ -632,7 +564,7 @@ class World:
                     "marker": None if b.marker is None else b.marker.id,
                 }
             on_bots = {
-                name: sorted(c.name for c in self._carried_by(name, kinds=("ducky",)))
+                name: sorted(c.name for c in self.carried_by(name, kinds=("ducky",)))
                 for name in self.duckybots
             }
             trash = [n for n, b in self.bodies.items() if b.kind == "trash"]

@@ -1,0 +1,82 @@
+"""What a camera sees of the simulated world: its bodies, the arm's links and the tool's marker,
+as the renderer's drawables. Reads the world under its lock; changes nothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .geometry import pose, rot_z
+from .renderer import Drawable
+from .world import World
+
+#: Colour of the arm's links (dark anodised aluminium), BGR.
+LINK_COLOR = (70, 70, 75)
+
+
+def world_drawables(world: World) -> list[Drawable]:
+    """What a camera can see now: bodies (moving Duckybots with their velocity, for motion
+    blur), the arm's link boxes, the tool's marker plate."""
+    with world.lock:
+        out = []
+        velocity: dict[str, np.ndarray] = {}
+        for name, bot in world.duckybots.items():
+            v = bot.command[0]
+            vel = np.array([v * math.cos(bot.state.theta), v * math.sin(bot.state.theta), 0.0])
+            velocity[name] = vel
+            for carried in world.carried_by(name):
+                velocity[carried.name] = vel
+        for b in world.bodies.values():
+            if b.off_table:
+                continue
+            size = b.size.copy()
+            centre = b.center_pose()
+            if b.kind == "spot":
+                size[2] = 0.4  # a painted patch: just above the table so it shows
+                centre = b.pose @ pose(np.eye(3), [0.0, 0.0, 0.2])
+            shape = b.kind if b.kind in ("bin", "spot") else b.spec.shape
+            out.append(
+                Drawable(
+                    name=b.name,
+                    shape=shape,
+                    pose=centre,
+                    size=size,
+                    color=b.spec.color,
+                    marker=b.marker,
+                    marker_pose=b.top_pose() if b.marker is not None else None,
+                    wall=b.spec.wall,
+                    container=world.in_bin(b),
+                    velocity=velocity.get(b.name),
+                )
+            )
+        if world.arm is not None:
+            for i, (name, p, s) in enumerate(
+                zip(world.arm.box_names, world.arm.box_poses, world.arm.box_sizes, strict=True)
+            ):
+                out.append(
+                    Drawable(
+                        f"link {name}",
+                        "link",
+                        p,
+                        s,
+                        LINK_COLOR,
+                        tool_mounted=i in world.tool_boxes,
+                    )
+                )
+            if world.scene.tool_marker is not None:
+                plate = world.arm.tool_pose @ pose(np.eye(3), world.scene.tool_marker_offset)
+                plate[:3, :3] = rot_z(math.atan2(plate[1, 0], plate[0, 0]))
+                side = world.scene.tool_marker.size_mm * 1.3
+                out.append(
+                    Drawable(
+                        "tool marker",
+                        "plate",
+                        plate @ pose(np.eye(3), [0.0, 0.0, -1.0]),
+                        np.array([side, side, 2.0]),
+                        (220, 220, 220),
+                        marker=world.scene.tool_marker,
+                        marker_pose=plate,
+                    )
+                )
+        return out
