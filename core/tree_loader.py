@@ -74,6 +74,7 @@ from typing import Any
 import py_trees
 
 from .behaviour import Behaviour
+from .blackboard_use import BlackboardUse
 from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
 from .constructor_params import declared_params, name_argument, takes_signature_params
 from .errors import ConfigError, Mark, shown
@@ -180,7 +181,7 @@ class _Node:
 
 
 class _Loader:
-    """One load: collects errors, blackboard reads and writes, and node info."""
+    """One load: collects errors, node info and (in :attr:`keys`) blackboard reads and writes."""
 
     def __init__(self, manager: PluginManager) -> None:
         self.manager = manager
@@ -188,12 +189,8 @@ class _Loader:
         self.errors: list[ConfigError] = []
         self.files: dict[Path, Any] = {}
         self.nodes: dict[Any, NodeInfo] = {}
-        self.reads: list[tuple[str, Mark | None, Mark | None]] = []
-        self.writes: set[str] = set()
-        #: Keys named literally by nodes that read them (py_trees' blackboard behaviours).
-        self.literal_reads: set[str] = set()
-        #: Blackboard keys given by --set, with the override that gave each.
-        self.set_keys: dict[str, Override] = {}
+        #: The blackboard keys the tree reads and writes, and those --set gives.
+        self.keys = BlackboardUse()
         self.blackboard: dict[str, Any] = {}
         self.node_count = 0
         #: Resolves places, tag roles, reach and rig parts once the profile is known.
@@ -269,7 +266,7 @@ class _Loader:
         for o in other:
             if o.keys[0] not in given:
                 _set_nested(self.blackboard, o.keys, o.value)
-                self.set_keys.setdefault(_root_key(o.keys[0]), o)
+                self.keys.given(o.keys[0], o)
         tick_hz = self.tick_hz(data, ctx)
         root = None
         if "root" in data:
@@ -277,8 +274,8 @@ class _Loader:
         else:
             self.error("the tree has no root node", data.mark, ctx)
         expect = self.expectations(data, ctx, profile)
-        self.check_reads()
-        self.check_set_keys(declared)
+        self.errors += self.keys.unwritten_reads()
+        self.errors += self.keys.unread_set_keys(declared)
         if self.errors:
             raise self.fail()
         assert root is not None
@@ -427,7 +424,7 @@ class _Loader:
             if ctx.namespace and not key.startswith("/"):
                 key = f"{ctx.namespace}/{key}"
             self.blackboard.setdefault(key, _plain(_substitute(value, ctx.params)))
-            self.writes.add(_root_key(key))
+            self.keys.write(key)
 
     # ------------------------------------------------------------ parameters
 
@@ -713,9 +710,9 @@ class _Loader:
                 key_name = binding.group(1)
                 params[key] = Binding(key_name)
                 if param.io in ("out", "inout"):
-                    self.writes.add(_root_key(key_name))
+                    self.keys.write(key_name)
                 if param.io in ("in", "inout"):
-                    self.reads.append((_root_key(key_name), mark, ctx.included_from))
+                    self.keys.read(key_name, mark, ctx.included_from)
                 continue
             if param.io == "out":
                 self.error(
@@ -733,10 +730,10 @@ class _Loader:
                 self.error(f"{node.type}.{key}: {exc}", mark, ctx)
                 continue
             if key in writes and isinstance(value, str):
-                self.writes.add(_root_key(value))
+                self.keys.write(value)
             self.check_on_rig(f"{node.type}.{key}", param, params[key], mark, ctx)
             if key in reads:
-                self.literal_reads.update(_named_keys(value))
+                self.keys.read_named(value)
         for pname, param in declared.items():
             if pname in params or pname in options:
                 continue
@@ -875,36 +872,6 @@ class _Loader:
         root = self.build(data["root"], data.value_mark("root"), inner, parent, siblings, name)
         return root if ok else None
 
-    # -------------------------------------------------------------- blackboard
-
-    def check_set_keys(self, declared: dict[str, Any] | None) -> None:
-        """A --set blackboard key that no node reads (nor the tree declares) is a typo."""
-        used = self.writes | self.literal_reads | {key for key, _, _ in self.reads}
-        for key, override in self.set_keys.items():
-            if key in used:
-                continue
-            options = sorted(used | set(declared or {}) | set(OVERRIDE_SECTIONS) | {"tick_hz"})
-            hint = did_you_mean(key, options)
-            self.errors.append(
-                error_at(
-                    f"no node of this tree reads blackboard key {shown(key)}{hint} (--set takes "
-                    "a key the tree reads or declares in blackboard:, a declared parameter, "
-                    "tick_hz or a profile section such as arm.port)",
-                    override.mark,
-                )
-            )
-
-    def check_reads(self) -> None:
-        for key, mark, included_from in self.reads:
-            if key not in self.writes and key not in self.set_keys:
-                message = (
-                    f"blackboard key {shown(key)} is read here but nothing writes it: bind an output "
-                    f'parameter to "{{{key}}}", give it in blackboard:, or --set {key}=VALUE'
-                )
-                if included_from is not None:
-                    message += f" (included from {included_from})"
-                self.errors.append(error_at(message, mark))
-
 
 def world_inventory(profile: Profile, manager: PluginManager) -> WorldTruth:
     """The profile's nominal world from ``armtree_world_inventory``; without a plugin
@@ -951,23 +918,6 @@ def is_bindable(factory: Any) -> bool:
     if isinstance(flag, bool):
         return flag
     return isinstance(factory, type) and issubclass(factory, Behaviour)
-
-
-def _root_key(key: str) -> str:
-    return key.lstrip("/").split(".")[0]
-
-
-def _named_keys(value: Any) -> set[str]:
-    """Root keys a read parameter names: a key, or ``variable_name`` of each mapping in a list."""
-    if isinstance(value, str):
-        return {_root_key(value)}
-    if isinstance(value, list):
-        return {
-            _root_key(item["variable_name"])
-            for item in value
-            if isinstance(item, dict) and isinstance(item.get("variable_name"), str)
-        }
-    return set()
 
 
 def _file_mark(ctx: _Context) -> Mark:
