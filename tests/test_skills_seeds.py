@@ -86,5 +86,5 @@ def test_load_ducky_in_a_randomised_world_on_the_magician_and_the_dh_arm(rig, se
     tree = load_tree("load_ducky.yaml", rig=rig)
     run = Run(tree, None, seed=seed, record=False, max_ticks=4000, quiet=True)
     result = run.execute()
-    check_loaded(seed, result, run.rig.camera.world.score())
+    check_loaded(seed, result, sim_world(run).score())
     assert result.verdict == "success", result.expectations

@@ -115,7 +115,7 @@ def test_clean_up_on_sim_vicra_bins_every_trash_its_overhead_camera_sees():
     tree = load_tree("clean_up.yaml", rig="sim_vicra", overrides=["sweeps=1"])
     run = Run(tree, None, seed=0, record=False, max_ticks=6000, quiet=True)
     result = run.execute()
-    score = run.rig.camera.world.score()
+    score = sim_world(run).score()
     assert result.verdict == "success", (result.message, score["in_bin"])
     assert score["trash_in_bin"] == score["trash_total"] == 3
     assert score["collision_count"] == 0 and score["held"] is None
