@@ -76,7 +76,10 @@ def test_pydobot_through_armtree_emulate():
     import sys
     from pathlib import Path
 
-    exe = shutil.which("armtree") or str(Path(sys.executable).with_name("armtree"))
+    # This interpreter's own console script first: another armtree earlier on PATH (a
+    # global install) is not the one under test.
+    own = Path(sys.executable).with_name("armtree")
+    exe = str(own) if own.exists() else shutil.which("armtree")
     proc = subprocess.Popen(
         [exe, "emulate", "dobot_magician"],
         stdout=subprocess.PIPE,
