@@ -15,6 +15,7 @@ workcell:
   release_offset_mm: 35    # tool height above the target's marker when letting go
   sort: {trash: garbage_bin}   # the place each tag role belongs (sort.yaml)
   marker_heights_mm: {ducky: 30, trash: 20, duckybot: 40}   # each role's marker above the table
+  tool_marker: {tag: tool, offset_mm: [0, 0, 20]}   # a marker on the tool (eye-to-hand)
 ```
 
 The camera mount (eye-in-hand or eye-to-hand, its pose) stays in ``camera:``.
@@ -106,6 +107,18 @@ class Survey:
 
 
 @dataclass(frozen=True)
+class ToolMarker:
+    """A marker fixed on the tool: its tag role and its centre in the tool frame (mm).
+
+    Seed 000 servoes and calibrates with such a marker seen by a fixed camera;
+    the offset is the paper's ``G_t_M``, "expected to be known in advance".
+    """
+
+    tag: str
+    offset_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class Workcell:
     """The parsed ``workcell:`` section; a value the profile leaves out is None (or its default)."""
 
@@ -118,6 +131,7 @@ class Workcell:
     survey: Survey | None = None
     sort: dict[str, str] = field(default_factory=dict)
     marker_heights_mm: dict[str, float] = field(default_factory=dict)
+    tool_marker: ToolMarker | None = None
 
     def need(self, name: str, what: str) -> Any:
         """The value of key ``name``; :class:`ConfigError` saying how to add it when absent."""
@@ -133,6 +147,8 @@ class Workcell:
 def _doc(name: str) -> str:
     if name == "survey":
         return "the region the camera surveys: ring, rectangle or viewpoints"
+    if name == "tool_marker":
+        return "the tag role of a marker on the tool and its offset in the tool frame"
     return next((f.doc for f in FIELDS if f.name == name), name)
 
 
@@ -192,8 +208,10 @@ def check_workcell(data: MarkedDict, errors: list[ConfigError]) -> None:
             _check_sort(value, where, data, errors)
         elif key == "marker_heights_mm":
             _check_heights(value, where, data, errors)
+        elif key == "tool_marker":
+            _check_tool_marker(value, where, data, errors)
         else:
-            choices = [*known, "survey", "sort", "marker_heights_mm"]
+            choices = [*known, "survey", "sort", "marker_heights_mm", "tool_marker"]
             errors.append(
                 error_at(
                     f"workcell: unknown key {key!r}{did_you_mean(str(key), choices)}",
@@ -333,6 +351,42 @@ def _check_sort(value: Any, where: Any, data: MarkedDict, errors: list[ConfigErr
             )
 
 
+def _check_tool_marker(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
+    want = "expected {tag: ROLE, offset_mm: [x, y, z]} (the marker's centre in the tool frame, mm)"
+    if not isinstance(value, MarkedDict):
+        errors.append(error_at(f"workcell.tool_marker: {want}", where))
+        return
+    for key in value:
+        if key not in ("tag", "offset_mm"):
+            errors.append(
+                error_at(
+                    f"workcell.tool_marker: unknown key {key!r}{did_you_mean(str(key), ['tag', 'offset_mm'])}",
+                    value.key_mark(key),
+                )
+            )
+    tags = data.get("tags") if isinstance(data.get("tags"), dict) else {}
+    role = value.get("tag")
+    if role is None:
+        errors.append(error_at(f"workcell.tool_marker: needs tag; {want}", value.mark))
+    elif not isinstance(role, str) or role not in tags:
+        known = ", ".join(map(str, tags)) or "none"
+        errors.append(
+            error_at(
+                f"workcell.tool_marker.tag: {role!r} is not a tag role (tags: {known})",
+                value.value_mark("tag"),
+            )
+        )
+    offset = value.get("offset_mm", [0.0, 0.0, 0.0])
+    if not (isinstance(offset, list) and len(offset) == 3 and all(_number(v) for v in offset)):
+        errors.append(
+            error_at(
+                f"workcell.tool_marker.offset_mm: expected [x, y, z] within +/-{MAX_MM:g} mm, "
+                f"got {offset!r}",
+                value.value_mark("offset_mm") if "offset_mm" in value else value.mark,
+            )
+        )
+
+
 def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = None) -> Workcell:
     """The :class:`Workcell` of an already validated section; ``table_z`` (the profile's
     ``table: {z}``) stands in for a missing ``table_z_mm``."""
@@ -364,7 +418,14 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
             )
     sort = {str(k): str(v) for k, v in (cell.get("sort") or {}).items()}
     heights = {str(k): float(v) for k, v in (cell.get("marker_heights_mm") or {}).items()}
-    return Workcell(survey=survey, sort=sort, marker_heights_mm=heights, **values)
+    marker = cell.get("tool_marker")
+    tool_marker = None
+    if isinstance(marker, Mapping) and marker.get("tag"):
+        offset = marker.get("offset_mm") or (0.0, 0.0, 0.0)
+        tool_marker = ToolMarker(str(marker["tag"]), tuple(float(v) for v in offset))  # type: ignore[arg-type]
+    return Workcell(
+        survey=survey, sort=sort, marker_heights_mm=heights, tool_marker=tool_marker, **values
+    )
 
 
 def workcell_of(profile: Any) -> Workcell:
@@ -457,6 +518,23 @@ def workcell_schema() -> dict[str, Any]:
         "additionalProperties": {"type": "string"},
         "description": "the place (a key of places:) each tag role belongs (sort.yaml)",
     }
+    properties["tool_marker"] = {
+        "type": "object",
+        "description": "a marker fixed on the tool (eye-to-hand servoing and calibration)",
+        "properties": {
+            "tag": {"type": "string", "description": "its tag role (a key of tags:)"},
+            "offset_mm": {
+                "type": "array",
+                "items": {"type": "number"},
+                "minItems": 3,
+                "maxItems": 3,
+                "description": "the marker's centre in the tool frame (mm)",
+                "default": [0, 0, 0],
+            },
+        },
+        "required": ["tag"],
+        "additionalProperties": False,
+    }
     return {
         "type": "object",
         "description": "the rig's task geometry the skills use (table, survey region, clearances, tool offsets)",
@@ -468,6 +546,7 @@ def workcell_schema() -> dict[str, Any]:
 __all__ = [
     "FIELDS",
     "Survey",
+    "ToolMarker",
     "Workcell",
     "check_workcell",
     "parse_workcell",

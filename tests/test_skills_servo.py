@@ -2,7 +2,7 @@
 
 import numpy as np
 from py_trees.common import Status
-from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
+from test_skills_fakes import FakeTracker, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.params import Binding
 from armtree.plugins.skills.servo import VisualServo
@@ -65,3 +65,75 @@ def test_servo_reports_an_unreachable_reference():
     node = VisualServo("servo", tag="duckybot", offset=[0, 0, 900])
     status, _ = run(node, rig)
     assert status is Status.FAILURE and "outside the workspace" in node.feedback_message
+
+
+class OccludingTracker(FakeTracker):
+    """Seen from overhead, the arm hides a table marker within 40 mm (x-y) of the tool."""
+
+    def detect(self, frame):
+        tool = self.camera.arm.actual_pose()[:3, 3]
+        self.hidden = False
+        out = []
+        for det in super().detect(frame):
+            marker = self.world.markers[det.id]
+            if not marker.held and np.linalg.norm(marker.position[:2] - tool[:2]) < 40.0:
+                self.hidden = True
+                continue
+            out.append(det)
+        return out
+
+
+def occluded_rig(markers, **kw):
+    rig = make_rig(markers, mount="eye_to_hand", **kw)
+    rig.tracker = OccludingTracker(rig.world, rig.camera)
+    return rig
+
+
+def test_eye_to_hand_measures_the_target_once_before_the_arm_hides_it():
+    target = Marker(1, np.array([230.0, 40.0, 0.0]))
+    tool_marker = Marker(5, np.zeros(3), held=True, offset=np.array([0.0, 0.0, 12.0]))
+    rig = occluded_rig(
+        [target, tool_marker], workcell={"tool_marker": {"tag": "tool", "offset_mm": [0, 0, 12]}}
+    )
+    rig.arm.bias = np.array([1.5, 2.0, 0.0])  # missed steps the joints do not report
+    rig.step(0.0)
+    node = VisualServo("servo", tag="duckybot", offset=[0, 0, 30], iterations=Binding("n"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert rig.tracker.hidden  # over the target the camera no longer sees it
+    assert np.linalg.norm(rig.arm.actual_pose()[:3, 3] - [230, 40, 30]) < 3.0
+    assert node.bb.get("n") >= 1  # the direct move was off: corrected by the tool's marker
+
+
+def test_eye_to_hand_gets_the_arm_out_of_the_way_when_it_hides_the_target():
+    target = Marker(1, np.array([200.0, 0.0, 0.0]))
+    tool_marker = Marker(5, np.zeros(3), held=True)
+    rig = occluded_rig([target, tool_marker])
+    rig.arm.q = np.array([0.0, 205.0, 60.0])  # right over the target
+    rig.step(0.0)
+    node = VisualServo("servo", tag="duckybot", tool_tag="tool", offset=[0, 0, 40])
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert np.linalg.norm(rig.arm.actual_pose()[:3, 3] - [200, 0, 40]) < 3.0
+    # it first moved away (the survey pose farthest from the tool), then came back
+    assert abs(rig.arm.moves[0][0]) > 45.0
+
+
+def test_eye_to_hand_fails_naming_the_pose_where_the_tool_marker_is_lost():
+    target = Marker(1, np.array([230.0, 40.0, 0.0]))
+    rig = make_rig([target], mount="eye_to_hand")  # no marker on the tool at all
+    node = VisualServo("servo", tag="duckybot", tool_tag="tool", offset=[0, 0, 40])
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE
+    assert "the tool's 'tool' marker is not in view with the tool at [230.0, 40.0, 40.0] mm" in (
+        node.feedback_message
+    )
+
+
+def test_eye_to_hand_without_a_tool_marker_trusts_the_joints():
+    rig = make_rig([Marker(1, np.array([230.0, 40.0, 0.0]))], mount="eye_to_hand")
+    rig.arm.bias = np.array([2.0, 0.0, 0.0])
+    node = VisualServo("servo", tag="duckybot", offset=[0, 0, 40], error=Binding("err"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS
+    assert node.bb.get("err") < 0.01 and rig.planner.calls == 1  # the direct move alone

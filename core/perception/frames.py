@@ -86,6 +86,23 @@ def tool_to_marker(
     return r_0t @ r_tc @ (np.asarray(p_ca, dtype=float).reshape(3) - p_ct)
 
 
+def along_ray_to_height(camera_position: np.ndarray, point: np.ndarray, z: float) -> np.ndarray:
+    """Where the ray from the camera through ``point`` meets the height ``z`` (mm, base frame).
+
+    A marker's distance is the least accurate part of its measured pose (seed 000,
+    Conclusion: "the main error source ... is inaccurate determination of the
+    marker distance"); when its height is known otherwise, its direction from the
+    camera is kept and its distance replaced. ``point`` is returned unchanged
+    when the ray runs (nearly) level.
+    """
+    c = np.asarray(camera_position, dtype=float).reshape(3)
+    p = np.asarray(point, dtype=float).reshape(3)
+    dz = p[2] - c[2]
+    if abs(dz) < 1e-6:
+        return p.copy()
+    return c + (p - c) * ((float(z) - c[2]) / dz)
+
+
 def estimate_camera_offset(
     p_ca: Sequence[np.ndarray],
     base_T_tools: Sequence[np.ndarray],

@@ -77,6 +77,21 @@ def world_drawables(world: World) -> list[Drawable]:
                         (220, 220, 220),
                         marker=world.scene.tool_marker,
                         marker_pose=plate,
+                        # mounted on a link's top face: drawn after that link
+                        container=_link_under(world, plate[:3, 3]),
                     )
                 )
         return out
+
+
+def _link_under(world: World, point: np.ndarray) -> str | None:
+    """The drawable name of the arm's link box whose top face ``point`` rests on (within
+    5 mm above it), if any."""
+    arm = world.arm
+    assert arm is not None
+    for name, p, size in zip(arm.box_names, arm.box_poses, arm.box_sizes, strict=True):
+        local = np.linalg.inv(p) @ np.append(point, 1.0)
+        half = 0.5 * np.asarray(size, dtype=float)
+        if np.all(np.abs(local[:2]) <= half[:2]) and 0.0 <= local[2] - half[2] <= 5.0:
+            return f"link {name}"
+    return None

@@ -48,8 +48,8 @@ class Drawable:
 
     ``pose`` is the centre's 4x4 pose and ``size`` its extents (mm). A
     ``marker`` is drawn on the top face (frame ``marker_pose``: x, y in the
-    face, z up). ``container`` names the drawable this one sits inside (a bin),
-    so it is drawn after it. ``velocity`` (mm/s) blurs it in a moving frame.
+    face, z up). ``container`` names the drawable this one sits inside (a bin) or on (a
+    plate on a link), so it is drawn after it. ``velocity`` (mm/s) blurs it in a moving frame.
     """
 
     name: str

@@ -308,6 +308,9 @@ def _parse_marker(
     else:
         raise err(path, f"a {kind} marker needs an id (no tags: entry for role {role!r})")
     owner = tags.role_of(mid)
+    # a spot is a printed sheet: its marker may be any role's (seed 000's target marker)
+    if kind == "spot" and owner is not None:
+        role = owner
     if owner is not None and owner != role:
         raise err((*path, "id"), f"marker id {mid} is the {owner!r} tag in tags:, not a {kind}")
     if owner is None and role in tags.roles:

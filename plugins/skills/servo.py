@@ -1,9 +1,23 @@
-"""Visual servoing to a marker (seed 000, section III.C, steps 1-7).
+"""Visual servoing to a marker (seed 000, section III.C, steps 1-7, and experiment 2).
 
-Each iteration measures where the tool is and where it should be through the
-camera, turns both into joint angles by inverse kinematics and sends the
-difference to the arm, until the error is below the tolerance (3 mm in the
-paper's experiments) or the iterations run out.
+Eye-to-hand (seed 000's rig: a fixed camera and a marker on the tool): the target
+marker is measured once, before the arm comes near enough to hide it ("after
+capturing an image, the center of the target marker ... was determined"); the
+arm moves there directly by inverse kinematics; then each iteration measures the
+tool's marker, turns the measured and the wanted tool positions into joint
+angles and sends the difference (steps 1-7), until the error is below the
+tolerance (3 mm in the paper). Because the tool is measured, errors of the
+arm's open-loop positioning, missed steps among them, are corrected. A marker's
+distance from the camera is the least accurate part of what is measured (the
+paper's conclusion), so the tool marker is placed where its ray from the camera
+meets the height the joints give it, and a target on the table (``on_table``)
+where its ray meets the table top.
+
+Eye-in-hand: the camera on the tool measures the target from where the tool is,
+again after each correction while it still sees it (once the tool is over the
+target the camera may no longer, and the last measurement stands); the tool's
+position comes from the joints, and the target's from the same joints, so a
+missed step shifts both alike and the correction still lands on the target.
 """
 
 from __future__ import annotations
@@ -11,23 +25,25 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param, Unreachable
-from armtree.perception.frames import LinearCorrection
+from armtree.perception.frames import EYE_IN_HAND, along_ray_to_height
 
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure
+from .eye import Sighting
+from .locate import nearest, out_of_view
 from .manipulation import ArmSkill
 
 
 class VisualServo(ArmSkill):
     """Bring the tool to ``offset`` from a target marker by measuring and correcting.
 
-    Eye-in-hand: the target marker is measured through the camera on the tool
-    and the tool position comes from the joints; once the tool is over the
-    target the camera may no longer see it, and its last measurement stands. Eye-to-hand with ``tool_tag``:
-    the tool's own marker is measured too (seed 000's set-up), so errors of the
-    arm's open-loop positioning are corrected as well. SUCCESS when the error is
-    below ``tolerance_mm``; FAILURE after ``max_iterations`` or when a marker is
-    not in view.
+    Eye-to-hand, the tool's marker is the profile's ``workcell.tool_marker`` (or
+    ``tool_tag`` with ``marker_offset``); without one the direct move is all
+    that can be done and the error is the joints' word for it. SUCCESS when the
+    error is below ``tolerance_mm``; FAILURE after ``max_iterations``
+    corrections, when the target cannot be seen from anywhere the arm gets out
+    of its way, or when the tool's marker is out of view (the message says where
+    the tool was).
     """
 
     PARAMS = (
@@ -47,18 +63,25 @@ class VisualServo(ArmSkill):
             "str",
             "",
             "",
-            "tag role of a marker on the tool (eye-to-hand servoing)",
+            "tag role of a marker on the tool (default: the profile's workcell.tool_marker)",
             kind="tag_role",
         ),
         Param(
             "marker_offset",
             "vector",
-            [0.0, 0.0, 0.0],
+            None,
             "mm",
-            "the tool marker's position in the tool frame",
+            "the tool marker's centre in the tool frame (default: workcell.tool_marker)",
             minimum=-5000.0,
             maximum=5000.0,
             length=3,
+        ),
+        Param(
+            "on_table",
+            "bool",
+            False,
+            "",
+            "the target lies on the table top (workcell.table_z_mm): measured along its ray",
         ),
         Param(
             "tolerance_mm",
@@ -81,74 +104,169 @@ class VisualServo(ArmSkill):
             exclusive_minimum=0.0,
             maximum=2.0,
         ),
-        Param(
-            "correction",
-            "vector",
-            [1.0, 0.0, 1.0, 0.0],
-            "",
-            "seed 000 eq. 8 map [a_x, b_x, a_y, b_y] of measured positions",
-            minimum=-1e6,
-            maximum=1e6,
-            length=4,
-        ),
-        Param("frames", "int", 2, "", "frames to read per measurement", minimum=1, maximum=100),
+        Param("frames", "int", 3, "", "frames averaged per measurement", minimum=1, maximum=100),
         Param("error", "any", None, "mm", "output: the last measured error", io="out"),
+        Param(
+            "iterations", "any", None, "", "output: corrections made after the first move", io="out"
+        ),
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
     NEEDS = ("arm", "camera")
 
     def procedure(self) -> Procedure:
-        tag, tool_tag = self.param("tag"), self.param("tool_tag")
-        offset = np.asarray(self.param("offset"), dtype=float)
-        correction = LinearCorrection(*(float(v) for v in self.param("correction")))
-        arm, model = self.rig.arm, self.rig.arm.model
-        tolerance = float(self.param("tolerance_mm"))
-        error = float("inf")
-        last: np.ndarray | None = None
+        if self.rig.camera.mount == EYE_IN_HAND:
+            return (yield from self._eye_in_hand())
+        return (yield from self._eye_to_hand())
+
+    # -- eye-to-hand (seed 000) ------------------------------------------------
+
+    def _eye_to_hand(self) -> Procedure:
+        rig, tag = self.rig, self.param("tag")
+        tool_tag, marker_offset = self._tool_marker()
+        target = yield from self._target_once(tag)
+        reference = target + np.asarray(self.param("offset"), dtype=float)
+        # experiment 2: "the robot initially moved to this position by setting its
+        # joints to the values computed by inverse kinematics"
+        yield Move(rig, reference, speed=self.speed(), label="direct move")
         for iteration in range(self.param("max_iterations") + 1):
-            # step 1-2: marker positions in the camera, then in the robot frame
-            sightings = yield Look(
-                self.rig, self.clock, want=tag, frames=self.param("frames"), settle=self.settle()
-            )
-            target = next((s for s in sightings if s.role == tag), None)
-            if target is not None:
-                last = correction.apply(target.position)
-            elif last is None or tool_tag:
-                raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
-            # eye-in-hand: the camera cannot see under the tool, so a target that left
-            # the view after a correction keeps its last measured (fixed) position
-            reference = last + offset
-            q = np.asarray(arm.joints(), dtype=float)
+            q = np.asarray(rig.arm.joints(), dtype=float)
             if tool_tag:
-                mark = next((s for s in sightings if s.role == tool_tag), None)
-                if mark is None:
-                    raise SkillFailure(f"{self.name}: the tool's {tool_tag!r} tag is not in view")
-                rot = model.fk(q)[:3, :3]
-                measured = correction.apply(mark.position) - rot @ np.asarray(
-                    self.param("marker_offset"), dtype=float
-                )
+                mark = yield from self._tool_mark(tool_tag)  # step 1
+                # step 2 (the Eye put it in the base frame); the tool centre under the marker
+                pose = rig.arm.model.fk(q)
+                lift = pose[:3, :3] @ marker_offset
+                seen = along_ray_to_height(self._camera_at(), mark.position, pose[2, 3] + lift[2])
+                measured = seen - lift
             else:
-                measured = model.position(q)
-            error = float(np.linalg.norm(reference - measured))
-            self.output("error", round(error, 3))
-            if error < tolerance:
-                self.feedback_message = (
-                    f"within {error:.2f} mm of {fmt(reference)} after {iteration} corrections"
-                )
-                return error
-            if iteration == self.param("max_iterations"):
-                break
-            try:
-                q_meas = model.ik(measured, near=q)  # step 3
-                q_ref = model.ik(reference, near=q)  # steps 4-5
-            except Unreachable as exc:
-                raise SkillFailure(f"{self.name}: {exc}") from exc
-            dq = q_ref - q_meas  # step 6
-            yield Move(
-                self.rig, joints=q + self.param("gain") * dq, speed=self.speed(), label="servo"
-            )  # step 7
+                measured = rig.arm.model.position(q)
+            done = yield from self._close(q, measured, reference, iteration)
+            if done is not None:
+                return done
+        raise self._gave_up()
+
+    def _tool_marker(self) -> tuple[str, np.ndarray]:
+        """The tool's marker role and its offset in the tool frame (mm); ``""`` for none."""
+        role = self.param("tool_tag")
+        offset = self.param("marker_offset")
+        declared = self.workcell.tool_marker
+        if not role and declared is not None:
+            role = declared.tag
+        if offset is None:
+            offset = (
+                declared.offset_mm if declared is not None and declared.tag == role else (0, 0, 0)
+            )
+        return role, np.asarray(offset, dtype=float)
+
+    def _target_once(self, tag: str) -> Procedure:
+        """The target's position (mm), averaged over ``frames`` frames; when the arm is in
+        the way, measured again with the arm at the survey pose farthest from it."""
+        rig = self.rig
+        sighting = yield from self._look_for(tag)
+        if sighting is None:
+            here = rig.arm.pose()[:3, 3]
+            away = out_of_view(self, here)
+            if away is not None:
+                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+                sighting = yield from self._look_for(tag)
+        if sighting is None:
+            raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
+        if self.param("on_table"):
+            table = self.workcell.need("table_z_mm", f"{self.name} (on_table)")
+            return along_ray_to_height(self._camera_at(), sighting.position, float(table))
+        return sighting.position
+
+    def _camera_at(self) -> np.ndarray:
+        """The fixed camera's position in the base frame (mm), as the profile gives it."""
+        return np.asarray(self.rig.camera.extrinsics, dtype=float)[:3, 3]
+
+    def _look_for(self, role: str) -> Procedure:
+        sightings = yield Look(
+            self.rig, self.clock, frames=self.param("frames"), settle=self.settle(), average=True
+        )
+        return nearest(sightings, role, None)
+
+    def _tool_mark(self, role: str) -> Procedure:
+        """The tool marker's sighting; a second look before giving up (one frame may miss it)."""
+        for _ in range(2):
+            mark = yield from self._look_for(role)
+            if mark is not None:
+                return mark
+        where = fmt(self.rig.arm.pose()[:3, 3])
         raise SkillFailure(
-            f"{self.name}: error still {error:.2f} mm after {self.param('max_iterations')} corrections "
-            f"(tolerance {tolerance:g} mm)"
+            f"{self.name}: the tool's {role!r} marker is not in view with the tool at {where} "
+            "(the arm hides it or it is outside the image there)"
+        )
+
+    # -- eye-in-hand ---------------------------------------------------------------
+
+    def _eye_in_hand(self) -> Procedure:
+        rig, tag = self.rig, self.param("tag")
+        offset = np.asarray(self.param("offset"), dtype=float)
+        last: Sighting | None = None
+        for iteration in range(self.param("max_iterations") + 1):
+            sightings = yield Look(
+                rig, self.clock, want=tag, frames=self.param("frames"), settle=self.settle()
+            )
+            seen = nearest(sightings, tag, None if last is None else last.position)
+            if seen is not None:
+                last = seen
+            elif last is None:
+                raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
+            # the camera cannot see under the tool: a target that left the view after a
+            # correction keeps its last measured (fixed) position
+            reference = last.position + offset
+            q = np.asarray(rig.arm.joints(), dtype=float)
+            measured = rig.arm.model.position(q)
+            done = yield from self._close(q, measured, reference, iteration)
+            if done is not None:
+                return done
+        raise self._gave_up()
+
+    # -- steps 3-7 -------------------------------------------------------------------
+
+    def _close(
+        self, q: np.ndarray, measured: np.ndarray, reference: np.ndarray, iteration: int
+    ) -> Procedure:
+        """The error (mm) when it is within the tolerance; else None, after sending the
+        correction unless this was the last iteration. Outputs the error either way."""
+        self._error = float(np.linalg.norm(reference - measured))
+        self.output("error", round(self._error, 3))
+        self.output("iterations", iteration)
+        if self._error < float(self.param("tolerance_mm")):
+            self.feedback_message = (
+                f"within {self._error:.2f} mm of {fmt(reference)} after {iteration} corrections"
+            )
+            return self._error
+        if iteration < self.param("max_iterations"):
+            yield self._correction(q, measured, reference)
+        return None
+
+    def _correction(self, q: np.ndarray, measured: np.ndarray, reference: np.ndarray) -> Move:
+        """Steps 3-7: joints of the measured and the wanted positions, their difference sent."""
+        model = self.rig.arm.model
+        try:
+            q_meas = model.ik(measured, near=q)  # step 3
+            q_ref = model.ik(reference, near=q)  # steps 4-5
+        except Unreachable as exc:
+            raise SkillFailure(f"{self.name}: {exc}") from exc
+        dq = q_ref - q_meas  # step 6
+        # Missed steps shift the reported joints: near a limit the full correction may
+        # leave it, so as much of it as stays within is sent, and the next look decides.
+        gain = float(self.param("gain"))
+        for _ in range(6):
+            target = q + gain * dq
+            if model.within_limits(target):
+                return Move(self.rig, joints=target, speed=self.speed(), label="servo")  # step 7
+            gain *= 0.5
+        raise SkillFailure(
+            f"{self.name}: the correction from joints {np.round(q, 2).tolist()} leaves the arm's "
+            "joint limits (missed steps may have shifted its reported joints: home it)"
+        )
+
+    def _gave_up(self) -> SkillFailure:
+        return SkillFailure(
+            f"{self.name}: error still {self._error:.2f} mm after "
+            f"{self.param('max_iterations')} corrections "
+            f"(tolerance {float(self.param('tolerance_mm')):g} mm)"
         )
