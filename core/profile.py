@@ -36,10 +36,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .calibration import check_calibration
 from .errors import ConfigError, Mark, shown
 from .motion.scene import Scene
 from .params import check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
+from .profile_include import apply_includes
 from .resolve import available, resolve
 from .rig import TagSpec
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
@@ -66,6 +68,8 @@ PROFILE_KEYS = (
     "world",
     "plugins",
     "watchdog",
+    "include",
+    "calibration",
 )
 #: Sections a profile must have.
 REQUIRED_SECTIONS = ("arm",)
@@ -273,6 +277,7 @@ class Profile:
         """A new, re-validated profile with ``overrides`` applied."""
         data = copy.deepcopy(self.data)
         marked = _remark(data, self.marks, "")
+        marked._included = True  # the includes are in already; --set include= adds more
         return _finish(marked, self.source, list(overrides), manager or self.manager, None)
 
 
@@ -357,9 +362,25 @@ def _finish(
             getattr(data, "mark", None) or Mark(file, 1, 1),
             file,
         )
+    parsed: list[Override] = []
     for item in overrides:
         try:
-            override = parse_override(item) if isinstance(item, str) else item
+            parsed.append(parse_override(item) if isinstance(item, str) else item)
+        except ConfigError as exc:
+            errors.append(exc)
+    # --set include=FILE first, then the included files, then every other --set
+    includes = [o for o in parsed if o.keys[0] == "include"]
+    for override in includes:
+        try:
+            apply_override(data, override)
+        except ConfigError as exc:
+            errors.append(exc)
+    if includes or not getattr(data, "_included", False):
+        apply_includes(data, source, errors)
+    for override in parsed:
+        if override.keys[0] == "include":
+            continue
+        try:
             apply_override(data, override)
         except ConfigError as exc:
             errors.append(exc)
@@ -568,6 +589,7 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
     check("table", _check_table, data, errors)
     check("obstacles", _check_obstacles, data, errors)
     check("workcell", check_workcell, data, errors)
+    check("calibration", check_calibration, data, errors)
     check("watchdog", _check_watchdog, data, errors)
     if data.get("world") is not None and not isinstance(data["world"], dict):
         errors.append(error_at("world: expected a mapping", data.value_mark("world")))

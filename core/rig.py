@@ -394,6 +394,11 @@ class Rig:
     planner: Planner | None = None
     tool: Any = None
     head: Any = None
+    #: A measuring device outside the arm (:class:`armtree.measuring.MeasuringDevice`):
+    #: the ground truth of calibrations and accuracy experiments; the simulation sets
+    #: its simulated one, the calibrate and experiment commands ask the operator on
+    #: hardware. Never what a skill decides by.
+    reference: Any = None
     tags: dict[str, TagSpec] = field(default_factory=dict)
     places: dict[str, list[float]] = field(default_factory=dict)
     #: Per-tick hooks of components that must advance with the run (the sim).

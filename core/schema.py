@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from .builtin_behaviours import COMPOSITE, DECORATOR
+from .calibration import calibration_schema
 from .constructor_params import declared_params
 from .outcomes import BUILTIN_PREDICATES, Predicate
 from .params import Param
@@ -256,6 +257,11 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
         "workcell": workcell_schema(),
         "world": {"type": "object", "description": "the simulated world (sim only)"},
         "plugins": {"type": "array", "items": {"type": "string"}},
+        "include": {
+            "description": "files laid over this profile (calibration files), beside it or in the working directory",
+            "anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}}],
+        },
+        "calibration": calibration_schema(),
     }
     return {
         "type": "object",

@@ -181,6 +181,13 @@ class LinearCorrection:
         out[..., 1] = self.ay * out[..., 1] + self.by
         return out
 
+    def inverse(self, xyz: np.ndarray) -> np.ndarray:
+        """The position (or positions) that :meth:`apply` maps onto ``xyz``; z unchanged."""
+        out = np.array(xyz, dtype=float)
+        out[..., 0] = (out[..., 0] - self.bx) / self.ax
+        out[..., 1] = (out[..., 1] - self.by) / self.ay
+        return out
+
 
 def tool_for_camera_over(
     model: KinematicModel,

@@ -70,7 +70,18 @@ class SimCamera(Camera):
         self.distortion = np.zeros(5)
         dist = np.asarray(self.config.get("distortion") or [0.0] * 5, dtype=float)
         self.distortion[: min(5, len(dist))] = dist[:5]
-        self.extrinsics = camera_extrinsics(self.config)
+        #: Where the profile says the camera is (its position / look_at / rotation): how it
+        #: was mounted, as far as anyone knows; the world's ``as_built.camera`` moves it.
+        self.nominal = camera_extrinsics(self.config)
+        #: Where the camera really is (set when the world is known, at :meth:`start`).
+        self.mounted = self.nominal
+        #: What the skills take the camera's pose to be: a calibrated ``extrinsics``
+        #: when the profile (or a calibration file it includes) gives one, else nominal.
+        self.extrinsics = (
+            np.asarray(self.config["extrinsics"], dtype=float)
+            if self.config.get("extrinsics") is not None
+            else self.nominal
+        )
         self.drop_rate = float(self.config.get("drop_rate", 0.0))
         self._world: World | None = None
         self.renderer: Renderer | None = None
@@ -86,6 +97,7 @@ class SimCamera(Camera):
         if self.renderer is not None:
             return
         self._world = world_for(self._context)
+        self.mounted = self._world.scene.as_built.camera(self.nominal)
         # A randomised world may have drawn the sensor's noise, blur and frame drops.
         drawn = self._world.scene.camera
         self.drop_rate = float(drawn.get("drop_rate", self.drop_rate))
@@ -105,7 +117,7 @@ class SimCamera(Camera):
         """The camera's current pose in the base frame (4x4, mm; OpenCV axes)."""
         self.start()
         assert self._world is not None
-        return self._world.camera_pose(self.mount, self.extrinsics)
+        return self._world.camera_pose(self.mount, self.mounted)
 
     def read(self) -> Frame | None:
         """The frame due at the run's current time, rendered now; None if not new or dropped."""
@@ -130,7 +142,7 @@ class SimCamera(Camera):
 
     def _render(self, index: int) -> Frame:
         assert self._world is not None and self.renderer is not None
-        cam_pose = self._world.camera_pose(self.mount, self.extrinsics)
+        cam_pose = self._world.camera_pose(self.mount, self.mounted)
         drawables = world_drawables(self._world)
         if self.mount == "eye_in_hand":
             drawables = [d for d in drawables if not d.tool_mounted]
@@ -182,8 +194,21 @@ def _check(config: dict[str, Any]) -> None:
         extrinsics = camera_extrinsics(config)
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"camera: {exc}") from exc
+    believed = config.get("extrinsics")
+    if believed is not None:
+        arr = np.asarray(believed, dtype=float) if _numbers(believed) else np.zeros(0)
+        if arr.shape != (4, 4) or not np.all(np.isfinite(arr)):
+            raise ConfigError(f"camera.extrinsics: a 4x4 matrix of numbers (mm), got {believed!r}")
     if not np.all(np.isfinite(extrinsics)):
         raise ConfigError("camera.look_at: the camera cannot look at its own position")
+
+
+def _numbers(value: Any) -> bool:
+    return isinstance(value, list) and all(
+        isinstance(row, list)
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in row)
+        for row in value
+    )
 
 
 def _validate(config: dict[str, Any], profile: Any) -> None:
@@ -247,6 +272,13 @@ sim_camera.PARAMS = (
         minimum=-360.0,
         maximum=360.0,
         length=3,
+    ),
+    Param(
+        "extrinsics",
+        "list",
+        None,
+        "mm",
+        "4x4 camera pose the skills use (a calibration's): where position/look_at put it by default",
     ),
     Param(
         "look_at",

@@ -22,8 +22,10 @@ from typing import Any
 
 import armtree
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.params import check_value
 from armtree.profile import profile_error, profile_section
 
+from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
 from .scene import SceneSpec, body_error, parse_scene
@@ -125,7 +127,11 @@ def armtree_validate_profile(profile: Any) -> list[armtree.ConfigError]:
         scene = parse_scene(profile)
     except armtree.ConfigError as exc:
         return list(exc.errors)
-    return [*_table_disagrees(profile, scene), *_joints_exist(profile, scene)]
+    return [
+        *_table_disagrees(profile, scene),
+        *_joints_exist(profile, scene),
+        *_as_built_errors(profile, scene),
+    ]
 
 
 def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
@@ -166,7 +172,7 @@ def armtree_rig_ready(rig: Any, context: Any) -> None:
     world = world_for(context)
     emulator = context.shared.get(EMULATOR_KEY)
     if emulator is not None and world.emulator is None:
-        world.attach_arm(emulator)
+        world.attach_arm(emulator, _as_built_model(context.profile, world.scene.as_built.arm))
         for link, body in world.start_overlaps():
             spec = world.bodies[body].spec
             raise body_error(
@@ -174,6 +180,57 @@ def armtree_rig_ready(rig: Any, context: Any) -> None:
             )
     camera = rig.camera if isinstance(rig.camera, SimCamera) else None
     context.steppers.append(WorldStepper(world, camera))
+    if rig.reference is None:
+        rig.reference = SimMeasuringDevice(
+            world, world.scene.as_built.reference_noise_mm, seed=context.seed
+        )
+
+
+def _arm_factory(profile: Any) -> Any:
+    arm = profile_section(profile, "arm") or {}
+    manager = getattr(profile, "manager", None)
+    if manager is None or not manager.registry.has("arm", arm.get("type", "")):
+        return None
+    return manager.registry.get("arm", arm["type"])
+
+
+def _as_built_model(profile: Any, changes: dict[str, Any]) -> Any:
+    """The arm's kinematic model with ``world.as_built.arm`` laid over the profile's keys;
+    None when the arm is as the profile says."""
+    component = _arm_factory(profile)
+    make = getattr(getattr(component, "factory", None), "model", None)
+    if not changes or not callable(make):
+        return None
+    return make({**profile.component("arm"), **changes})
+
+
+def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+    """``world.as_built.arm`` must name the arm type's own keys with values it takes."""
+    changes = scene.as_built.arm
+    component = _arm_factory(profile)
+    if not changes or component is None:
+        return []
+    known = {p.name: p for p in component.params}
+    out = []
+    for key, value in changes.items():
+        path = f"world.as_built.arm.{key}"
+        if key not in known:
+            out.append(
+                profile_error(
+                    profile, path, f"the {profile.data['arm']['type']} arm has no key {key!r}"
+                )
+            )
+            continue
+        try:
+            check_value(known[key], value)
+        except ValueError as exc:
+            out.append(profile_error(profile, path, str(exc)))
+    if not out:
+        try:
+            _as_built_model(profile, changes)
+        except (armtree.ConfigError, ValueError, TypeError) as exc:
+            out.append(profile_error(profile, "world.as_built.arm", f"no arm is built so: {exc}"))
+    return out
 
 
 #: World events shown to the user (the rest only go to the run log), and how.

@@ -163,7 +163,9 @@ class Overhead:
 
     def _field_of_view(self, camera: Any) -> np.ndarray | None:
         """Where the camera's image corners meet the table plane (mm), or None."""
-        cam_pose = self.world.camera_pose(camera.mount, camera.extrinsics)
+        cam_pose = self.world.camera_pose(
+            camera.mount, getattr(camera, "mounted", camera.extrinsics)
+        )
         renderer = getattr(camera, "renderer", None)
         if renderer is None:
             return None

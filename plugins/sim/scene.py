@@ -23,6 +23,7 @@ import numpy as np
 from armtree.errors import ConfigError, shown
 from armtree.profile import profile_error, profile_section
 
+from .as_built import AsBuilt, parse_as_built
 from .duckybot import DuckybotParams, Leg, RouteSpec
 from .geometry import footprint_overlap, point_in_polygon, rot_z
 
@@ -63,6 +64,8 @@ _WORLD_KEYS = (
     "light",
     "tool_marker",
     "randomize",
+    "as_built",
+    "reference",
 )
 
 
@@ -173,6 +176,9 @@ class SceneSpec:
     slips: SlipSpec | None = None
     #: ``world.randomize``: what ``--seed`` varies (None: nothing).
     randomize: Any = None
+    #: ``world.as_built`` and ``world.reference``: how the rig really is, and the
+    #: simulated measuring device's reading error (:mod:`.as_built`).
+    as_built: AsBuilt = field(default_factory=AsBuilt)
     #: The sim camera's ``noise``, ``blur`` and ``drop_rate`` as a seed drew them.
     camera: dict[str, float] = field(default_factory=dict)
 
@@ -630,6 +636,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         tool_marker_offset=tool_offset,
         slips=slips,
         randomize=randomize,
+        as_built=parse_as_built(err, world),
     )
 
 

@@ -199,14 +199,16 @@ class World:
 
     # -- wiring -------------------------------------------------------------------
 
-    def attach_arm(self, emulator: Any) -> None:
+    def attach_arm(self, emulator: Any, model: Any = None) -> None:
         """Take the arm's true state from ``emulator`` (a FirmwareEmulator) from now on.
 
-        Faults the profile's ``world.faults`` requests are injected into it here.
+        ``model`` is the arm as built (``world.as_built.arm``), through which its true
+        joints place it; by default the emulator's own, the profile's. Faults the
+        profile's ``world.faults`` requests are injected into the emulator here.
         """
         with self.lock:
             self.emulator = emulator
-            self.model = emulator.model
+            self.model = emulator.model if model is None else model
             self.tool_boxes = _tool_rigid_boxes(self.model)
             for fault, options in self.scene.faults.items():
                 emulator.inject(fault, **options)

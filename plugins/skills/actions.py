@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.calibration import calibration_of
 from armtree.errors import PlanningError, Unreachable
 from armtree.rig import MotionHandle, MotionStatus
 
@@ -64,8 +65,9 @@ class Action:
 class Move(Action):
     """Move the tool centre to ``xyz`` (mm, base frame), or the joints to ``joints``.
 
-    With a planner the path is planned (limits, reachability, collisions) and its
-    waypoints are sent one after another; without one the arm's own target checks
+    A profile's arm correction (seed 000, eq. 8; ``corrected=False`` to leave it out)
+    turns ``xyz`` into the position to command. With a planner the path is planned
+    (limits, reachability, collisions) and its waypoints are sent one after another; without one the arm's own target checks
     apply. A refused target fails the step with the reason; nothing is sent. A
     motion that has not ended after :data:`TIMEOUT_FACTOR` times its expected
     duration plus :data:`TIMEOUT_SLACK` seconds (a stalled or halted arm) stops
@@ -85,9 +87,12 @@ class Move(Action):
         joints: np.ndarray | None = None,
         speed: float = 1.0,
         label: str = "move",
+        corrected: bool = True,
     ) -> None:
         self.rig = rig
         self.xyz = None if xyz is None else np.asarray(xyz, dtype=float).reshape(3)
+        #: Whether the profile's arm correction (seed 000, eq. 8) applies to ``xyz``.
+        self.corrected = corrected
         self.joints = None if joints is None else np.asarray(joints, dtype=float)
         self.speed = speed
         self.label = label
@@ -104,6 +109,10 @@ class Move(Action):
     def start(self) -> None:
         arm, planner = self.rig.arm, self.rig.planner
         self.message = ""
+        if self.xyz is not None and self.corrected:
+            # where to send the tool so that it really arrives at xyz
+            self.xyz = calibration_of(getattr(self.rig, "profile", None)).command_for(self.xyz)
+            self.corrected = False
         try:
             if planner is None:
                 goal = self.joints

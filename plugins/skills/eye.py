@@ -5,7 +5,8 @@ one), and locating markers costs milliseconds a frame, so the behaviours of a
 tree must not each read and detect on their own: a condition ticked every tick
 would take the frame an action was waiting for, and render and detect twenty
 times a simulated second. :class:`Eye` reads a frame, locates its markers in the
-arm's base frame once, and keeps the newest :class:`View` for everyone.
+arm's base frame once (through the profile's vision correction, seed 000 eq. 8,
+when a calibration gives one), and keeps the newest :class:`View` for everyone.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.calibration import calibration_of
 from armtree.perception.frames import camera_in_base, marker_in_base
 from armtree.rig import Detection
 from armtree.workcell import workcell_of
@@ -96,6 +98,8 @@ class Eye:
         self.planes = (
             {} if table is None else {role: table + h for role, h in cell.marker_heights_mm.items()}
         )
+        #: The profile's linear correction of what vision measures (seed 000, eq. 8), if any.
+        self.calibration = calibration_of(getattr(rig, "profile", None))
 
     def newest(self) -> View | None:
         """The view of a frame that arrived since the last read, else the last view (or None)."""
@@ -118,6 +122,7 @@ class Eye:
             plane = self.planes.get(role)
             if plane is not None and abs(pose[2, 3] - plane) <= PLANE_TOLERANCE_MM:
                 pose[:3, 3] = onto_plane(base_T_camera, pose[:3, 3], plane)
+            pose[:3, 3] = self.calibration.seen(pose[:3, 3])
             seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
         k = np.asarray(frame.camera_matrix, dtype=float)
         h, w = frame.image.shape[:2]
