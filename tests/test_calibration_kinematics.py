@@ -20,7 +20,7 @@ from armtree.motion.kinematic_calibration import (
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_model
 from armtree.plugins.arms.vicra.kinematics import VicraModel
-from armtree.plugins.trackers.calibrate_command import CalibrateCommand
+from armtree.plugins.calibration.command import CalibrateCommand
 
 NOMINAL = {"tool_offset_mm": 55.0, "l1_mm": 135.0, "l2_mm": 160.0}
 

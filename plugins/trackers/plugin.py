@@ -1,7 +1,7 @@
 """Registration of the built-in trackers plugin.
 
 Trackers ``aruco`` and ``hamming``; commands ``armtree detect``,
-``armtree markers`` and ``armtree calibrate``.
+``armtree markers`` (``armtree calibrate`` lives in the calibration plugin).
 """
 
 from __future__ import annotations
@@ -11,7 +11,6 @@ from typing import Any
 import armtree
 
 from .aruco import aruco_factory
-from .calibrate_command import CalibrateCommand
 from .commands import DetectCommand, MarkersCommand
 from .hamming import hamming_factory
 
@@ -24,5 +23,5 @@ def armtree_trackers() -> dict[str, Any]:
 
 @armtree.hookimpl
 def armtree_commands() -> dict[str, Any]:
-    """``detect``, ``markers`` and ``calibrate``."""
-    return {"detect": DetectCommand(), "markers": MarkersCommand(), "calibrate": CalibrateCommand()}
+    """``detect`` and ``markers``."""
+    return {"detect": DetectCommand(), "markers": MarkersCommand()}

@@ -37,8 +37,7 @@ from armtree.motion.kinematic_calibration import (
     read_points,
     write_points,
 )
-
-from .commands import registry_of
+from armtree.plugins.trackers.commands import registry_of
 
 #: Structural keys fitted by default, per arm type (seed 004: only ``d`` for the Dobot).
 DEFAULT_FIT = {"dobot_v1": ("tool_offset_mm",)}
@@ -48,13 +47,15 @@ LINK_KEYS = {"dobot_v1": ("l1_mm", "l2_mm")}
 SIM_MIN_Z = 0.0
 
 
-def configure_kinematics(kinds: Any) -> None:
+def configure_kinematics(kinds: Any) -> Any:
     """Add the ``kinematics`` sub-parser to ``kinds`` (the calibrate sub-parsers)."""
     kin = kinds.add_parser(
         "kinematics",
         help="arm link lengths, tool offset, joint offsets by least squares (seed 004)",
     )
-    source = kin.add_mutually_exclusive_group()
+    source = (
+        kin.add_mutually_exclusive_group()
+    )  # neither: --rig runs trees/calibrate_kinematics.yaml
     source.add_argument(
         "--points", metavar="FILE", help="CSV (j0..,x,y,z) or YAML points: joints deg, tool mm"
     )
@@ -90,12 +91,13 @@ def configure_kinematics(kinds: Any) -> None:
     kin.add_argument("--save-points", metavar="FILE.csv", help="--simulate: write the points")
     kin.add_argument("-o", "--output", metavar="FILE.yaml", help="write the fitted arm keys here")
     kin.add_argument("--plot", metavar="FILE.png", help="residuals before/after plot")
+    return kin
 
 
 def run_kinematics(args: argparse.Namespace) -> int:
     """Read or collect points, fit, print and write; 0, or ConfigError for bad input."""
     if (args.points is None) == (args.simulate is None):
-        raise ConfigError("calibrate kinematics: give --points FILE or --simulate N")
+        raise ConfigError("calibrate kinematics: give --points FILE, --simulate N, or --rig alone")
     if args.output and Path(args.output).suffix.lower() not in (".yaml", ".yml"):
         raise ConfigError(f"-o {args.output}: the calibration is written as .yaml")
     if args.plot and Path(args.plot).suffix.lower() != ".png":

@@ -1,4 +1,12 @@
-"""``armtree calibrate camera|hand-eye|kinematics``.
+"""``armtree calibrate camera|hand-eye|correction|camera-offset|kinematics``.
+
+With ``--rig PROFILE`` (and no offline input) ``hand-eye``, ``correction``,
+``camera-offset`` and ``kinematics`` run their tree (``trees/calibrate_*.yaml``):
+the arm moves, the camera and the measuring device measure, the fit is written
+into the calibration file ``-o FILE`` (default ``calibration.yaml``; included by
+the run when it exists, so earlier calibrations apply) with a residual plot
+(``--plot``, default beside it). Data that cannot calibrate ends with exit 1 and
+the reason, naming the pose to fix.
 
 ``camera``: intrinsics and distortion from chessboard or ChArUco images (a
 folder, a glob or files; or live frames of a profile's camera), the RMS and
@@ -25,11 +33,16 @@ import yaml
 
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
+from armtree.plugins.trackers.calibration import BOARDS, Board, calibrate, plot_calibration
+from armtree.plugins.trackers.commands import registry_of
+from armtree.plugins.trackers.inputs import (
+    add_intrinsics_options,
+    intrinsics_from_args,
+    numbers,
+    read_image,
+)
 from armtree.rig import Frame, RigContext
 
-from .calibration import BOARDS, Board, calibrate, plot_calibration
-from .commands import registry_of
-from .inputs import add_intrinsics_options, intrinsics_from_args, numbers, read_image
 from .kinematics_command import configure_kinematics, run_kinematics
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp")
@@ -77,15 +90,26 @@ class CalibrateCommand:
         cam.add_argument("--plot", metavar="FILE.png", help="corners and residuals plot")
 
         he = kinds.add_parser(
-            "hand-eye", help="eye-to-hand camera pose from 3 marker views (seed 000)"
+            "hand-eye",
+            help="camera pose: --rig moves the arm (seed 000's three positions or N poses); "
+            "--images takes 3 views",
         )
         he.add_argument(
-            "--images", nargs=3, required=True, metavar="IMAGE", help="views at positions 0, 1, 2"
+            "--images", nargs=3, metavar="IMAGE", help="offline: views at positions 0, 1, 2"
         )
         he.add_argument(
-            "--tool-positions", nargs=3, required=True, metavar="X,Y,Z",
-            help="tool positions 0, 1 (moved along base x), 2 (then along base y), mm",
+            "--tool-positions", nargs=3, metavar="X,Y,Z",
+            help="offline: tool positions 0, 1 (moved along base x), 2 (then along base y), mm",
         )  # fmt: skip
+        _tree_options(he)
+        he.add_argument(
+            "--method", choices=("three-positions", "n-pose"), default="n-pose",
+            help="--rig: seed 000's three positions, or N well-spread poses (every method)",
+        )  # fmt: skip
+        he.add_argument("--poses", type=int, default=15, help="--rig n-pose: poses to visit")
+        he.add_argument(
+            "--step-mm", type=float, default=40.0, help="--rig three-positions: move (mm)"
+        )
         he.add_argument(
             "--marker-offset", default="0,0,0", metavar="X,Y,Z", help="marker in the tool frame, mm"
         )
@@ -94,18 +118,48 @@ class CalibrateCommand:
         he.add_argument(
             "--marker-id", type=int, help="id of the tool's marker (default: the only one)"
         )
-        he.add_argument("--size-mm", type=float, required=True, help="marker side (mm)")
-        he.add_argument("-o", "--output", metavar="FILE.yaml", help="write the camera pose here")
+        he.add_argument("--size-mm", type=float, help="offline: marker side (mm)")
         add_intrinsics_options(he)
 
-        configure_kinematics(kinds)
+        cor = kinds.add_parser("correction", help="seed 000's linear correction (eq. 8) on a grid")
+        _tree_options(cor)
+        cor.add_argument("--grid", type=int, default=10, help="points along each side")
+        cor.add_argument(
+            "--height-mm", type=float, default=60.0, help="tool height above the table"
+        )
+        off = kinds.add_parser(
+            "camera-offset", help="eye-in-hand camera offset from touch tests (seed 004, eq. 17)"
+        )
+        _tree_options(off)
+        off.add_argument("--tag", default="ducky", help="tag role of the still marker to look at")
+        off.add_argument("--views", type=int, default=8, help="poses to look from")
+
+        kin = configure_kinematics(kinds)
+        _tree_options(kin, rig=False, output=False, seed=False)
+        kin.add_argument(
+            "--poses", type=int, default=27, help="--rig without --points: poses to measure"
+        )
 
     def run(self, args: argparse.Namespace) -> int:
-        """Run the chosen calibration; 0, or ConfigError for bad input."""
+        """Run the chosen calibration; 0, 1 when the data cannot calibrate, ConfigError for bad input."""
         if args.kind == "camera":
             return self._camera(args)
         if args.kind == "hand-eye":
+            if args.images is None and args.rig is not None:
+                return _tree(args, "hand_eye", plan="three_positions" if args.method == "three-positions" else "spread",
+                             poses=args.poses, step_mm=args.step_mm)  # fmt: skip
+            if args.images is None or args.tool_positions is None or args.size_mm is None:
+                raise ConfigError(
+                    "hand-eye: give --rig PROFILE (the arm moves), or --images, --tool-positions "
+                    "and --size-mm (three views taken already)"
+                )
             return self._hand_eye(args)
+        if args.kind == "correction":
+            return _tree(args, "correction", grid=args.grid, height_mm=args.height_mm)
+        if args.kind == "camera-offset":
+            return _tree(args, "camera_offset", tag=args.tag, views=args.views)
+        if args.points is None and args.simulate is None:
+            return _tree(args, "kinematics", poses=args.poses)
         return run_kinematics(args)
 
     # -- camera --------------------------------------------------------------
@@ -164,10 +218,9 @@ class CalibrateCommand:
     def _live(self, args: argparse.Namespace) -> list[tuple[str, np.ndarray]]:
         import time
 
+        from armtree.plugins.trackers.calibration import find_board
+        from armtree.plugins.trackers.preprocess import to_gray
         from armtree.profile import load_profile
-
-        from .calibration import find_board
-        from .preprocess import to_gray
 
         board = Board(
             args.board, args.cols, args.rows, args.square_mm, args.marker_mm, args.dictionary
@@ -258,6 +311,60 @@ class CalibrateCommand:
             Path(args.output).write_text(header + yaml.safe_dump(data, sort_keys=False))
             print(f"wrote {args.output} (camera: {{mount: eye_to_hand, extrinsics: ...}})")
         return 0
+
+
+def _tree_options(
+    parser: argparse.ArgumentParser, rig: bool = True, output: bool = True, seed: bool = True
+) -> None:
+    """The options of a calibration that runs its tree."""
+    from armtree.cli import add_set_option
+
+    if rig:
+        parser.add_argument(
+            "--rig", metavar="PROFILE", help="run the calibration tree on this profile"
+        )
+    if output:
+        parser.add_argument(
+            "-o",
+            "--output",
+            metavar="FILE.yaml",
+            help="the calibration file (default calibration.yaml)",
+        )
+        parser.add_argument(
+            "--plot", metavar="FILE.png", help="the residual plot (default beside the file)"
+        )
+    if seed:
+        parser.add_argument(
+            "--seed", type=int, default=0, help="the run's seed (sim noise, random poses)"
+        )
+    add_set_option(parser, "override a profile key for this run (repeatable)")
+
+
+def _tree(args: argparse.Namespace, kind: str, **params: Any) -> int:
+    """Run ``trees/calibrate_KIND.yaml`` on ``--rig``; print what it found and wrote."""
+    from .run import profile_overrides, report, run_tree
+
+    if args.rig is None:
+        raise ConfigError(f"calibrate {kind.replace('_', '-')}: give --rig PROFILE")
+    out = args.output or "calibration.yaml"
+    if Path(out).suffix.lower() not in (".yaml", ".yml"):
+        raise ConfigError(f"-o {out}: the calibration is written as .yaml")
+    plot = args.plot or str(Path(out).with_name(f"{Path(out).stem}_{kind}.png"))
+    if Path(plot).suffix.lower() != ".png":
+        raise ConfigError(f"--plot {plot}: the plot is written as .png")
+    values = {**params, "out": out, "plot": plot}
+    overrides = profile_overrides(out, args.overrides) + [f"{k}={v}" for k, v in values.items()]
+    result, run = run_tree(f"calibrate_{kind}.yaml", args.rig, overrides, args.seed, f"calibrate {kind.replace('_', '-')}",
+                           getattr(args, "manager", None))  # fmt: skip
+    for node in run.root.iterate():
+        if type(node).__name__ == "FitCalibration" and node.feedback_message:
+            print(f"{kind.replace('_', '-')}: {node.feedback_message}")
+    code = report(result, f"calibrate {kind.replace('_', '-')}")
+    if code == 0:
+        print(
+            f"wrote {out} (a profile uses it with include: {out}, or --set include={out}) and {plot}"
+        )
+    return code
 
 
 def _check_moves(tool: np.ndarray) -> None:

@@ -1,0 +1,380 @@
+"""The behaviours calibration trees are made of: plan poses, visit them, fit, write.
+
+``plan_poses`` chooses where the tool goes (seed 000's three positions, well-spread
+poses, a grid of reference points, views of a marker); ``visit_poses`` moves there
+one pose after another, reads the camera once the arm is still (the marker's pose
+in the camera frame, averaged over frames) and asks the rig's measuring device
+(``rig.reference``) where the tool or a marker really is when the calibration
+needs the truth; ``fit_calibration`` fits (:mod:`.fits`) and ``write_calibration``
+writes the calibration file a profile includes and a residual plot. Observations
+travel on the blackboard as plain lists (mm, radians), one mapping per pose.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from armtree import Param
+from armtree.perception import EYE_IN_HAND
+from armtree.plugins.skills.actions import Action, Move, SkillFailure, State, fmt
+from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
+from armtree.plugins.skills.base import Procedure, Skill
+from armtree.plugins.skills.eye import eye_of
+
+from . import fits
+from .poses import in_view, reachable_mask, spread, square_grid, workspace_samples
+
+PLANS = ("three_positions", "spread", "grid", "joints", "views")
+KINDS = ("hand_eye", "correction", "camera_offset", "kinematics")
+
+
+class Observe(Action):
+    """Read ``frames`` fresh frames after ``settle`` s and average the camera-frame pose of
+    the marker of ``role`` (its first id seen); the result is ``(tvec, rvec, camera)`` or
+    None when no frame saw it. No frame within ``timeout`` s fails the step."""
+
+    def __init__(self, rig: Any, clock: Any, role: str, frames: int, settle: float) -> None:
+        self.rig, self.clock, self.role = rig, clock, role
+        self.frames, self.settle, self.timeout = frames, settle, 3.0
+        self._t0 = 0.0
+        self._used = -1
+        self._tv: list[np.ndarray] = []
+        self._rv: list[np.ndarray] = []
+        self._count = 0
+        self._camera: np.ndarray | None = None
+
+    def describe(self) -> str:
+        """What this step does, for messages."""
+        return f"look for the {self.role} marker"
+
+    def start(self) -> None:
+        self._t0 = self.clock.now() + self.settle
+        self._tv, self._rv, self._count, self._used = [], [], 0, -1
+
+    def poll(self) -> State:
+        view = eye_of(self.rig).newest()
+        if view is not None and view.timestamp >= self._t0 - 1e-9 and view.index != self._used:
+            self._used = view.index
+            self._count += 1
+            self._camera = view.camera
+            for s in view.of(self.role):
+                if s.detection.tvec is not None:
+                    self._tv.append(np.asarray(s.detection.tvec, dtype=float).reshape(3))
+                    rv = s.detection.rvec
+                    self._rv.append(
+                        np.zeros(3) if rv is None else np.asarray(rv, dtype=float).reshape(3)
+                    )
+                    break
+            if self._count >= self.frames:
+                self.result = None
+                if self._tv:
+                    self.result = (
+                        np.mean(self._tv, axis=0),
+                        np.mean(self._rv, axis=0),
+                        self._camera,
+                    )
+                return State.DONE
+        elif self.clock.now() > self._t0 + self.timeout:
+            return self.fail(f"the camera gave no frame for {self.timeout:g} s")
+        return State.RUNNING
+
+
+class Measure(Action):
+    """Wait for a :class:`~armtree.measuring.Measurement` of the rig's measuring device."""
+
+    def __init__(self, start: Any) -> None:
+        self._start = start
+        self.handle: Any = None
+
+    def describe(self) -> str:
+        """What this step does, for messages."""
+        return f"measure the {getattr(self.handle, 'what', 'reference')} (measuring device)"
+
+    def start(self) -> None:
+        self.handle = self._start()
+
+    def poll(self) -> State:
+        if not self.handle.done:
+            return State.RUNNING
+        if self.handle.error:
+            return self.fail(f"the measuring device: {self.handle.error}")
+        self.result = self.handle.value
+        return State.DONE
+
+
+def _list(a: Any) -> Any:
+    return None if a is None else np.round(np.asarray(a, dtype=float), 6).tolist()
+
+
+class PlanPoses(ArmSkill):
+    """Choose the tool positions a calibration visits (mm, base frame), reachable and, with a
+    fixed camera, where it sees the tool's marker."""
+
+    PARAMS = (
+        Param("plan", "str", "spread", doc="three_positions, spread, grid, joints or views", choices=PLANS),
+        Param("count", "int", 15, "", "poses (spread, joints, views)", minimum=3, maximum=1000),
+        Param("grid", "int", 10, "", "points along each side of the grid", minimum=2, maximum=100),
+        Param("step_mm", "float", 40.0, "mm", "three_positions: the moves along x, then y", exclusive_minimum=0.0, maximum=1000.0),
+        Param("height_mm", "float", None, "mm", "tool height above the table (default: the profile's clearance)", minimum=-1000.0, maximum=1000.0),
+        Param("tag", "str", "", "", "views: the tag role of the still marker", kind="tag_role"),
+        Param("seed", "int", 0, "", "random poses", minimum=0, maximum=2**31),
+        Param("poses", "any", None, "mm", "output: the tool positions", io="out"),
+        *ArmSkill.COMMON,
+    )  # fmt: skip
+    NEEDS = ("arm",)
+
+    def procedure(self) -> Procedure:
+        plan = self.param("plan")
+        rng = np.random.default_rng(self.param("seed"))
+        if plan == "views":
+            points = yield from self._views(rng)
+        else:
+            points = self._plan(plan, rng)
+        self.output("poses", [_list(p) for p in points])
+        self.feedback_message = f"{len(points)} poses ({plan})"
+        return len(points)
+        yield  # pragma: no cover
+
+    def _height(self) -> float:
+        cell = self.workcell
+        table = cell.table_z_mm if cell.table_z_mm is not None else 0.0
+        h = self.param("height_mm")
+        if h is None:
+            clearance = cell.clearance_z_mm if cell.clearance_z_mm is not None else table + 20.0
+            return float(max(clearance, table + 20.0))
+        return float(table + h)
+
+    def _usable(self) -> Any:
+        rig = self.rig
+        model = rig.arm.model
+        marker = self.workcell.tool_marker
+        lift = np.array([0.0, 0.0, marker.offset_mm[2] if marker is not None else 0.0])
+        fixed = rig.camera is not None and rig.camera.mount != EYE_IN_HAND
+        view = eye_of(rig).last if rig.camera is not None else None
+        half = view.half_view if view is not None else _half_view(rig)
+
+        def usable(points: np.ndarray) -> np.ndarray:
+            ok = reachable_mask(model, points)
+            if fixed:
+                ok &= in_view(rig.camera.extrinsics, half, points + lift)
+            return ok
+
+        return usable
+
+    def _plan(self, plan: str, rng: np.random.Generator) -> list[np.ndarray]:
+        model = self.rig.arm.model
+        usable = self._usable()
+        height = self._height()
+        if plan == "grid":
+            try:
+                grid = square_grid(model, height, self.param("grid"), usable)
+            except ValueError as exc:
+                raise SkillFailure(f"{self.name}: {exc}") from None
+            return list(grid)
+        if plan == "three_positions":
+            return self._three(usable, height)
+        low = self.workcell.clearance_z_mm
+        points = workspace_samples(model, rng, 6000, min_z=low)
+        if plan == "spread":
+            points = points[usable(points)]
+        if len(points) < self.param("count"):
+            raise SkillFailure(
+                f"{self.name}: only {len(points)} reachable poses where the camera sees the tool"
+            )
+        return list(spread(points, self.param("count"), rng))
+
+    def _three(self, usable: Any, height: float) -> list[np.ndarray]:
+        """Seed 000, steps 1-5: a point on the base x axis, moved by a along x, then b along y."""
+        step = float(self.param("step_mm"))
+        best = None
+        for x0 in np.arange(20.0, 1000.0, 2.0):
+            pts = np.array([[x0, 0.0, height], [x0 + step, 0.0, height], [x0 + step, step, height]])
+            if np.all(usable(pts)):
+                best = pts
+                pts_neg = pts.copy()
+                pts_neg[2, 1] = -step
+                break
+        if best is None:
+            for sign in (-1.0,):
+                for x0 in np.arange(20.0, 1000.0, 2.0):
+                    pts = np.array(
+                        [
+                            [x0, 0.0, height],
+                            [x0 + step, 0.0, height],
+                            [x0 + step, sign * step, height],
+                        ]
+                    )
+                    if np.all(usable(pts)):
+                        best = pts
+                        break
+        if best is None:
+            raise SkillFailure(
+                f"{self.name}: no three positions {step:g} mm apart along x then y at z = "
+                f"{height:g} mm are reachable and in view: make step_mm smaller"
+            )
+        return list(best)
+
+    def _views(self, rng: np.random.Generator) -> Procedure:
+        """Camera poses around the still marker ``tag``, looked for from where the arm is."""
+        rig, tag = self.rig, self.param("tag")
+        obs = yield Observe(rig, self.clock, tag, 3, self.settle())
+        if obs is None:
+            raise SkillFailure(
+                f"{self.name}: the {tag!r} marker is not in view from the tool at "
+                f"{fmt(rig.arm.pose()[:3, 3])}: bring the camera over it first"
+            )
+        tvec, _, camera = obs
+        centre = (camera @ np.append(tvec, 1.0))[:3]
+        height = self.workcell.look_height_mm
+        out = []
+        for k in range(self.param("count")):
+            angle = 2 * np.pi * (k / self.param("count")) + rng.uniform(-0.2, 0.2)
+            r = rng.uniform(5.0, 20.0)
+            point = centre + np.array([r * np.cos(angle), r * np.sin(angle), 0.0])
+            try:
+                out.append(camera_over(self, point, height * rng.uniform(0.8, 1.0)))
+            except SkillFailure:
+                continue
+        if len(out) < 3:
+            raise SkillFailure(f"{self.name}: fewer than 3 reachable views of the {tag!r} marker")
+        return out
+
+
+def _half_view(rig: Any) -> tuple[float, float]:
+    k = getattr(rig.camera, "camera_matrix", None)
+    w, h = getattr(rig.camera, "width", 640), getattr(rig.camera, "height", 480)
+    if k is None:
+        return (0.4, 0.3)
+    return (0.5 * w / float(k[0][0]), 0.5 * h / float(k[1][1]))
+
+
+class VisitPoses(ArmSkill):
+    """Visit each of ``poses``: move (the profile's arm correction left out), let the arm
+    settle, read the camera for ``look_for`` and ask the measuring device for the tool's
+    true position (``measure_tool``); at the end, the true position of the ``touch``
+    marker. Poses the arm refuses are recorded as not reached."""
+
+    PARAMS = (
+        Param("poses", "any", doc="tool positions (mm)"),
+        Param("look_for", "str", "", "", "tag role to read at each pose ('' for none)", kind="tag_role"),
+        Param("measure_tool", "bool", False, "", "ask the measuring device where the tool is"),
+        Param("touch", "str", "", "", "tag role whose marker the measuring device locates at the end", kind="tag_role"),
+        Param("frames", "int", 5, "", "frames averaged per pose", minimum=1, maximum=100),
+        Param("observations", "any", None, "", "output: one mapping per pose", io="out"),
+        Param("progress", "any", None, "", "output: {done, total, what}", io="out"),
+        *ArmSkill.COMMON,
+    )  # fmt: skip
+    RESOURCES = ("arm",)
+    NEEDS = ("arm",)
+
+    def procedure(self) -> Procedure:
+        rig = self.rig
+        poses = [np.asarray(p, dtype=float) for p in (self.param("poses") or [])]
+        role, measure = self.param("look_for"), self.param("measure_tool")
+        if role and (rig.camera is None or rig.tracker is None):
+            raise SkillFailure(f"{self.name}: this rig has no camera to look for {role!r} with")
+        if (measure or self.param("touch")) and getattr(rig, "reference", None) is None:
+            raise SkillFailure(f"{self.name}: this rig has no measuring device (rig.reference)")
+        out: list[dict[str, Any]] = []
+        for k, pose in enumerate(poses):
+            self.output(
+                "progress",
+                {
+                    "done": k,
+                    "total": len(poses),
+                    "what": f"pose {k + 1}/{len(poses)} at {fmt(pose)}",
+                },
+            )
+            record: dict[str, Any] = {"commanded": _list(pose), "reached": True, "seen": False}
+            try:
+                yield Move(rig, pose, speed=self.speed(), label=f"pose {k + 1}", corrected=False)
+            except SkillFailure as exc:
+                record["reached"], record["why"] = False, str(exc)
+                out.append(record)
+                continue
+            q = np.asarray(rig.arm.joints(), dtype=float)
+            record["joints"] = _list(q)
+            record["tool_pose"] = _list(rig.arm.model.fk(q))
+            if role:
+                obs = yield Observe(rig, self.clock, role, self.param("frames"), self.settle())
+                if obs is not None:
+                    tvec, rvec, camera = obs
+                    record.update(
+                        seen=True, tvec=_list(tvec), rvec=_list(rvec), camera=_list(camera)
+                    )
+            if measure:
+                truth = yield Measure(rig.reference.tool_position)
+                record["truth"] = _list(truth)
+            out.append(record)
+        touched = None
+        touch = self.param("touch")
+        if touch:
+            ids = rig.tags[touch].ids
+            touched = yield Measure(lambda: rig.reference.marker_position(ids[0]))
+        self.output("progress", {"done": len(poses), "total": len(poses), "what": "done"})
+        self.output(
+            "observations",
+            {
+                "poses": out,
+                "touched": _list(touched),
+                "device": getattr(rig.reference, "description", ""),
+            },
+        )
+        self.feedback_message = f"{sum(r.get('seen', False) for r in out)} of {len(out)} poses seen"
+        return len(out)
+
+
+class FitCalibration(Skill):
+    """Fit one calibration from ``observations`` (:mod:`.fits`); FAILURE with the reason and
+    the pose to fix when the data cannot calibrate, or when the fit makes held-out error worse."""
+
+    PARAMS = (
+        Param("kind", "str", doc="hand_eye, correction, camera_offset or kinematics", choices=KINDS),
+        Param("observations", "any", doc="visit_poses' output"),
+        Param("methods", "list", [], "", "hand_eye: the methods to try (default: all)"),
+        Param("folds", "int", 5, "", "cross-validation folds", minimum=2, maximum=100),
+        Param("result", "any", None, "", "output: the fit, for write_calibration", io="out"),
+    )  # fmt: skip
+    NEEDS = ()
+
+    def procedure(self) -> Procedure:
+        try:
+            result = fits.fit(
+                self.param("kind"),
+                self.param("observations") or {},
+                self.rig,
+                self.param("methods"),
+                self.param("folds"),
+            )
+        except fits.Refused as exc:
+            raise SkillFailure(f"{self.name}: {exc}") from None
+        self.output("result", result)
+        self.feedback_message = result["summary"]
+        return result
+        yield  # pragma: no cover
+
+
+class WriteCalibration(Skill):
+    """Write a fit's sections into the calibration ``file`` (kept what other calibrations
+    wrote) and its residual ``plot`` (PNG)."""
+
+    PARAMS = (
+        Param("result", "any", doc="fit_calibration's output"),
+        Param("file", "str", "calibration.yaml", doc="the calibration file (YAML)"),
+        Param("plot", "str", "", doc="residual plot (PNG); '' for none"),
+    )
+    NEEDS = ()
+
+    def procedure(self) -> Procedure:
+        result = self.param("result")
+        if not result:
+            raise SkillFailure(f"{self.name}: nothing to write (no fit)")
+        fits.write(result, self.param("file"), self.param("plot") or None)
+        self.feedback_message = f"wrote {self.param('file')}"
+        return self.param("file")
+        yield  # pragma: no cover
+
+
+__all__ = ["FitCalibration", "Measure", "Observe", "PlanPoses", "VisitPoses", "WriteCalibration"]
