@@ -159,12 +159,12 @@ def update_calibration_file(
             raise ConfigError(f"cannot read the calibration file: {exc}", file=str(path)) from None
         if not isinstance(data, dict):
             raise ConfigError("not a calibration file (a mapping of sections)", file=str(path))
-    _merge(data, sections)
+    _merge(data, _plain(sections))
     if record is not None:
         name, values = record
         cal = data.setdefault("calibration", {})
         cal.setdefault("records", {})[name] = {
-            **dict(values),
+            **_plain(dict(values)),
             "date": _dt.datetime.now().isoformat(timespec="seconds"),
         }
     header = (
@@ -175,6 +175,17 @@ def update_calibration_file(
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
     return data
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with numpy numbers and arrays as plain Python ones (YAML writes those)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _plain(value.tolist())
+    return value
 
 
 def _merge(base: dict[str, Any], layer: Mapping[str, Any]) -> None:

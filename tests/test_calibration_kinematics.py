@@ -241,7 +241,7 @@ def test_simulated_calibration_writes_profile_keys_and_a_plot(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "simulated measuring device" in text and "missed steps [0.5, 1.5, -2.0]" in text
     data = yaml.safe_load(out.read_text())
-    arm, cal = data["arm"], data["calibration"]
+    arm, cal = data["arm"], data["calibration"]["records"]["kinematics"]
     assert arm["type"] == "dobot_v1"
     sd = cal["std_errors"]
     assert abs(arm["tool_offset_mm"] - 48.0) <= 4 * sd["tool_offset_mm"]

@@ -259,6 +259,7 @@ class VisitPoses(ArmSkill):
     PARAMS = (
         Param("poses", "any", doc="tool positions (mm)"),
         Param("look_for", "str", "", "", "tag role to read at each pose ('' for none)", kind="tag_role"),
+        Param("tool_marker", "bool", False, "", "read the tool's marker (the profile's workcell.tool_marker)"),
         Param("measure_tool", "bool", False, "", "ask the measuring device where the tool is"),
         Param("touch", "str", "", "", "tag role whose marker the measuring device locates at the end", kind="tag_role"),
         Param("frames", "int", 5, "", "frames averaged per pose", minimum=1, maximum=100),
@@ -273,6 +274,13 @@ class VisitPoses(ArmSkill):
         rig = self.rig
         poses = [np.asarray(p, dtype=float) for p in (self.param("poses") or [])]
         role, measure = self.param("look_for"), self.param("measure_tool")
+        if self.param("tool_marker"):
+            marker = self.workcell.tool_marker
+            if marker is None:
+                raise SkillFailure(
+                    f"{self.name}: needs workcell.tool_marker in the profile (the tool's marker)"
+                )
+            role = marker.tag
         if role and (rig.camera is None or rig.tracker is None):
             raise SkillFailure(f"{self.name}: this rig has no camera to look for {role!r} with")
         if (measure or self.param("touch")) and getattr(rig, "reference", None) is None:

@@ -158,7 +158,7 @@ class CalibrateCommand:
             return _tree(args, "correction", grid=args.grid, height_mm=args.height_mm)
         if args.kind == "camera-offset":
             return _tree(args, "camera_offset", tag=args.tag, views=args.views)
-        if args.points is None and args.simulate is None:
+        if args.points is None and args.simulate is None and args.rig is not None:
             return _tree(args, "kinematics", poses=args.poses)
         return run_kinematics(args)
 

@@ -63,7 +63,9 @@ def configure_kinematics(kinds: Any) -> Any:
         "--simulate", type=int, metavar="N", help="collect N points on the sim (no hardware)"
     )
     kin.add_argument(
-        "--rig", default="sim_dobot", metavar="PROFILE", help="profile whose arm is calibrated"
+        "--rig",
+        metavar="PROFILE",
+        help="profile whose arm is calibrated (--simulate: default sim_dobot; alone: run the tree)",
     )
     kin.add_argument(
         "--fit", action="append", default=[], metavar="KEY", help="arm key to fit (repeatable)"
@@ -97,13 +99,17 @@ def configure_kinematics(kinds: Any) -> Any:
 def run_kinematics(args: argparse.Namespace) -> int:
     """Read or collect points, fit, print and write; 0, or ConfigError for bad input."""
     if (args.points is None) == (args.simulate is None):
-        raise ConfigError("calibrate kinematics: give --points FILE, --simulate N, or --rig alone")
+        raise ConfigError(
+            "calibrate kinematics: give --points FILE or --simulate N, or --rig PROFILE alone "
+            "to measure the arm"
+        )
     if args.output and Path(args.output).suffix.lower() not in (".yaml", ".yml"):
         raise ConfigError(f"-o {args.output}: the calibration is written as .yaml")
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise ConfigError(f"--plot {args.plot}: the plot is written as .png")
     from armtree.profile import load_profile
 
+    args.rig = args.rig or "sim_dobot"
     profile = load_profile(args.rig)
     arm = dict(profile.section("arm") or {})
     if "type" not in arm:
@@ -139,7 +145,7 @@ def run_kinematics(args: argparse.Namespace) -> int:
     _report(fit, len(points.joints_deg), device)
     if args.output:
         _write(args.output, fit, arm["type"], len(points.joints_deg), device)
-        print(f"wrote {args.output} (copy its arm: keys into the profile)")
+        print(f"wrote {args.output} (a profile uses it with include: {args.output})")
     if args.plot:
         plot_residuals(fit, args.plot)
         print(f"wrote {args.plot}")
@@ -172,16 +178,16 @@ def _write(path: str, fit: KinematicFit, arm_type: str, n: int, device: str) -> 
     arm["joint_scales"] = [round(float(v), 6) for v in fit.joint_scales]
     data = {
         "arm": arm,
-        "calibration": {
+        "calibration": {"records": {"kinematics": {
             "method": "least squares on the forward kinematics (seed 004, Model Validation)",
             "points": n,
             "source": device,
             "rms_before_mm": round(fit.rms_before_mm, 4),
             "rms_after_mm": round(fit.rms_after_mm, 4),
             "std_errors": {k: round(v, 5) for k, v in fit.std_errors.items()},
-        },
-    }
-    header = "# Kinematic calibration (seed 004): arm keys a profile's arm: section takes\n"
+        }}},
+    }  # fmt: skip
+    header = "# Kinematic calibration (seed 004): a profile takes it with include: FILE\n"
     Path(path).write_text(header + yaml.safe_dump(data, sort_keys=False))
 
 
