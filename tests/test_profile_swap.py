@@ -103,7 +103,13 @@ def test_the_command_line_exits_2_naming_the_key(capsys):
         main(["check", "load_ducky.yaml", "--rig", "sim_vicra", "--set", "arm.type=dobot_v1"]) == 2
     )
     err = capsys.readouterr().err
-    assert "sim_vicra.yaml:28:17: places.ducky_pickup:" in err and "Traceback" not in err
+    lines = (
+        (Path(armtree.__file__).parent.parent / "hardware" / "sim_vicra.yaml")
+        .read_text()
+        .splitlines()
+    )
+    line = next(n for n, text in enumerate(lines, 1) if text.startswith("  ducky_pickup:"))
+    assert f"sim_vicra.yaml:{line}:17: places.ducky_pickup:" in err and "Traceback" not in err
 
 
 @pytest.mark.slow

@@ -45,7 +45,7 @@ def test_dobot_eye_to_hand_hides_its_target_and_corrects_a_missed_step(tmp_path)
 
 
 def test_vicra_servoes_with_the_marker_on_its_forearm(tmp_path):
-    target = "world.objects.target={kind: spot, at: [420, 120], size: [40, 40, 0], marker: {id: 9}}"
+    target = "world.objects.target={kind: spot, at: [250, -30], size: [40, 40, 0], marker: {id: 9}}"
     result, miss, _ = servo_run(
         tmp_path, "sim_vicra", 60, target, "world.faults={missed_steps: {joint: 2, amount: -2}}"
     )
