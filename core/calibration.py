@@ -31,7 +31,7 @@ from typing import Any
 import yaml
 
 from .errors import ConfigError
-from .perception import LinearCorrection
+from .perception.frames import LinearCorrection
 from .plugin_manager import did_you_mean
 from .yamlio import MarkedDict, error_at
 

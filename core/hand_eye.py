@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
-from .perception import EYE_IN_HAND, EYE_TO_HAND, eye_to_hand_from_three_positions
+from .perception.frames import EYE_IN_HAND, EYE_TO_HAND, eye_to_hand_from_three_positions
 
 #: OpenCV's hand-eye methods by name.
 HAND_EYE_METHODS = {

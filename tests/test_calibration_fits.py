@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from armtree.hand_eye import DegenerateData, MarkerView, lateral_residuals, solve
-from armtree.perception import LinearCorrection
+from armtree.perception.frames import LinearCorrection
 from armtree.plugins.calibration import fits
 
 

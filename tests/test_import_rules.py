@@ -12,7 +12,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Plugin packages that may import another plugin package, and which modules of it.
-ALLOWED_ACROSS = {("sim", "armtree.plugins.trackers.markers")}
+#: Calibration trees are made of skills (their behaviours are ArmSkills that move and look),
+#: and ``armtree calibrate camera`` keeps the trackers' board calibration and image inputs.
+ALLOWED_ACROSS = {
+    ("sim", "armtree.plugins.trackers.markers"),
+    ("calibration", "armtree.plugins.skills."),
+    ("calibration", "armtree.plugins.trackers.calibration"),
+    ("calibration", "armtree.plugins.trackers.commands"),
+    ("calibration", "armtree.plugins.trackers.inputs"),
+    ("calibration", "armtree.plugins.trackers.preprocess"),
+}
 #: Framework modules the shared maths may use besides its own: the error types, and the
 #: profile the collision scene is built from (for positioned errors).
 MATHS_MAY_USE = ("armtree.errors", "armtree.profile")

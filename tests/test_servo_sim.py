@@ -8,6 +8,7 @@ import pytest
 from test_profile_workcell import errors, load
 
 import armtree
+from armtree.plugins.sim.plugin import sim_world
 from armtree.runtime import Run
 from armtree.tree_loader import load_tree
 from armtree.workcell import ToolMarker, workcell_of
@@ -27,7 +28,7 @@ def servo_run(tmp_path, rig: str, hover: float, *overrides: str):
     tree = load_tree(tree_file, rig=armtree.load_profile(rig, list(overrides)))
     run = Run(tree, None, seed=3, record=False, max_ticks=3000, quiet=True)
     result = run.execute()
-    world = run.rig.camera.world
+    world = sim_world(run)
     tool, target = world.arm.tool_pose[:3, 3], world.bodies["target"].pose[:3, 3]
     return result, float(np.linalg.norm(tool[:2] - target[:2])), world
 

@@ -9,8 +9,8 @@ import yaml
 
 from armtree.errors import ConfigError
 from armtree.imaging import load_calibration
-from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.calibration.command import CalibrateCommand
+from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.calibration import Board, calibrate
 
 K = syn.nominal_camera(fx=600.0)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
-from armtree.perception import EYE_IN_HAND
+from armtree.perception.frames import EYE_IN_HAND
 from armtree.plugins.skills.actions import Action, Move, SkillFailure, State, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
 from armtree.plugins.skills.base import Procedure, Skill

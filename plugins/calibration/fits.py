@@ -19,8 +19,13 @@ import numpy as np
 
 from armtree.calibration import correction_mapping, update_calibration_file
 from armtree.hand_eye import DegenerateData, MarkerView, solve
-from armtree.kinematic_calibration import CalibrationPoints, fit_kinematics
-from armtree.perception import EYE_IN_HAND, LinearCorrection, estimate_camera_offset, tool_to_marker
+from armtree.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
+from armtree.perception.frames import (
+    EYE_IN_HAND,
+    LinearCorrection,
+    estimate_camera_offset,
+    tool_to_marker,
+)
 
 
 class Refused(ValueError):
