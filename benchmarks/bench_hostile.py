@@ -36,6 +36,7 @@ import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -360,6 +361,8 @@ def edge_values(param: Any) -> list[str]:
     """Valid values at the edges of a parameter's declared range, and its choices."""
     if param.choices:
         return [json.dumps(c) for c in param.choices]
+    if param.type == "bool":
+        return ["true", "false"]
     out = []
     for bound in (param.minimum, param.maximum):
         if bound is None or param.type not in ("int", "float"):
@@ -367,6 +370,9 @@ def edge_values(param: Any) -> list[str]:
         out.append(str(int(bound)) if param.type == "int" else repr(float(bound)))
     if param.exclusive_minimum is not None and param.type == "float":
         out.append(repr(param.exclusive_minimum + 1e-3))
+    if param.type in ("int", "float") and param.minimum is not None and param.maximum is not None:
+        middle = (param.minimum + param.maximum) / 2  # inside the range, away from both ends
+        out.append(str(int(middle)) if param.type == "int" else repr(float(middle)))
     return out
 
 
@@ -499,14 +505,14 @@ def noise(n):
 
 def inject():
     m = mode
-    if m.startswith("corrupt") or m.startswith("drop"):
+    if m == "corrupt-burst": emu.inject("corrupt", count=200)
+    elif m == "drop-burst": emu.inject("drop", count=200)
+    elif m.startswith("corrupt") or m.startswith("drop"):
         kind, rate = m.split("-")
         emu.inject(kind, rate=float(rate))
     elif m == "cut": emu.inject("cut")
     elif m == "cut-silent": emu.inject("cut", silent=1)
     elif m == "missed-steps": emu.inject("missed_steps", joint=0, amount=5.0)
-    elif m == "corrupt-burst": emu.inject("corrupt", count=200)
-    elif m == "drop-burst": emu.inject("drop", count=200)
 
 outcome = {"connected": False, "lost": False, "moves_done": 0, "moves_failed": 0, "error": ""}
 t0 = time.monotonic()
@@ -593,55 +599,47 @@ MODES = (
 def family_serial(work: Path, pool: list[Worker], n: int, rng: random.Random) -> list[Result]:
     script = work / "serial_case.py"
     script.write_text(SERIAL)
-    results = []
-    for variant in VARIANTS:
-        for k, mode in enumerate(MODES):
-            t = time.monotonic()
-            try:
-                done = subprocess.run(
-                    [sys.executable, str(script), variant, mode, str(k)],
-                    capture_output=True,
-                    text=True,
-                    timeout=240,
-                )
-            except subprocess.TimeoutExpired:
-                results.append(Result("serial", f"{variant} {mode}", False, None, 240, "hang"))
-                continue
-            line = next((ln for ln in done.stdout.splitlines() if ln.startswith("RESULT ")), None)
-            if line is None:
-                results.append(
-                    Result(
-                        "serial",
-                        f"{variant} {mode}",
-                        False,
-                        done.returncode,
-                        time.monotonic() - t,
-                        "crashed: " + done.stderr[-300:],
-                    )
-                )
-                continue
-            out = json.loads(line[7:])
-            why = ""
-            if out["bad_believed"]:
-                why = f"believed {out['bad_believed'][0]}"
-            elif "RAW" in out["error"]:
-                why = out["error"][:120]
-            elif not (out["lost"] or out["moves_done"] + out["moves_failed"] > 0):
-                why = "neither worked nor lost the link"
-            elif out["moves_failed"] and not out["lost"] and mode in ("none",):
-                why = "a move failed on a clean link"
-            results.append(
-                Result(
-                    "serial",
-                    f"{variant} {mode}",
-                    not why,
-                    done.returncode,
-                    time.monotonic() - t,
-                    why,
-                    out,
-                )
-            )
-    return results
+    cases = [(variant, k, mode) for variant in VARIANTS for k, mode in enumerate(MODES)]
+    # One case per process, as many at once as there are workers: most of a case is waiting.
+    with ThreadPoolExecutor(max_workers=max(1, len(pool))) as threads:
+        return list(threads.map(lambda case: serial_case(script, *case), cases))
+
+
+def serial_case(script: Path, variant: str, k: int, mode: str) -> Result:
+    """One arm variant under one link fault, driver against emulator in a fresh process."""
+    t = time.monotonic()
+    try:
+        done = subprocess.run(
+            [sys.executable, str(script), variant, mode, str(k)],
+            capture_output=True,
+            text=True,
+            timeout=240,
+        )
+    except subprocess.TimeoutExpired:
+        return Result("serial", f"{variant} {mode}", False, None, 240, "hang")
+    line = next((ln for ln in done.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    if line is None:
+        return Result(
+            "serial",
+            f"{variant} {mode}",
+            False,
+            done.returncode,
+            time.monotonic() - t,
+            "crashed: " + done.stderr[-300:],
+        )
+    out = json.loads(line[7:])
+    why = ""
+    if out["bad_believed"]:
+        why = f"believed {out['bad_believed'][0]}"
+    elif "RAW" in out["error"]:
+        why = out["error"][:120]
+    elif not (out["lost"] or out["moves_done"] + out["moves_failed"] > 0):
+        why = "neither worked nor lost the link"
+    elif out["moves_failed"] and not out["lost"] and mode in ("none",):
+        why = "a move failed on a clean link"
+    return Result(
+        "serial", f"{variant} {mode}", not why, done.returncode, time.monotonic() - t, why, out
+    )
 
 
 # -- interrupts: real signals into real processes ------------------------------------------

@@ -571,6 +571,12 @@ class _Loader:
             elif kind == DECORATOR:
                 if "child" not in spec:
                     self.error(f"{ntype} needs a child node (child: {{...}})", spec_mark, ctx)
+                elif spec["child"] is None:
+                    self.error(
+                        f"{ntype}: child is empty; give it a node (child: {{...}})",
+                        spec.value_mark("child") or spec.key_mark("child"),
+                        ctx,
+                    )
                 children_spec = options.pop("child", None)
                 children_mark = spec.value_mark("child")
         else:

@@ -292,6 +292,13 @@ TREES: list[Case] = [
         where="t.yaml: ",  # the whole file: no line to point at
         files={"t.yaml": "root: {success: {}}\n" + "# padding\n" * 210_000},
     ),
+    Case(
+        "a decorator whose child is empty",  # found by the harness: a line deleted
+        ("t.yaml",),
+        message="child is empty",
+        where="t.yaml:5:",
+        files={"t.yaml": "rig: sim_dobot\nroot:\n  timeout:\n    duration: 1\n    child:\n"},
+    ),
     Case("a valid tree", ("t.yaml",), code=0, files={"t.yaml": SIMPLE}),
 ]
 
@@ -375,6 +382,8 @@ SETS: list[tuple[str, str, str]] = [
         "workcell.survey={ring: {radius_mm: 185, range_deg: [-1.0e+300, 1.0e+300]}}",
         "range_deg",
     ),
+    # found by the harness: the run's rig builder refused it without a position
+    ("sim_magician", "planner.margin_mm=200.0", "planner.margin_mm: 200 mm is too wide"),
 ]
 
 PROFILES += [

@@ -99,7 +99,7 @@ def open_dobot() -> Harness:
             driver._inflight = req
 
     def counted() -> int:
-        return driver.guard.corrupt + driver.bad_replies
+        return driver.guard.corrupt  # CRC failures included
 
     return Harness(driver, ask, counted)
 

@@ -165,6 +165,16 @@ def test_bad_crc_is_silently_dropped_and_the_driver_retries(sim):
     assert handle.status is MotionStatus.DONE
 
 
+@pytest.mark.timeout(60)  # before the fix, driver and emulator asked and answered for ever
+def test_a_link_of_corrupt_replies_is_lost_not_asked_again_for_ever(sim):
+    handle = sim.arm.move_joints([5.0, 5.0, 45.0])
+    sim.emu.inject("corrupt", rate=1.0)  # every reply fails its CRC
+    sim.tick(3)  # on the virtual clock each re-ask was answered at the same instant
+    assert sim.interrupts and "link lost" in str(sim.interrupts[0][1])
+    assert "fails its CRC" in str(sim.interrupts[0][1])
+    assert handle.status is MotionStatus.FAILED and isinstance(handle.error, HardwareFault)
+
+
 def test_queue_holds_99_entries():
     clock = VirtualClock()
     emu = OpenDobotEmulator(DobotV1Model(), clock)

@@ -8,6 +8,7 @@ move is validated (limits, collisions, singularity margin) before use.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -77,13 +78,50 @@ def planner_checker(
         raise ConfigError(f"planner {config.get('type', '')!r} needs an arm: the profile has none")
     if not isinstance(scene, Scene):
         scene = Scene.from_profile({"obstacles": scene or []})
-    checker = CollisionChecker(model, scene, margin=float(config.get("margin_mm", 0.0)))
-    checker.check_start(np.asarray(model.home, dtype=float), "home")
-    arm = profile_section(getattr(context, "profile", None), "arm")
+    margin = float(config.get("margin_mm", 0.0))
+    checker = CollisionChecker(model, scene, margin=margin)
+    profile = getattr(context, "profile", None)
+    arm = profile_section(profile, "arm")
     start = arm.get("start_pose") if isinstance(arm, Mapping) else None
+    starts = [(model.home, "home", "obstacles")]
     if start is not None and len(start) == model.dof:
-        checker.check_start(np.asarray(start, dtype=float), "start (arm.start_pose)")
+        starts.append((start, "start (arm.start_pose)", "arm.start_pose"))
+    for q, what, key in starts:
+        q = np.asarray(q, dtype=float)
+        try:
+            checker.check_start(q, what)
+        except ConfigError as exc:
+            if not callable(getattr(profile, "error", None)):
+                raise
+            # Name the key to change: the margin when the pose is clear without it.
+            if margin > 0 and not CollisionChecker(model, scene).contacts(q):
+                raise profile.error(
+                    "planner.margin_mm",
+                    f"{margin:g} mm is too wide: {exc.message}; give a smaller margin",
+                ) from None
+            raise profile.error(key, exc.message) from None
     return checker
+
+
+def validate_start(config: Mapping[str, Any], profile: Any) -> None:
+    """Load-time check (``armtree check``): the arm's home and start pose clear the
+    profile's obstacles with the planner's margin; ConfigError at the key to change."""
+    arm = profile.component("arm") if "arm" not in profile.invalid else None
+    if not arm:
+        return
+    manager = profile.manager
+    if manager is None:
+        from armtree.plugin_manager import get_plugin_manager
+
+        manager = get_plugin_manager()
+    build_model = getattr(manager.registry.get("arm", arm["type"]).factory, "model", None)
+    if not callable(build_model):
+        return
+    try:
+        model = build_model(arm)
+    except (ConfigError, ValueError, TypeError, KeyError, IndexError, ArithmeticError):
+        return  # the arm's own check reports it
+    planner_checker(config, SimpleNamespace(profile=profile), model, Scene.from_profile(profile))
 
 
 def direct_factory(
@@ -93,6 +131,9 @@ def direct_factory(
     checker = planner_checker(config, context, model, scene)
     min_sv = config.get("min_singular", 0.2)
     return DirectPlanner(checker, float(config.get("resolution_deg", 2.0)), min_sv)
+
+
+direct_factory.validate = validate_start
 
 
 direct_factory.PARAMS = (

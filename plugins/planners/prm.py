@@ -35,7 +35,7 @@ from armtree.motion.kinematics import KinematicModel
 from armtree.motion.validation import check_config
 from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
-from armtree.plugins.planners.direct import planner_checker
+from armtree.plugins.planners.direct import planner_checker, validate_start
 from armtree.rig import Planner
 
 #: Bump when the cache file layout or the construction changes meaning.
@@ -423,6 +423,7 @@ def prm_factory(
     )
 
 
+prm_factory.validate = validate_start
 prm_factory.PARAMS = (
     Param(
         "milestones",

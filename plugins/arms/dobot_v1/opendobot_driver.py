@@ -177,6 +177,13 @@ class OpenDobotDriver(SerialArmDriver):
             if payload is None:
                 self._inflight = None
                 self.bad_replies += 1
+                # Counted with the readings: a link of mostly corrupt replies is lost, not
+                # asked again for ever (on a virtual clock that would all be one instant).
+                self.guard.refused(f"a reply to command {req.cmd} that fails its CRC")
+                verdict = self.guard.verdict()
+                if verdict is not None:
+                    self.lose_link(f"link lost: {verdict}")
+                    return
                 if req.cmd not in NOT_IDEMPOTENT:
                     # a corrupted reply: ask again (DobotDriver.reset() does the same)
                     self._requests.appendleft(req)
