@@ -637,6 +637,7 @@ def serial_case(script: Path, variant: str, k: int, mode: str) -> Result:
         why = "neither worked nor lost the link"
     elif out["moves_failed"] and not out["lost"] and mode in ("none",):
         why = "a move failed on a clean link"
+    print(f"  {variant} {mode}: {why or 'clean'}", flush=True)
     return Result(
         "serial", f"{variant} {mode}", not why, done.returncode, time.monotonic() - t, why, out
     )
@@ -733,6 +734,7 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
             if json.loads(last).get("kind") != "result" and kind != "double":
                 why = "log not flushed with its result"
         results.append(Result("interrupts", f"{kind} {sig.name}", not why, code, stop_s, why))
+        print(f"  {k + 1:3d} {results[-1].name}: exit {code}, {why or 'clean'}", flush=True)
     return results
 
 
