@@ -18,6 +18,24 @@ from armtree.plugins.arms.dobot_magician.plugin import magician_factory
 pydobot = pytest.importorskip("pydobot", reason="pydobot 1.3.2 is in the test extra")
 
 
+@pytest.fixture(autouse=True)
+def patient_pydobot(monkeypatch):
+    """pydobot reads one reply 0.1 s after each command: on a loaded machine (CI on two
+    shared cores) the emulator's thread may not have answered yet, and pydobot then
+    fails on a missing reply. Here it reads again, up to 5 s, for the same reply:
+    the bytes on the wire are what is tested, not the machine's latency."""
+    read = pydobot.dobot.Dobot._read_message
+
+    def patient(self):
+        for _ in range(50):
+            msg = read(self)
+            if msg is not None:
+                return msg
+        return None
+
+    monkeypatch.setattr(pydobot.dobot.Dobot, "_read_message", patient)
+
+
 def run_bounded(fn, timeout: float):
     result: dict = {}
 
