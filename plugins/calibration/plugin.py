@@ -8,16 +8,21 @@ from typing import Any
 import armtree
 
 from .behaviours import FitCalibration, PlanPoses, VisitPoses, WriteCalibration
+from .trials import PlaceTarget, PlanTargets, RecordTrial
 
 
 @armtree.hookimpl
 def armtree_behaviours() -> dict[str, Any]:
-    """plan_poses, visit_poses, fit_calibration and write_calibration."""
+    """plan_poses, visit_poses, fit_calibration, write_calibration (calibration trees) and
+    plan_targets, place_target, record_trial (seed 000's experiment 2)."""
     return {
         "plan_poses": PlanPoses,
         "visit_poses": VisitPoses,
         "fit_calibration": FitCalibration,
         "write_calibration": WriteCalibration,
+        "plan_targets": PlanTargets,
+        "place_target": PlaceTarget,
+        "record_trial": RecordTrial,
     }
 
 
@@ -25,5 +30,6 @@ def armtree_behaviours() -> dict[str, Any]:
 def armtree_commands() -> dict[str, Any]:
     """``calibrate`` (camera, hand-eye, correction, camera-offset, kinematics) and ``experiment``."""
     from .command import CalibrateCommand
+    from .experiment import ExperimentCommand
 
-    return {"calibrate": CalibrateCommand()}
+    return {"calibrate": CalibrateCommand(), "experiment": ExperimentCommand()}

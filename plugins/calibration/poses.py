@@ -17,17 +17,20 @@ VIEW_MARGIN = 0.8
 
 
 def in_view(
-    camera_pose: np.ndarray, half_view: tuple[float, float], points: np.ndarray
+    camera_pose: np.ndarray,
+    half_view: tuple[float, float],
+    points: np.ndarray,
+    margin: float = VIEW_MARGIN,
 ) -> np.ndarray:
-    """Boolean per point ``(N, 3)``: in front of the camera and inside the image's margin."""
+    """Boolean per point ``(N, 3)``: in front of the camera and within ``margin`` of the half image."""
     cam_T_base = np.linalg.inv(np.asarray(camera_pose, dtype=float))
     p = np.asarray(points, dtype=float) @ cam_T_base[:3, :3].T + cam_T_base[:3, 3]
     z = p[:, 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         ok = (
             (z > 50.0)
-            & (np.abs(p[:, 0] / z) < VIEW_MARGIN * half_view[0])
-            & (np.abs(p[:, 1] / z) < VIEW_MARGIN * half_view[1])
+            & (np.abs(p[:, 0] / z) < margin * half_view[0])
+            & (np.abs(p[:, 1] / z) < margin * half_view[1])
         )
     return ok
 

@@ -127,7 +127,7 @@ class SimMeasuringDevice(MeasuringDevice):
     """
 
     def __init__(self, world: Any, noise_mm: float, seed: int = 0) -> None:
-        self.world = world
+        self._world = world
         self.noise = float(noise_mm)
         self.rng = np.random.default_rng([int(seed), 4004])
         self.description = (
@@ -144,15 +144,15 @@ class SimMeasuringDevice(MeasuringDevice):
 
     def tool_position(self) -> Measurement:
         """The tool centre's true position plus the reading error."""
-        with self.world.lock:
-            arm = self.world.arm
+        with self._world.lock:
+            arm = self._world.arm
             tip = None if arm is None else arm.tool_pose[:3, 3].copy()
         return self._read("tool position", tip, "the simulated world has no arm")
 
     def marker_position(self, marker_id: int) -> Measurement:
         """The true centre of the body's (or tool's) marker ``marker_id`` plus the reading error."""
-        with self.world.lock:
-            for body in self.world.bodies.values():
+        with self._world.lock:
+            for body in self._world.bodies.values():
                 if body.marker is not None and body.marker.id == marker_id:
                     return self._read(f"marker {marker_id}", body.top_pose()[:3, 3].copy())
         return self._read(
@@ -161,11 +161,11 @@ class SimMeasuringDevice(MeasuringDevice):
 
     def place_marker(self, marker_id: int, xy: np.ndarray) -> Measurement:
         """Move the body carrying marker ``marker_id`` to ``xy`` (mm), as a person would."""
-        with self.world.lock:
-            for body in self.world.bodies.values():
+        with self._world.lock:
+            for body in self._world.bodies.values():
                 if body.marker is not None and body.marker.id == marker_id:
                     body.pose[:2, 3] = np.asarray(xy, dtype=float)[:2]
-                    self.world.version += 1
+                    self._world.version += 1
                     return Measurement(f"place marker {marker_id}").finish(body.pose[:3, 3].copy())
         return Measurement(f"place marker {marker_id}").finish(
             error=f"no marker {marker_id} in the simulated world"

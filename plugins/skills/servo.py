@@ -23,6 +23,7 @@ missed step shifts both alike and the correction still lands on the target.
 from __future__ import annotations
 
 import numpy as np
+from py_trees.common import Status
 
 from armtree import Param, Unreachable
 from armtree.perception.frames import EYE_IN_HAND, along_ray_to_height
@@ -109,10 +110,19 @@ class VisualServo(ArmSkill):
         Param(
             "iterations", "any", None, "", "output: corrections made after the first move", io="out"
         ),
+        Param("failure", "any", None, "", "output: why it failed ('' on success)", io="out"),
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm",)
     NEEDS = ("arm", "camera")
+
+    def update(self) -> Status:
+        status = super().update()
+        if status is Status.FAILURE:
+            self.output("failure", self.feedback_message)
+        elif status is Status.SUCCESS:
+            self.output("failure", "")
+        return status
 
     def procedure(self) -> Procedure:
         if self.rig.camera.mount == EYE_IN_HAND:
@@ -163,12 +173,16 @@ class VisualServo(ArmSkill):
         the way, measured again with the arm at the survey pose farthest from it."""
         rig = self.rig
         sighting = yield from self._look_for(tag)
-        if sighting is None:
-            here = rig.arm.pose()[:3, 3]
-            away = out_of_view(self, here)
-            if away is not None:
-                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
-                sighting = yield from self._look_for(tag)
+        # the survey pose farthest from the tool may still put a link over the target:
+        # then the one farthest from there, on the other side
+        for _ in range(2):
+            if sighting is not None:
+                break
+            away = out_of_view(self, rig.arm.pose()[:3, 3])
+            if away is None:
+                break
+            yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+            sighting = yield from self._look_for(tag)
         if sighting is None:
             raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
         if self.param("on_table"):
