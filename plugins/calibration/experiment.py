@@ -59,6 +59,14 @@ ROWS = [
 PARTS = ("grid", "servo", "validation")
 
 
+def write_csv(path: Path, header: list[str], rows: list[list[Any]]) -> None:
+    """The raw measurements: one header row, then one row per point."""
+    with path.open("w", newline="") as handle:
+        w = csv.writer(handle)
+        w.writerow(header)
+        w.writerows(rows)
+
+
 def statistics(diff: np.ndarray) -> dict[str, float]:
     """Seed 000's statistics of x-y differences ``(N, 2+)`` (truth minus measured), mm."""
     d = np.linalg.norm(diff[:, :2], axis=1)
@@ -190,23 +198,15 @@ def grid_tables(observations: dict[str, Any], rig: Any, out: Path) -> dict[str, 
     commanded = np.array([p["commanded"] for p in poses])
     vision = fits.vision_tool_positions(poses, rig)
     seen = np.all(np.isfinite(vision), axis=1)
-    with (out / "grid.csv").open("w", newline="") as handle:
-        w = csv.writer(handle)
-        w.writerow(
-            [
-                "commanded_x",
-                "commanded_y",
-                "commanded_z",
-                "vision_x",
-                "vision_y",
-                "vision_z",
-                "truth_x",
-                "truth_y",
-                "truth_z",
-            ]
-        )
-        for c, v, t in zip(commanded, vision, truth, strict=True):
-            w.writerow([f"{x:.4f}" for x in (*c, *v, *t)])
+    axes = ("x", "y", "z")
+    write_csv(
+        out / "grid.csv",
+        [f"{what}_{a}" for what in ("commanded", "vision", "truth") for a in axes],
+        [
+            [f"{x:.4f}" for x in (*c, *v, *t)]
+            for c, v, t in zip(commanded, vision, truth, strict=True)
+        ],
+    )
     tables: dict[str, Any] = {"points": len(poses), "seen": int(seen.sum())}
     series = {}
     for name, measured, true in (("I", vision[seen], truth[seen]), ("II", commanded, truth)):
@@ -260,34 +260,13 @@ def servo_table(trials: list[dict[str, Any]], tolerance: float, out: Path) -> di
         not t.get("failure") and t["servo_error"] is not None and t["servo_error"] < tolerance
         for t in trials
     ]
-    with (out / "servo.csv").open("w", newline="") as handle:
-        w = csv.writer(handle)
-        w.writerow(
-            [
-                "target_x",
-                "target_y",
-                "tool_x",
-                "tool_y",
-                "tool_z",
-                "distance_xy",
-                "servo_error",
-                "iterations",
-                "success",
-                "failure",
-            ]
-        )
-        for t, good in zip(trials, ok, strict=True):
-            w.writerow(
-                [
-                    *t["target"][:2],
-                    *t["tool"],
-                    t["distance_xy"],
-                    t["servo_error"],
-                    t["iterations"],
-                    good,
-                    t.get("failure", ""),
-                ]
-            )
+    write_csv(
+        out / "servo.csv",
+        ["target_x", "target_y", "tool_x", "tool_y", "tool_z", "distance_xy", "servo_error",
+         "iterations", "success", "failure"],
+        [[*t["target"][:2], *t["tool"], t["distance_xy"], t["servo_error"], t["iterations"], good,
+          t.get("failure", "")] for t, good in zip(trials, ok, strict=True)],
+    )  # fmt: skip
     import matplotlib
 
     matplotlib.use("Agg")
@@ -336,21 +315,13 @@ def validation_table(observations: dict[str, Any], rig: Any, out: Path) -> dict[
     before = np.linalg.norm(fit.residuals_before_mm, axis=1)
     after = np.linalg.norm(fit.residuals_after_mm, axis=1)
     held = fits.kinematic_cv(points, make, arm, free, 5)["after"]
-    with (out / "validation.csv").open("w", newline="") as handle:
-        w = csv.writer(handle)
-        w.writerow(
-            [
-                *(f"j{i}" for i in range(joints.shape[1])),
-                "truth_x",
-                "truth_y",
-                "truth_z",
-                "before_mm",
-                "after_mm",
-                "held_out_mm",
-            ]
-        )
-        for q, t, b, a, h in zip(joints, truth, before, after, held, strict=True):
-            w.writerow([*(f"{v:.4f}" for v in (*q, *t)), f"{b:.4f}", f"{a:.4f}", f"{h:.4f}"])
+    write_csv(
+        out / "validation.csv",
+        [*(f"j{i}" for i in range(joints.shape[1])), "truth_x", "truth_y", "truth_z",
+         "before_mm", "after_mm", "held_out_mm"],
+        [[*(f"{v:.4f}" for v in (*q, *t)), f"{b:.4f}", f"{a:.4f}", f"{h:.4f}"]
+         for q, t, b, a, h in zip(joints, truth, before, after, held, strict=True)],
+    )  # fmt: skip
     fits.draw({"title": "model validation (seed 004)", "bars": {"before fit": before.tolist(), "after fit": after.tolist(),
                                                                "held out": held.tolist()}}, str(out / "validation.png"))  # fmt: skip
     return {
