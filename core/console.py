@@ -38,8 +38,25 @@ def _take_signals(handler: object) -> None:
 _take_signals(_exit_starting)
 
 
+def _exit_interrupted(signum: int, frame: object) -> None:
+    os._exit(EXIT_INTERRUPTED)
+
+
 def _raise_interrupt(signum: int, frame: object) -> None:
+    # One KeyboardInterrupt unwinds the command and its clean-up; a second one raised
+    # inside that unwinding (or after the command returned) would escape every handler.
+    _take_signals(_exit_interrupted)
     raise KeyboardInterrupt
+
+
+def _ignore_signals() -> None:
+    # Python's shutdown puts its own handlers back to the default, under which a late
+    # signal kills the process by the signal instead of leaving with the command's code.
+    for sig in (_signal.SIGINT, _signal.SIGTERM):
+        try:
+            _signal.signal(sig, _signal.SIG_IGN)
+        except (ValueError, OSError):  # noqa: SIM105 - as in _take_signals
+            continue
 
 
 def _entry(command: str) -> int:
@@ -54,11 +71,19 @@ def _entry(command: str) -> int:
     except SystemExit as exc:  # argparse's --help and usage errors
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     final = int(code)
+    if final != EXIT_INTERRUPTED and _signal.getsignal(_signal.SIGINT) is _exit_interrupted:
+        # The interrupt surfaced as another error (an extension module's import turns it
+        # into ImportError); the user still asked to stop.
+        print("interrupted", file=sys.stderr)
+        final = EXIT_INTERRUPTED
 
     def _exit_finished(signum: int, frame: object) -> None:
         os._exit(final)
 
     _take_signals(_exit_finished)
+    import atexit
+
+    atexit.register(_ignore_signals)
     return final
 
 

@@ -65,3 +65,34 @@ def test_an_interrupt_while_a_tree_loads_exits_130_without_a_traceback(
     assert "Traceback" not in err
     assert err.strip().endswith("interrupted")
     assert not (tmp_path / "rec").exists()  # nothing ran, nothing was written
+
+
+def test_two_quick_ctrl_cs_always_exit_130(tmp_path: Path) -> None:
+    # The second SIGINT lands while the first one unwinds the run, or after the command
+    # returned; it once escaped every handler (a traceback, or death by the signal).
+    (tmp_path / "t.yaml").write_text(
+        "root: {tick_counter: {duration: 100000, completion_status: SUCCESS}}\n"
+    )
+    procs = []
+    for n, gap_s in enumerate((0.0, 0.001, 0.01, 0.05)):
+        folder = tmp_path / f"run{n}"
+        folder.mkdir()
+        proc = subprocess.Popen(
+            [str(RUN_TREE), "../t.yaml", "--realtime", "--quiet", "--record", "rec"],
+            cwd=folder,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        procs.append((proc, folder, gap_s))
+    for proc, folder, gap_s in procs:
+        deadline = time.monotonic() + 60
+        while not (folder / "rec" / "run.jsonl").exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGINT)
+        time.sleep(gap_s)
+        proc.send_signal(signal.SIGINT)
+    for proc, _, gap_s in procs:
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == 130, (gap_s, err)
+        assert "Traceback" not in err, err
