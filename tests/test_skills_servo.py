@@ -137,3 +137,21 @@ def test_eye_to_hand_without_a_tool_marker_trusts_the_joints():
     status, _ = run(node, rig)
     assert status is Status.SUCCESS
     assert node.bb.get("err") < 0.01 and rig.planner.calls == 1  # the direct move alone
+
+
+def test_eye_to_hand_aims_nearer_than_the_tolerance_it_accepts():
+    outcomes = {}
+    for aim in (None, 0.5):
+        target = Marker(1, np.array([230.0, 40.0, 0.0]))
+        rig = make_rig([target, Marker(5, np.zeros(3), held=True)], mount="eye_to_hand")
+        rig.arm.bias = np.array([0.4, 0.0, 0.0])  # the direct move lands 1.6 mm off
+        rig.step(0.0)
+        extra = {} if aim is None else {"aim_mm": aim}
+        node = VisualServo("servo", tag="duckybot", tool_tag="tool", offset=[0, 0, 40],
+                           iterations=Binding("n"), **extra)  # fmt: skip
+        status, _ = run(node, rig)
+        assert status is Status.SUCCESS, node.feedback_message
+        off = np.linalg.norm(rig.arm.actual_pose()[:3, 3] - [230, 40, 40])
+        outcomes[aim] = (node.bb.get("n"), off)
+    assert outcomes[None][0] == 0 and 1.0 < outcomes[None][1] < 3.0  # the paper: within 3 mm
+    assert outcomes[0.5][0] >= 1 and outcomes[0.5][1] < 0.5  # corrected on to the aim

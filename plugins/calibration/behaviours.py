@@ -16,17 +16,22 @@ from typing import Any
 
 import numpy as np
 
-from armtree import Param
+from armtree import Param, PlanningError, Unreachable
 from armtree.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Action, Move, SkillFailure, State, fmt
+from armtree.plugins.skills.actions import Action, Look, Move, SkillFailure, State, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
 from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
 
 from . import fits
+from .occupied import free, seen_keep_outs
 from .poses import in_view, reachable_mask, spread, square_grid, workspace_samples
 
 PLANS = ("three_positions", "spread", "grid", "joints", "views")
+#: Least distance (mm, x-y) of a pose's tool from a marker seen on the table below it.
+KEEP_OUT_MM = 80.0
+#: Least height (mm) of a pose's tool above the top of something seen on the table.
+POSE_CLEARANCE_MM = 30.0
 KINDS = ("hand_eye", "correction", "camera_offset", "kinematics")
 
 
@@ -130,6 +135,8 @@ class PlanPoses(ArmSkill):
         rng = np.random.default_rng(self.param("seed"))
         if plan == "views":
             points = yield from self._views(rng)
+        elif plan == "joints":
+            points = yield from self._joints(rng)
         else:
             points = self._plan(plan, rng)
         self.output("poses", [_list(p) for p in points])
@@ -177,13 +184,61 @@ class PlanPoses(ArmSkill):
             return self._three(usable, height)
         low = self.workcell.clearance_z_mm
         points = workspace_samples(model, rng, 6000, min_z=low)
-        if plan == "spread":
-            points = points[usable(points)]
+        points = points[usable(points)]
         if len(points) < self.param("count"):
             raise SkillFailure(
                 f"{self.name}: only {len(points)} reachable poses where the camera sees the tool"
             )
         return list(spread(points, self.param("count"), rng))
+
+    def _joints(self, rng: np.random.Generator) -> Procedure:
+        """Seed 004's validation poses: random joints within the limits, spread out, where the
+        arm collides with nothing the planner knows (the profile's obstacles) and, with a
+        fixed camera, the tool stays :data:`POSE_CLEARANCE_MM` above what it sees on the table."""
+        rig = self.rig
+        model = rig.arm.model
+        q = rng.uniform(model.lower, model.upper, (6000, model.dof))
+        q = q[model.within_limits(q)]
+        checker = getattr(rig.planner, "checker", None)
+        if checker is not None:
+            q = q[np.asarray(checker.valid(q), dtype=bool)]
+        points = model.position(q)
+        low = self.workcell.clearance_z_mm
+        if low is not None:
+            points = points[points[:, 2] >= low]
+        if rig.camera is not None and rig.camera.mount != EYE_IN_HAND and rig.tracker is not None:
+            sightings = yield Look(rig, self.clock, frames=3, settle=self.settle(), average=True)
+            marker = self.workcell.tool_marker
+            skip = {marker.tag} if marker is not None else set()
+            keep = seen_keep_outs(sightings, skip, KEEP_OUT_MM)
+            points = points[free(points, keep, POSE_CLEARANCE_MM)]
+        count = self.param("count")
+        chosen = self._planned(spread(points, 3 * count, rng), count)
+        if len(chosen) < count:
+            raise SkillFailure(
+                f"{self.name}: only {len(chosen)} collision-free poses within the joint limits "
+                f"the planner finds a path to; {count} wanted"
+            )
+        return chosen
+
+    def _planned(self, points: np.ndarray, count: int) -> list[np.ndarray]:
+        """Up to ``count`` of ``points`` in order, each one the rig's planner finds a path to
+        from the one before (from where the arm is for the first); all without a planner."""
+        planner = self.rig.planner
+        if planner is None:
+            return list(points[:count])
+        start = np.asarray(self.rig.arm.joints(), dtype=float)
+        out: list[np.ndarray] = []
+        for point in points:
+            try:
+                path = planner.plan_to(start, point)
+            except (PlanningError, Unreachable):
+                continue
+            out.append(point)
+            start = np.asarray(path[-1], dtype=float)
+            if len(out) == count:
+                break
+        return out
 
     def _three(self, usable: Any, height: float) -> list[np.ndarray]:
         """Seed 000, steps 1-5: a point on the base x axis, moved by a along x, then b along y."""

@@ -23,6 +23,7 @@ from armtree.motion.kinematic_calibration import CalibrationPoints, fit_kinemati
 from armtree.perception.frames import (
     EYE_IN_HAND,
     LinearCorrection,
+    along_ray_to_height,
     estimate_camera_offset,
     tool_to_marker,
 )
@@ -136,17 +137,31 @@ def _workcell(rig: Any) -> Any:
 # -------------------------------------------------------------------- correction (eq. 8)
 
 
-def vision_tool_positions(poses: list[dict[str, Any]], rig: Any) -> np.ndarray:
-    """The tool centre as the fixed camera measures it (mm): the marker through the camera's
-    believed pose, less the marker's offset turned with the tool; NaN where unseen."""
+def vision_tool_positions(
+    poses: list[dict[str, Any]], rig: Any, along_ray: bool = True
+) -> np.ndarray:
+    """The tool centre as the fixed camera measures it (mm), less the marker's offset turned
+    with the tool; NaN where unseen.
+
+    With ``along_ray`` the marker is put where its ray from the camera meets the height
+    the joints give it, as the servo loop measures it: the marker's direction is what
+    vision measures best, its distance worst (seed 000's conclusion; from 480 mm a
+    25 mm marker's range is off by millimetres). Without, its pose as the camera
+    solved it (PnP through the camera's believed pose).
+    """
     marker = np.asarray(getattr(_workcell(rig).tool_marker, "offset_mm", (0.0, 0.0, 0.0)))
     out = []
     for p in poses:
         if not p.get("seen"):
             out.append(np.full(3, np.nan))
             continue
-        seen = (np.array(p["camera"]) @ np.append(p["tvec"], 1.0))[:3]
-        out.append(seen - np.array(p["tool_pose"])[:3, :3] @ marker)
+        camera = np.array(p["camera"])
+        seen = (camera @ np.append(p["tvec"], 1.0))[:3]
+        tool = np.array(p["tool_pose"])
+        lift = tool[:3, :3] @ marker
+        if along_ray:
+            seen = along_ray_to_height(camera[:3, 3], seen, tool[2, 3] + lift[2])
+        out.append(seen - lift)
     return np.array(out)
 
 

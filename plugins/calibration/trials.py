@@ -2,8 +2,8 @@
 over each, the distance measured from outside.
 
 ``plan_targets`` draws table points where the target can lie: the tool reaches
-``hover_mm`` above it and, with a fixed camera, the camera sees the tool's marker
-there. ``place_target`` has the measuring device put the target marker on the next
+``hover_mm`` above it, with a fixed camera the camera sees the tool's marker
+there, and nothing the camera sees or the profile declares stands there. ``place_target`` has the measuring device put the target marker on the next
 one (a person on hardware) and moves the arm out of the camera's way;
 ``record_trial`` has the device measure where the tool and the target's centre
 really are (the laser spot on millimetre paper) and appends the trial.
@@ -16,12 +16,15 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
-from armtree.plugins.skills.actions import Move, SkillFailure
+from armtree.perception.frames import EYE_IN_HAND
+from armtree.plugins.skills.actions import Look, Move, SkillFailure
 from armtree.plugins.skills.arm_skill import ArmSkill
 from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
+from armtree.plugins.skills.locate import out_of_view, shadow
 
 from .behaviours import Measure, _half_view, _list
+from .occupied import declared_keep_outs, free, seen_keep_outs
 from .poses import in_view, reachable_mask
 
 #: Fraction of the half image a target and the tool's marker over it may use.
@@ -29,19 +32,53 @@ TARGET_MARGIN = 0.6
 
 
 class PlanTargets(ArmSkill):
-    """Random table points (mm) over which the tool can hover where the camera sees it."""
+    """Random table points (mm) over which the tool can hover where the camera sees it, clear
+    of what stands on the table.
+
+    With a fixed camera the arm first moves where its links hide least of the table
+    (:func:`~armtree.plugins.skills.locate.out_of_view`) and the camera takes an
+    overview: no target is drawn within ``keep_out_mm`` of a marker it sees (each on
+    top of an object; the target's and the tool's own excepted), nor of a table point
+    the arm still hides. The profile's ``obstacles`` are kept out of as well.
+    """
 
     PARAMS = (
         Param("count", "int", 30, "", "targets", minimum=1, maximum=1000),
         Param("hover_mm", "float", 40.0, "mm", "tool height above a target", minimum=0.0, maximum=1000.0),
         Param("margin_mm", "float", 15.0, "mm", "room kept around a target within the workspace", minimum=0.0, maximum=200.0),
+        Param("tag", "str", "target", "", "tag role of the target marker (not an obstacle)", kind="tag_role"),
+        Param("keep_out_mm", "float", 80.0, "mm", "least distance from a target's centre to a marker seen on the table", minimum=0.0, maximum=1000.0),
         Param("seed", "int", 0, "", "random targets", minimum=0, maximum=2**31),
         Param("targets", "any", None, "mm", "output: table points", io="out"),
         *ArmSkill.COMMON,
     )  # fmt: skip
+    RESOURCES = ("arm",)
     NEEDS = ("arm",)
 
     def procedure(self) -> Procedure:
+        rig = self.rig
+        points = self._candidates()
+        keep = declared_keep_outs(getattr(getattr(rig.planner, "checker", None), "scene", None))
+        fixed = rig.camera is not None and rig.camera.mount != EYE_IN_HAND
+        if fixed and rig.tracker is not None:
+            overview = yield from self._overview(points)
+            points = points[overview]
+        points = points[free(points, keep)]
+        if len(points) < self.param("count"):
+            raise SkillFailure(
+                f"{self.name}: only {len(points)} table points are reachable "
+                f"{float(self.param('hover_mm')):g} mm over, in view and clear of what is on "
+                f"the table; {self.param('count')} wanted (clear the table or ask for fewer)"
+            )
+        rng = np.random.default_rng(self.param("seed") + 1)
+        chosen = points[rng.choice(len(points), self.param("count"), replace=False)]
+        self.output("targets", [_list(p) for p in chosen])
+        self.feedback_message = f"{len(chosen)} targets"
+        return len(chosen)
+
+    def _candidates(self) -> np.ndarray:
+        """Table points the tool reaches ``hover_mm`` over (with room around) and, with a
+        fixed camera, where the target and the tool's marker over it are well in view."""
         rig = self.rig
         model = rig.arm.model
         table = self.workcell.need("table_z_mm", self.name)
@@ -62,20 +99,37 @@ class PlanTargets(ArmSkill):
         ok = reachable_mask(model, points + [0.0, 0.0, hover])
         for d in ring:
             ok &= reachable_mask(model, points + d + [0.0, 0.0, hover])
-        if rig.camera is not None and rig.camera.mount != "eye_in_hand":
+        if rig.camera is not None and rig.camera.mount != EYE_IN_HAND:
             # the middle of the image: near its edges the arm's own links may hide the marker
             ok &= in_view(rig.camera.extrinsics, half, points + lift, TARGET_MARGIN)
             ok &= in_view(rig.camera.extrinsics, half, points, TARGET_MARGIN)
-        points = points[ok]
-        if len(points) < self.param("count"):
-            raise SkillFailure(
-                f"{self.name}: only {len(points)} table points are reachable {hover:g} mm over and in view"
-            )
-        chosen = points[rng.choice(len(points), self.param("count"), replace=False)]
-        self.output("targets", [_list(p) for p in chosen])
-        self.feedback_message = f"{len(chosen)} targets"
-        return len(chosen)
-        yield  # pragma: no cover
+        return points[ok]
+
+    def _overview(self, points: np.ndarray) -> Procedure:
+        """Boolean per point: clear of the markers the camera sees and of what the arm hides,
+        looked at with the arm where it hides least of ``points``."""
+        rig = self.rig
+        if len(points):
+            sample = points[:: max(1, len(points) // 200)]
+            away = out_of_view(self, sample)
+            if away is not None:
+                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+        sightings = yield Look(rig, self.clock, frames=3, settle=self.settle(), average=True)
+        skip = {self.param("tag")}
+        marker = self.workcell.tool_marker
+        if marker is not None:
+            skip.add(marker.tag)
+        radius = float(self.param("keep_out_mm"))
+        keep = seen_keep_outs(sightings, skip, radius)
+        ok = free(points, keep)
+        hidden = shadow(self)
+        for k in range(0, len(hidden), 256):
+            gap = np.linalg.norm(points[:, None, :2] - hidden[None, k : k + 256, :2], axis=2)
+            ok &= np.all(gap >= radius, axis=1)
+        self.feedback_message = (
+            f"{len(keep)} markers seen on the table, {len(hidden)} points hidden"
+        )
+        return ok
 
 
 class PlaceTarget(ArmSkill):

@@ -23,6 +23,7 @@ from .arm_skill import ArmSkill, camera_over
 from .base import Procedure
 from .eye import Sighting, eye_of
 from .reach import reachable
+from .sightline import SIGHT_MARGIN_MM, hides, segment_hits_boxes
 from .survey import survey_points
 
 #: Fewest points of a ring looked at around a hint when the tag is not in view over it.
@@ -115,9 +116,15 @@ def around(hint: np.ndarray, radius: float, view: tuple[float, float] | None) ->
     return out[:MAX_LOOKS]
 
 
-def out_of_view(skill: ArmSkill, point: np.ndarray) -> np.ndarray | None:
-    """Eye-to-hand: the reachable survey pose farthest from ``point`` (the arm there hides
-    it least); None without a survey or when none is reachable."""
+def out_of_view(skill: ArmSkill, points: np.ndarray) -> np.ndarray | None:
+    """Eye-to-hand: the reachable survey pose where the arm's links hide fewest of
+    ``points`` (mm, ``(3,)`` or ``(N, 3)``) from the camera, the farthest from them
+    among equals; None without a survey or when no survey pose is reachable.
+
+    The links are the arm model's boxes at the joints the move there would take
+    (:mod:`.sightline`); an arm model without boxes hides nothing, so the pose
+    farthest from the points (x-y) is taken.
+    """
     cell = skill.workcell
     if cell.survey is None or cell.table_z_mm is None:
         return None
@@ -130,7 +137,49 @@ def out_of_view(skill: ArmSkill, point: np.ndarray) -> np.ndarray | None:
     poses = [p for p in poses if reachable(model, p)]
     if not poses:
         return None
-    return max(poses, key=lambda p: float(np.linalg.norm(p[:2] - point[:2])))
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    camera = np.asarray(skill.rig.camera.extrinsics, dtype=float)[:3, 3]
+    near = np.asarray(skill.rig.arm.joints(), dtype=float)
+    joints = np.array([model.ik(p, near=near) for p in poses])
+    hidden = np.zeros(len(poses), dtype=int)
+    for point in points:
+        hidden += hides(model, joints, camera, point)
+    centre = points.mean(axis=0)
+    best = min(
+        range(len(poses)),
+        key=lambda k: (int(hidden[k]), -float(np.linalg.norm(poses[k][:2] - centre[:2]))),
+    )
+    return poses[best]
+
+
+def shadow(skill: ArmSkill, spacing: float = 10.0) -> np.ndarray:
+    """Eye-to-hand: the table points (mm, ``(N, 3)``, ``spacing`` apart) in the camera's
+    view that the arm's links hide from it where the arm is now; empty without a table."""
+    rig, cell = skill.rig, skill.workcell
+    if cell.table_z_mm is None:
+        return np.zeros((0, 3))
+    table = float(cell.table_z_mm)
+    camera = np.asarray(rig.camera.extrinsics, dtype=float)
+    view = eye_of(rig).last
+    hx, hy = view.half_view if view is not None else (0.6, 0.45)
+    corners = []
+    for sx, sy in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+        ray = camera[:3, :3] @ np.array([sx * hx, sy * hy, 1.0])
+        if ray[2] >= -1e-9:
+            return np.zeros((0, 3))  # not looking down at the table
+        corners.append(camera[:3, 3] + ray * ((table - camera[2, 3]) / ray[2]))
+    lo, hi = np.min(corners, axis=0), np.max(corners, axis=0)
+    xs = np.arange(lo[0], hi[0] + spacing, spacing)
+    ys = np.arange(lo[1], hi[1] + spacing, spacing)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    grid = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, table)])
+    model = rig.arm.model
+    q = np.asarray(rig.arm.joints(), dtype=float)
+    if not model.boxes:
+        return np.zeros((0, 3))
+    half = 0.5 * model.box_sizes() + SIGHT_MARGIN_MM
+    hit = segment_hits_boxes(camera[:3, 3], grid[:, None, :], model.box_poses(q), half)
+    return grid[np.any(hit, axis=-1)]
 
 
 def locate(
@@ -183,4 +232,4 @@ def locate(
     return Found(best if best is not None else seen, looks + 1)
 
 
-__all__ = ["Found", "around", "locate", "look_over", "nearest", "out_of_view"]
+__all__ = ["Found", "around", "locate", "look_over", "nearest", "out_of_view", "shadow"]

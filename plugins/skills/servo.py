@@ -31,7 +31,7 @@ from armtree.perception.frames import EYE_IN_HAND, along_ray_to_height
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure
 from .eye import Sighting
-from .locate import nearest, out_of_view
+from .locate import nearest, out_of_view, shadow
 from .manipulation import ArmSkill
 
 
@@ -40,8 +40,9 @@ class VisualServo(ArmSkill):
 
     Eye-to-hand, the tool's marker is the profile's ``workcell.tool_marker`` (or
     ``tool_tag`` with ``marker_offset``); without one the direct move is all
-    that can be done and the error is the joints' word for it. SUCCESS when the
-    error is below ``tolerance_mm``; FAILURE after ``max_iterations``
+    that can be done and the error is the joints' word for it. It corrects until
+    the error is below ``aim_mm`` (default: the tolerance); SUCCESS when the error
+    is then below ``tolerance_mm``; FAILURE when it is not after ``max_iterations``
     corrections, when the target cannot be seen from anywhere the arm gets out
     of its way, or when the tool's marker is out of view (the message says where
     the tool was).
@@ -90,6 +91,16 @@ class VisualServo(ArmSkill):
             3.0,
             "mm",
             "stop when the error is below this (seed 000: 3 mm)",
+            exclusive_minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "aim_mm",
+            "float",
+            None,
+            "mm",
+            "correct until the error is below this, nearer than the tolerance "
+            "(default: tolerance_mm); the tolerance still decides success",
             exclusive_minimum=0.0,
             maximum=1000.0,
         ),
@@ -170,19 +181,16 @@ class VisualServo(ArmSkill):
 
     def _target_once(self, tag: str) -> Procedure:
         """The target's position (mm), averaged over ``frames`` frames; when the arm is in
-        the way, measured again with the arm at the survey pose farthest from it."""
+        the way, measured again with the arm at a survey pose whose links do not hide
+        what they hide now (where the target must be)."""
         rig = self.rig
         sighting = yield from self._look_for(tag)
-        # the survey pose farthest from the tool may still put a link over the target:
-        # then the one farthest from there, on the other side
-        for _ in range(2):
-            if sighting is not None:
-                break
-            away = out_of_view(self, rig.arm.pose()[:3, 3])
-            if away is None:
-                break
-            yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
-            sighting = yield from self._look_for(tag)
+        if sighting is None:
+            hidden = shadow(self)
+            away = out_of_view(self, hidden if len(hidden) else rig.arm.pose()[:3, 3])
+            if away is not None:
+                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+                sighting = yield from self._look_for(tag)
         if sighting is None:
             raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")
         if self.param("on_table"):
@@ -242,17 +250,26 @@ class VisualServo(ArmSkill):
     def _close(
         self, q: np.ndarray, measured: np.ndarray, reference: np.ndarray, iteration: int
     ) -> Procedure:
-        """The error (mm) when it is within the tolerance; else None, after sending the
-        correction unless this was the last iteration. Outputs the error either way."""
+        """The error (mm) when the loop is done; else None, after sending the correction.
+
+        Done when the error is below the aim (``aim_mm``, at most the tolerance), or
+        after the last iteration when it is below the tolerance: aiming nearer than the
+        tolerance keeps a direct move that lands just inside it from staying there.
+        Outputs the error either way.
+        """
         self._error = float(np.linalg.norm(reference - measured))
         self.output("error", round(self._error, 3))
         self.output("iterations", iteration)
-        if self._error < float(self.param("tolerance_mm")):
+        tolerance = float(self.param("tolerance_mm"))
+        aim = self.param("aim_mm")
+        aim = tolerance if aim is None else min(float(aim), tolerance)
+        last = iteration >= self.param("max_iterations")
+        if self._error < aim or (last and self._error < tolerance):
             self.feedback_message = (
                 f"within {self._error:.2f} mm of {fmt(reference)} after {iteration} corrections"
             )
             return self._error
-        if iteration < self.param("max_iterations"):
+        if not last:
             yield self._correction(q, measured, reference)
         return None
 

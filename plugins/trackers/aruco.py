@@ -8,7 +8,9 @@ blurred corners; ``refine: opencv`` keeps the detector's own refinement
 (``detector: {cornerRefinementMethod: ...}``, sub-pixel by default). When the
 profile's preprocessing binarises the image (seed 004's threshold and blur),
 markers are found in the preprocessed image and refined on the grey one,
-where the edges still carry sub-pixel information.
+where the edges still carry sub-pixel information. Small candidates OpenCV
+rejected are read again on their refined corners (``rescue``, :mod:`.rescue`):
+at three to four pixels a cell its decoder misses some markers in every frame.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 from .common import TagRoles, finish_detection, probe
 from .preprocess import Preprocessing, to_gray
 from .refine import refine_corners
+from .rescue import Rescuer
 
 FAMILY = "aruco"
 DEFAULT_DICTIONARY = "4x4_50"
@@ -140,6 +143,7 @@ class ArucoTracker(Tracker):
         only_registered: bool = False,
         refine: str = "edges",
         min_side_px: float | None = 10.0,
+        rescue: bool = True,
         where: Any = None,
     ) -> None:
         self.dictionary_name = dictionary
@@ -154,6 +158,8 @@ class ArucoTracker(Tracker):
         if self._edges:
             params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
         self._cells = self.dictionary.markerSize + 2
+        # small markers OpenCV rejected, read again on edge-refined corners
+        self._rescue = Rescuer(self.dictionary) if rescue and self._edges else None
         # Refine on the grey image ourselves when the detector sees a binarised one.
         self._refine_on_gray = (
             not self.preprocessing.identity
@@ -206,15 +212,22 @@ class ArucoTracker(Tracker):
         gray = image if colour else to_gray(image)
         found_in = gray if self.preprocessing.identity else self.preprocessing.apply(gray)
         self._size_for(found_in.shape)
-        corners, ids, _ = self.detector.detectMarkers(found_in)
-        if ids is None or len(ids) == 0:
+        corners, ids, rejected = self.detector.detectMarkers(found_in)
+        quads = np.asarray(corners, dtype=np.float32).reshape(-1, 4, 2)
+        ids = np.zeros(0, dtype=int) if ids is None else ids.reshape(-1)
+        if self._rescue is not None and rejected is not None and len(rejected):
+            more, more_ids = self._rescue(
+                gray, np.asarray(rejected).reshape(-1, 4, 2), quads, self.min_side_px or 4.0
+            )
+            quads = np.concatenate([quads, more])
+            ids = np.concatenate([ids, more_ids])
+        if len(ids) == 0:
             return []
         detections = []
         registered = self.roles.ids
-        quads = np.asarray(corners, dtype=np.float32).reshape(-1, 4, 2)
         if self._edges:
             quads = refine_corners(gray, quads, self._cells, contour_inset=0.5)
-        for c, marker_id in zip(quads, ids.reshape(-1), strict=True):
+        for c, marker_id in zip(quads, ids, strict=True):
             if self.only_registered and int(marker_id) not in registered:
                 continue
             if self._refine_on_gray:
@@ -238,6 +251,7 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
         roles,
         only_registered=values["only_registered"],
         refine=values["refine"],
+        rescue=values["rescue"],
         # an explicit detector.minMarkerPerimeterRate wins over min_side_px
         min_side_px=None
         if "minMarkerPerimeterRate" in (values["detector"] or {})
@@ -293,5 +307,11 @@ aruco_factory.PARAMS = (
         "edges",
         doc="corner refinement: edges (fit) or opencv",
         choices=("edges", "opencv"),
+    ),
+    Param(
+        "rescue",
+        "bool",
+        True,
+        doc="read small candidates OpenCV rejected again on edge-refined corners (edges only)",
     ),
 )

@@ -1,0 +1,42 @@
+"""Where calibrations and experiments put things: targets clear of what is on the table,
+validation poses the arm reaches without touching anything."""
+
+import numpy as np
+from py_trees.common import Status
+from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
+
+from armtree.motion.scene import Scene
+from armtree.params import Binding
+from armtree.plugins.calibration.occupied import declared_keep_outs, free
+from armtree.plugins.calibration.trials import PlanTargets
+
+
+def test_targets_keep_clear_of_the_markers_the_camera_sees():
+    trash = [Marker(2, np.array([220.0, 40.0, 20.0])), Marker(3, np.array([180.0, -60.0, 20.0]))]
+    nearest = {}
+    for keep_out in (0.0, 80.0):
+        rig = make_rig(trash, mount="eye_to_hand")
+        rig.step(0.0)
+        node = PlanTargets("plan", count=20, keep_out_mm=keep_out, targets=Binding("t"))
+        status, _ = run(node, rig)
+        assert status is Status.SUCCESS, node.feedback_message
+        targets = np.array(node.bb.get("t"))
+        assert len(targets) == 20
+        nearest[keep_out] = min(
+            np.linalg.norm(targets[:, :2] - m.position[:2], axis=1).min() for m in trash
+        )
+    assert nearest[0.0] < 80.0 <= nearest[80.0]  # without the overview some land on the trash
+
+
+def test_the_profiles_obstacles_are_kept_out_of_below_their_top():
+    scene = Scene.from_profile(
+        {
+            "obstacles": [
+                {"box": {"name": "crate", "center": [-200, -350, 50], "size": [80, 80, 100]}}
+            ]
+        }
+    )
+    (crate,) = declared_keep_outs(scene)
+    assert crate.name == "crate" and np.isclose(crate.top_z, 100.0)
+    points = np.array([[-200, -350, 0], [-170, -320, 50], [-200, -350, 130], [-80, -350, 0]], float)
+    assert free(points, [crate], clearance=20.0).tolist() == [False, False, True, True]
