@@ -6,7 +6,7 @@ from typing import Any
 
 from .errors import ConfigError, Mark, shown
 from .plugin_manager import did_you_mean
-from .profile import OVERRIDE_SECTIONS, Override
+from .profile import Override
 from .yamlio import error_at
 
 
@@ -51,14 +51,17 @@ class BlackboardUse:
         """``--set`` gives ``key`` (the first override for a key is the one reported)."""
         self.set_keys.setdefault(root_key(key), override)
 
-    def unread_set_keys(self, declared: dict[str, Any] | None) -> list[ConfigError]:
-        """A --set blackboard key that no node reads (nor the tree declares) is a typo."""
+    def unread_set_keys(
+        self, declared: dict[str, Any] | None, sections: frozenset[str] = frozenset()
+    ) -> list[ConfigError]:
+        """A --set blackboard key that no node reads (nor the tree declares) is a typo;
+        ``sections`` (the profile's, which --set may also address) feed the did-you-mean."""
         used = self.writes | self.literal_reads | {key for key, _, _ in self.reads}
         errors = []
         for key, override in self.set_keys.items():
             if key in used:
                 continue
-            options = sorted(used | set(declared or {}) | set(OVERRIDE_SECTIONS) | {"tick_hz"})
+            options = sorted(used | set(declared or {}) | set(sections) | {"tick_hz"})
             hint = did_you_mean(key, options)
             errors.append(
                 error_at(

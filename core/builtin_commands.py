@@ -24,7 +24,7 @@ from .errors import ConfigError
 from .hook_reference import HooksCommand
 from .hookspecs import hookimpl
 from .plugin_checks import Problem, deep_problems, installed_version
-from .plugin_manager import PluginManager, get_plugin_manager
+from .plugin_manager import KINDS, PluginManager, get_plugin_manager
 from .scaffold import NewPluginCommand
 from .schema import build_schema
 from .tree import Tree
@@ -268,7 +268,7 @@ class Plugins:
         """Add --kind to filter and --check."""
         parser.add_argument(
             "--kind",
-            choices=("behaviour", "arm", "camera", "tracker", "planner", "command"),
+            choices=tuple(KINDS),
             help="list only this kind",
         )
         parser.add_argument(

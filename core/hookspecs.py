@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from .errors import ConfigError
     from .outcomes import WorldTruth
     from .profile import Profile
+    from .profile_sections import ProfileSection
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
     from .worldview import SceneObject
@@ -135,6 +136,28 @@ def armtree_commands() -> dict[str, Any]:
     """
 
 
+@hookspec
+def armtree_profile_sections() -> dict[str, ProfileSection]:
+    """Register top-level hardware-profile sections that this plugin owns.
+
+    armtree knows the sections every rig has (``arm``, ``camera``, ``tracker``,
+    ``planner``, ``tags``, ``places``, ``table``, ``obstacles``, ``workcell``,
+    ``calibration``, ``plugins``, ``watchdog``, ``include``). A section only one
+    plugin reads, such as the built-in simulation's ``world:``, is registered here,
+    and from then on a profile may have it:
+
+    * the profile loader accepts it (else "unknown profile section"), checks its
+      value against ``section.schema["type"]`` (an error at its file, line and
+      column) and calls ``section.check(profile)`` for the rest;
+    * ``--set SECTION.KEY=VALUE`` changes it, like armtree's own sections;
+    * ``armtree schema`` puts ``section.schema`` under the profile's properties,
+      so editors complete and check it.
+
+    :return: ``{section_name: ProfileSection}`` (:class:`armtree.profile_sections.ProfileSection`).
+        A name armtree or another plugin already uses is an error naming both.
+    """
+
+
 # ---------------------------------------------------------------------------
 # Validation: called while a profile loads, before anything is built.
 # ---------------------------------------------------------------------------
@@ -148,8 +171,11 @@ def armtree_validate_profile(profile: Profile) -> list[ConfigError] | None:
     (known sections, components against their ``PARAMS``, tags, places,
     obstacles, the planning scene) and raises one :class:`armtree.ConfigError`
     holding its own errors and the plugins' together, ordered by position. So a
-    problem the plugin would otherwise only find when the rig is built (the
-    built-in simulation's ``world:``) is reported before anything moves.
+    problem the plugin would otherwise only find when the rig is built (an arm
+    swapped with ``--set arm.type=X`` that cannot reach the profile's places) is
+    reported before anything moves. A section the plugin owns is checked by its
+    :class:`~armtree.profile_sections.ProfileSection` instead
+    (``armtree_profile_sections``).
 
     :param profile: the :class:`armtree.profile.Profile` as loaded (overrides
         applied). ``profile.error("world.objects.box", "...")`` makes an error at

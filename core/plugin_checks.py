@@ -164,6 +164,9 @@ def interface_problems(component: Any) -> list[Problem]:
     if kind == "predicate":
         _check_predicate(factory, report)
         return report.problems
+    if kind == "profile_section":
+        _check_profile_section(name, factory, report)
+        return report.problems
     if not callable(factory):
         report.add(factory, "factory", f"{type(factory).__name__} {factory!r}", "a callable")
         return report.problems
@@ -178,6 +181,7 @@ def interface_problems(component: Any) -> list[Problem]:
                 ("model", ("config",), "factory.model(config) -> KinematicModel"),
                 ("emulator", ("config", "clock"), "factory.emulator(config, clock) -> PtyEmulator"),
                 ("grips_with", ("config",), "factory.grips_with(config) -> 'suction' | 'gripper'"),
+                ("simulated", ("config",), "factory.simulated(config) -> bool"),
             ):
                 helper = getattr(factory, member, None)
                 if helper is None:
@@ -365,6 +369,25 @@ def _check_predicate(predicate: Any, report: _Reporter) -> None:
         report.add(
             predicate, "SUBJECT", repr(predicate.SUBJECT), "'required', 'optional' or 'none'"
         )
+
+
+def _check_profile_section(name: str, section: Any, report: _Reporter) -> None:
+    from .profile import PROFILE_KEYS
+    from .profile_sections import ProfileSection
+
+    if name in PROFILE_KEYS:
+        report.add(section, "name", f"armtree's own section {name!r}", "a name of the plugin's own")
+    if not isinstance(section, ProfileSection):
+        report.add(section, "section", f"{type(section).__name__} {section!r}", "a ProfileSection")
+        return
+    if not isinstance(section.schema, dict):
+        report.add(section, "schema", type(section.schema).__name__, "a JSON Schema mapping")
+    if section.check is not None:
+        call = "check(profile) -> [ConfigError]"
+        if not callable(section.check):
+            report.add(section, "check", type(section.check).__name__, call)
+        else:
+            report.binds(section.check, "check", ("profile",), {}, call)
 
 
 # ---------------------------------------------------------------------------

@@ -37,6 +37,7 @@ KINDS: dict[str, str] = {
     "planner": "armtree_planners",
     "command": "armtree_commands",
     "predicate": "armtree_predicates",
+    "profile_section": "armtree_profile_sections",
 }
 
 
@@ -52,7 +53,10 @@ class Component:
 
     @property
     def summary(self) -> str:
-        """First line of the factory's docstring."""
+        """The factory's own ``summary`` text, else the first line of its docstring."""
+        summary = getattr(self.factory, "summary", None)
+        if isinstance(summary, str):
+            return summary
         doc = getattr(self.factory, "__doc__", None) or ""
         return doc.strip().splitlines()[0] if doc.strip() else ""
 

@@ -16,11 +16,13 @@ the whole file before returning, collecting every problem into one
 * ``workcell``: the task geometry skills use (:mod:`armtree.workcell`);
 * then the planning scene these make (:meth:`armtree.motion.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
-* ``world`` (simulation only) is a mapping; ``plugins`` is a list of modules or
-  ``.py`` files loaded before validation; ``watchdog: {tick_s: S}`` is the longest
-  a tick may take (wall seconds, default 120) before the run ends with exit 3;
-* last, every plugin's ``armtree_validate_profile`` hook (the built-in
-  simulation checks ``world:`` there), its errors reported with the others.
+* ``plugins`` is a list of modules or ``.py`` files loaded before validation;
+  ``watchdog: {tick_s: S}`` is the longest a tick may take (wall seconds,
+  default 120) before the run ends with exit 3;
+* sections plugins register (``armtree_profile_sections``, such as the built-in
+  simulation's ``world:``): their value's type, then each section's own check;
+* last, every plugin's ``armtree_validate_profile`` hook, its errors reported
+  with the others.
 
 Overrides use dotted keys and YAML-typed values: ``arm.type=vicra``,
 ``camera.width=800``, ``places.home=[200, 0, 80]``.
@@ -55,7 +57,7 @@ COMPONENT_SECTIONS: dict[str, str] = {
     "tracker": "tracker",
     "planner": "planner",
 }
-#: Every top-level key a profile may have.
+#: Every top-level key armtree itself knows (plugins register more: :func:`section_names`).
 PROFILE_KEYS = (
     "profile",
     "description",
@@ -65,7 +67,6 @@ PROFILE_KEYS = (
     "table",
     "obstacles",
     "workcell",
-    "world",
     "plugins",
     "watchdog",
     "include",
@@ -73,8 +74,8 @@ PROFILE_KEYS = (
 )
 #: Sections a profile must have.
 REQUIRED_SECTIONS = ("arm",)
-#: Sections a ``--set`` key may start with to address the profile rather than the blackboard.
-OVERRIDE_SECTIONS = frozenset(PROFILE_KEYS) - {"profile", "description"}
+#: Keys that name the profile rather than configure it (``--set`` cannot address them).
+_NOT_OVERRIDABLE = frozenset({"profile", "description"})
 #: Sections the planning scene is built from (checked together at load time).
 SCENE_SECTIONS = frozenset({"table", "obstacles", "places"})
 #: Obstacle shapes and the keys each must have.
@@ -84,6 +85,29 @@ OBSTACLE_SHAPES: dict[str, tuple[str, ...]] = {
     "sphere": ("center", "radius"),
     "mesh": ("file",),
 }
+
+
+def registered_sections(manager: PluginManager | None) -> dict[str, Any]:
+    """``{name: Component}`` of the profile sections plugins registered (none when the
+    registry cannot be built: that error is reported where the registry is needed)."""
+    manager = manager or get_plugin_manager()
+    try:
+        registry = manager.registry
+    except ConfigError:
+        return {}
+    return {
+        name: registry.get("profile_section", name) for name in registry.names("profile_section")
+    }
+
+
+def section_names(manager: PluginManager | None) -> tuple[str, ...]:
+    """Every top-level key a profile may have: armtree's own and the plugins'."""
+    return (*PROFILE_KEYS, *(k for k in registered_sections(manager) if k not in PROFILE_KEYS))
+
+
+def override_sections(manager: PluginManager | None) -> frozenset[str]:
+    """Sections a ``--set`` key may start with to address the profile rather than the blackboard."""
+    return frozenset(section_names(manager)) - _NOT_OVERRIDABLE
 
 
 @dataclass(frozen=True)
@@ -411,6 +435,7 @@ def _finish(
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
     errors.extend(_component_checks(profile, manager))
+    errors.extend(place_error(profile, e) for e in _section_checks(profile, manager, not errors))
     errors.extend(place_error(profile, e) for e in _plugin_checks(profile, manager, not errors))
     if errors:
         order = {file: i for i, file in enumerate(dict.fromkeys(e.file for e in errors))}
@@ -447,7 +472,8 @@ def place_error(profile: Profile, error: ConfigError) -> ConfigError:
     if error.line is not None or len(error.errors) > 1:
         return error
     found = _PATH_PREFIX.match(error.message)
-    if found is None or found.group(1).split(".")[0].split("[")[0] not in PROFILE_KEYS:
+    known = section_names(profile.manager)
+    if found is None or found.group(1).split(".")[0].split("[")[0] not in known:
         return error
     path = re.sub(r"\[(\d+)\]", r".\1", found.group(1))
     return error_at(error.message, profile.mark(path), str(profile.source or profile.name))
@@ -487,47 +513,76 @@ def _component_checks(profile: Profile, manager: PluginManager) -> list[ConfigEr
     return out
 
 
+def _section_checks(profile: Profile, manager: PluginManager, clean: bool) -> list[ConfigError]:
+    """The ``check`` of every section plugins registered, skipping sections of the wrong type."""
+    out: list[ConfigError] = []
+    for name, component in registered_sections(manager).items():
+        check = component.factory.check
+        if check is None or name in profile.invalid or name in PROFILE_KEYS:
+            continue
+        out += _checked(
+            lambda check=check: check(profile),
+            component.plugin,
+            (f"check the {name}: section", f"the {name}: section's check"),
+            clean,
+            str(profile.source or profile.name),
+        )
+    return out
+
+
+def _checked(
+    call: Any, plugin: str, what: tuple[str, str], clean: bool, file: str
+) -> list[ConfigError]:
+    """The ConfigErrors a plugin's check returns or raises.
+
+    ``what`` names the check in messages: ``failed to {what[0]}``, ``{what[1]} must
+    return ConfigErrors``. An exception other than ConfigError is a plugin bug when
+    the profile is otherwise valid (``clean``); else it follows from errors already
+    reported and is dropped.
+    """
+    try:
+        found = call()
+    except ConfigError as exc:
+        found = list(exc.errors)
+    except Exception as exc:  # noqa: BLE001 - a plugin's bug is reported, not raised
+        if not clean:
+            return []
+        message = f"plugin {plugin!r} failed to {what[0]}: {type(exc).__name__}: {exc}"
+        return [ConfigError(message, file=file)]
+    out: list[ConfigError] = []
+    for item in found or ():
+        if isinstance(item, ConfigError):
+            out.extend(item.errors)
+        else:
+            out.append(
+                ConfigError(
+                    f"plugin {plugin!r}: {what[1]} must return ConfigErrors, "
+                    f"got {type(item).__name__}",
+                    file=file,
+                )
+            )
+    return out
+
+
 def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> list[ConfigError]:
     """Every ``armtree_validate_profile`` implementation's errors, one plugin after another.
 
     Each implementation is called on its own so one plugin's failure does not hide
-    another's findings. An exception other than ConfigError is a plugin bug when
-    the profile is otherwise valid (``clean``); else it follows from errors already
-    reported and is dropped.
+    another's findings.
     """
-    file = str(profile.source or profile.name)
     out: list[ConfigError] = []
     for impl in reversed(manager.hook.armtree_validate_profile.get_hookimpls()):
         if impl.hookwrapper or getattr(impl, "wrapper", False):
             # A wrapper returns nothing of its own to report; only plain implementations check.
             continue
         plugin = manager.pm.get_name(impl.plugin) or repr(impl.plugin)
-        try:
-            found = impl.function(profile=profile)
-            found = list(found or ())
-        except ConfigError as exc:
-            found = list(exc.errors)
-        except Exception as exc:  # noqa: BLE001 - a plugin's bug is reported, not raised
-            if clean:
-                out.append(
-                    ConfigError(
-                        f"plugin {plugin!r} failed to check the profile: "
-                        f"{type(exc).__name__}: {exc}",
-                        file=file,
-                    )
-                )
-            continue
-        for item in found:
-            if isinstance(item, ConfigError):
-                out.extend(item.errors)
-            else:
-                out.append(
-                    ConfigError(
-                        f"plugin {plugin!r}: armtree_validate_profile must return ConfigErrors, "
-                        f"got {type(item).__name__}",
-                        file=file,
-                    )
-                )
+        out += _checked(
+            lambda impl=impl: impl.function(profile=profile),
+            plugin,
+            ("check the profile", "armtree_validate_profile"),
+            clean,
+            str(profile.source or profile.name),
+        )
     return out
 
 
@@ -562,11 +617,13 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
         if len(errors) > before:
             invalid.add(section)
 
+    owned = registered_sections(manager)
+    known = section_names(manager)
     for key in data:
-        if key not in PROFILE_KEYS:
+        if key not in known:
             errors.append(
                 error_at(
-                    f"unknown profile section {shown(key)}{did_you_mean(str(key), PROFILE_KEYS)}",
+                    f"unknown profile section {shown(key)}{did_you_mean(str(key), known)}",
                     data.key_mark(key),
                 )
             )
@@ -591,9 +648,13 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
     check("workcell", check_workcell, data, errors)
     check("calibration", check_calibration, data, errors)
     check("watchdog", _check_watchdog, data, errors)
-    if data.get("world") is not None and not isinstance(data["world"], dict):
-        errors.append(error_at("world: expected a mapping", data.value_mark("world")))
-        invalid.add("world")
+    for name, component in owned.items():
+        if name in PROFILE_KEYS:
+            continue  # armtree's own: the registry refuses the name (plugin_checks)
+        problem = component.factory.type_problem(data.get(name))
+        if problem is not None:
+            errors.append(error_at(f"{name}: {problem}", data.value_mark(name)))
+            invalid.add(name)
     return invalid
 
 

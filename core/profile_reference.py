@@ -5,6 +5,7 @@ For each component section of a profile (``arm``, ``camera``, ``tracker``,
 docstring line) and its keys (the factory's ``PARAMS``: value type, unit,
 default, allowed range, meaning), as Markdown tables. The reference covers the
 plugins of the armtree distribution only, so it reads the same on every machine.
+Then the sections plugins register (``armtree_profile_sections``) and their plugin.
 ``python -m armtree.profile_reference --update docs/profiles.md`` rewrites the
 part of that file between :data:`BEGIN` and :data:`END`, and a test fails while
 the file and the registry disagree.
@@ -50,6 +51,14 @@ def component_reference(registry: Registry | None = None) -> str:
             out.append("| key | value | default | meaning |\n| --- | --- | --- | --- |")
             out.extend(_row(p) for p in params)
             out.append("")
+    sections = registry.names("profile_section")
+    if sections:
+        out.append("### Sections plugins register\n")
+        out.append("| section | plugin | what it is |\n| --- | --- | --- |")
+        for name in sections:
+            component = registry.get("profile_section", name)
+            out.append(f"| `{name}` | {component.plugin} | {_cell(component.summary)} |")
+        out.append("")
     return "\n".join(out).rstrip() + "\n"
 
 

@@ -21,13 +21,14 @@ from typing import Any
 
 from .clock import Clock
 from .errors import ConfigError, HardwareFault
+from .plugin_manager import get_plugin_manager
 from .profile import profile_section, profile_source
 from .rig import Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
-#: Sections that stand for a physical device (the rest is software).
-DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera", "head", "tool")
+#: Sections that may stand for a physical device (the rest is software).
+DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera")
 
 
 def component_config(profile: Any, key: str) -> Any:
@@ -38,15 +39,29 @@ def component_config(profile: Any, key: str) -> Any:
     return profile_section(profile, key)
 
 
-def uses_real_hardware(profile: Any) -> bool:
-    """True when any device section is neither on ``port: sim`` nor of ``type: sim``."""
+def uses_real_hardware(profile: Any, registry: Any = None) -> bool:
+    """True when the profile drives a physical device, so the run must keep the wall clock.
+
+    Each arm or camera factory says so itself: ``factory.simulated(config)`` is
+    True when that config runs on no device (an emulator, a renderer). A factory
+    that does not say is taken to be a device when it is a camera or its config
+    names a ``port`` or ``device``. ``registry`` defaults to the profile's plugins'.
+    """
+    if registry is None:
+        manager = getattr(profile, "manager", None) or get_plugin_manager()
+        registry = manager.registry
     for key in DEVICE_SECTIONS:
         section = profile_section(profile, key)
         if not isinstance(section, Mapping) or not section:
             continue
-        if section.get("type") == "sim" or section.get("port") == "sim":
-            continue
-        if key == "camera" or "port" in section or "device" in section:
+        kind = key
+        name = section.get("type")
+        factory = registry.get(kind, name).factory if registry.has(kind, name or "") else None
+        simulated = getattr(factory, "simulated", None)
+        if callable(simulated):
+            if not simulated(dict(section)):
+                return True
+        elif key == "camera" or "port" in section or "device" in section:
             return True
     return False
 

@@ -197,7 +197,10 @@ class Run:
         profile = getattr(tree, "profile", None)
         if rig is not None:
             self.clock: Clock = rig.clock
-        elif realtime or (profile is not None and uses_real_hardware(profile)):
+        elif realtime or (
+            profile is not None
+            and uses_real_hardware(profile, self.manager.registry if self.manager else None)
+        ):
             self.clock = WallClock()
         else:
             self.clock = VirtualClock()

@@ -20,6 +20,7 @@ from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
 from .tree_loader import SUBTREE_KEYS, node_kind
+from .watchdog import MAX_TICK_S
 from .workcell import workcell_schema
 
 DRAFT = "http://json-schema.org/draft-07/schema#"
@@ -255,14 +256,23 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
         },
         "obstacles": {"type": "array", "items": {"anyOf": shapes}},
         "workcell": workcell_schema(),
-        "world": {"type": "object", "description": "the simulated world (sim only)"},
         "plugins": {"type": "array", "items": {"type": "string"}},
+        "watchdog": {
+            "type": "object",
+            "description": "the longest one tick may take on the wall clock",
+            "properties": {
+                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S}
+            },
+            "additionalProperties": False,
+        },
         "include": {
             "description": "files laid over this profile (calibration files), beside it or in the working directory",
             "anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}}],
         },
         "calibration": calibration_schema(),
     }
+    for name in registry.names("profile_section"):
+        properties.setdefault(name, dict(registry.get("profile_section", name).factory.schema))
     return {
         "type": "object",
         "properties": properties,

@@ -81,7 +81,7 @@ from .errors import ConfigError, Mark, shown
 from .outcomes import WorldTruth, parse_expectations, predicates_for
 from .params import REQUIRED, Binding, Param, check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
-from .profile import OVERRIDE_SECTIONS, Override, Profile, load_profile, parse_overrides
+from .profile import Override, Profile, load_profile, override_sections, parse_overrides
 from .resolve import available, resolve
 from .tree import NodeInfo, Tree
 from .tree_checks import RigChecks
@@ -244,13 +244,14 @@ class _Loader:
         self.check_keys(data, ctx)
         parsed, bad = parse_overrides(overrides)
         self.errors.extend(bad)
-        profile_overrides = [o for o in parsed if o.keys[0] in OVERRIDE_SECTIONS]
+        self.load_plugins(data, ctx)  # first: a plugin may own a profile section --set addresses
+        sections = override_sections(self.manager)
+        profile_overrides = [o for o in parsed if o.keys[0] in sections]
         for o in parsed:
             if o.keys == ("tick_hz",):
                 data["tick_hz"] = o.value
                 data.value_marks["tick_hz"] = o.mark
-        other = [o for o in parsed if o.keys[0] not in OVERRIDE_SECTIONS and o.keys != ("tick_hz",)]
-        self.load_plugins(data, ctx)
+        other = [o for o in parsed if o.keys[0] not in sections and o.keys != ("tick_hz",)]
         profile = self.load_profile(data, ctx, rig, profile_overrides)
         if profile is not None:
             self.rig_checks = RigChecks(profile)
@@ -275,7 +276,7 @@ class _Loader:
             self.error("the tree has no root node", data.mark, ctx)
         expect = self.expectations(data, ctx, profile)
         self.errors += self.keys.unwritten_reads()
-        self.errors += self.keys.unread_set_keys(declared)
+        self.errors += self.keys.unread_set_keys(declared, sections)
         if self.errors:
             raise self.fail()
         assert root is not None

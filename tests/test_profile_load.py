@@ -12,6 +12,7 @@ from armtree import builtin_behaviours
 from armtree.params import Param
 from armtree.plugin_manager import PluginManager
 from armtree.profile import parse_override
+from armtree.profile_sections import ProfileSection
 from armtree.rig import TagSpec
 
 
@@ -59,6 +60,10 @@ class FakeComponents:
             "prm": _factory("A planner.", planner=True),
             "direct": _factory("Straight lines.", planner=True),
         }
+
+    @armtree.hookimpl
+    def armtree_profile_sections(self):
+        return {"world": ProfileSection(schema={"type": "object", "description": "a world"})}
 
 
 def manager() -> PluginManager:

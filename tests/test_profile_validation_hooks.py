@@ -1,7 +1,8 @@
 """Load-time checks beyond the profile's own: the planning scene, ``table:`` and plugins' hooks.
 
 ``armtree.load_profile`` builds the planning scene and calls every
-``armtree_validate_profile`` hook (the sim plugin parses ``world:`` there), so
+``armtree_validate_profile`` hook and the checks of sections plugins own (the sim
+plugin parses ``world:`` there), so
 ``armtree check`` refuses what building the rig would refuse, at the entry's
 file, line and column, together with the profile's other errors.
 """
@@ -266,3 +267,46 @@ def test_a_plugin_hook_that_crashes_is_named(hooked):
 def test_a_crash_after_other_errors_is_taken_to_follow_from_them(hooked):
     (err,) = errors_of(hooked("crash", "speed: fast\n"))
     assert err.message.startswith("unknown profile section 'speed'")
+
+
+SECTION_PLUGIN = """
+import armtree
+from armtree.profile_sections import ProfileSection
+
+
+def check_rack(profile):
+    rack = profile.data.get("rack")
+    if rack is not None and rack.get("slots", 1) < 1:
+        return [profile.error("rack.slots", "a rack needs at least one slot")]
+    return []
+
+
+@armtree.hookimpl
+def armtree_profile_sections():
+    return {"rack": ProfileSection({"type": "object", "description": "a tool rack"}, check_rack)}
+"""
+
+
+def test_a_section_a_plugin_registers_is_accepted_typed_and_checked_at_its_position(tmp_path):
+    (tmp_path / "rack_plugin.py").write_text(SECTION_PLUGIN)
+    without = write(tmp_path, SIM + "rack: {slots: 2}\n", "without.yaml")
+    (err,) = errors_of(without)
+    assert err.message.startswith("unknown profile section 'rack'")
+    rig = write(tmp_path, SIM + "plugins: [rack_plugin.py]\nrack: {slots: 0}\n")
+    (err,) = errors_of(rig)
+    assert err.message == "rack.slots: a rack needs at least one slot"
+    assert (err.file, err.line, err.column) == (str(rig), *position(rig, "slots: 0", "0"))
+    assert load_profile(rig, ("rack.slots=3",)).data["rack"] == {"slots": 3}
+    (err,) = errors_of(write(tmp_path, SIM + "plugins: [rack_plugin.py]\nrack: 3\n"))
+    assert err.message == "rack: expected a mapping" and err.line == SIM.count("\n") + 2
+
+
+def test_world_is_the_sim_plugins_section():
+    from armtree.plugin_manager import PluginManager
+
+    manager = PluginManager(blocked=["sim"], autoload=False)
+    manager.load_entry_points()
+    assert "world" not in PROFILE_KEYS
+    with pytest.raises(ConfigError, match="unknown profile section 'world'"):
+        load_profile("sim_dobot", manager=manager)
+    assert load_profile("sim_dobot").section("world") is not None

@@ -96,11 +96,11 @@ class FakePlugin:
 
     @armtree.hookimpl
     def armtree_arms(self):
-        return {"fake_arm": self.arm}
+        return {"fake_arm": on_no_device(self.arm)}
 
     @armtree.hookimpl
     def armtree_cameras(self):
-        return {"fake_cam": self.camera}
+        return {"fake_cam": on_no_device(self.camera)}
 
     @armtree.hookimpl
     def armtree_trackers(self):
@@ -113,6 +113,16 @@ class FakePlugin:
     @armtree.hookimpl
     def armtree_rig_ready(self, rig, context):
         self.events.append(("rig ready", rig.arm is not None, rig.planner))
+
+
+def on_no_device(method):
+    """``method`` as a factory that says it drives no device (the run keeps a virtual clock)."""
+
+    def factory(config, context):
+        return method(config, context)
+
+    factory.simulated = lambda config: True
+    return factory
 
 
 def manager_with(plugin):
@@ -160,13 +170,23 @@ def test_a_failing_factory_closes_what_was_built_and_raises_the_fault():
     assert plugin.events == ["arm built", "arm stopped", "arm closed", "emulator closed"]
 
 
-def test_real_hardware_is_detected_from_ports_and_camera_types():
+def test_real_hardware_is_what_the_arm_and_camera_factories_say():
     assert not uses_real_hardware({"arm": {"type": "dobot_v1", "port": "sim"}})
     assert uses_real_hardware({"arm": {"type": "dobot_v1", "port": "/dev/ttyUSB0"}})
     assert uses_real_hardware(
         {"arm": {"type": "dobot_v1", "port": "sim"}, "camera": {"type": "opencv", "index": 0}}
     )
-    assert not uses_real_hardware({"arm": {"port": "sim"}, "camera": {"type": "sim"}})
+    assert not uses_real_hardware({"arm": {"type": "vicra"}, "camera": {"type": "sim"}})
+
+    # a factory that does not say is a device when it names a port, whatever the port
+    class Silent:
+        @armtree.hookimpl
+        def armtree_arms(self):
+            return {"silent_arm": lambda config, context: None}
+
+    registry = manager_with(Silent()).registry
+    assert uses_real_hardware({"arm": {"type": "silent_arm", "port": "sim"}}, registry)
+    assert not uses_real_hardware({"arm": {"type": "silent_arm"}}, registry)
 
 
 def test_tags_accept_id_or_ids_and_need_a_size():

@@ -232,6 +232,7 @@ def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:
     )
 
 
+opencv_factory.simulated = lambda config: False  # always a device
 opencv_factory.PARAMS = (
     Param("device", "any", 0, doc="camera index or device path / stream URL"),
     Param("width", "int", 640, unit="px", doc="requested image width"),

@@ -223,6 +223,7 @@ def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
 
 
 sim_camera.validate = _validate
+sim_camera.simulated = lambda config: True  # it renders the world: no device behind it
 sim_camera.PARAMS = (
     Param(
         "mount",

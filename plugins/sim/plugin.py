@@ -12,8 +12,9 @@ collision under ``halt_on_collision`` (``run.fail``); ``armtree_ground_truth``
 and ``armtree_world_inventory`` give the ``expect:`` predicates the world at the
 end of a run and the nominal world while a tree loads.
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
-``armtree_validate_profile`` parses the ``world:`` section while the profile
-loads, so ``armtree check`` reports what building the world would refuse.
+``armtree_profile_sections`` registers the ``world:`` section, whose check parses
+the world while the profile loads, so ``armtree check`` reports what building
+the world would refuse.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import armtree
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.params import check_value
 from armtree.profile import profile_error, profile_section
+from armtree.profile_sections import ProfileSection
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
@@ -114,12 +116,27 @@ def armtree_commands() -> dict[str, Any]:
 
 
 @armtree.hookimpl
-def armtree_validate_profile(profile: Any) -> list[armtree.ConfigError]:
+def armtree_profile_sections() -> dict[str, ProfileSection]:
+    """The ``world:`` section: the simulated table, objects, Duckybot and faults."""
+    return {
+        "world": ProfileSection(
+            schema={
+                "type": "object",
+                "description": "the simulated world: table, objects, Duckybot, faults "
+                "(simulation only; docs/sim.md)",
+            },
+            check=check_world,
+        )
+    }
+
+
+def check_world(profile: Any) -> list[armtree.ConfigError]:
     """Check ``world:`` as building the rig would, before anything is built.
 
     Reports objects off the table or inside each other, markers clashing with
     ``tags:``, unknown keys, and a planning ``table:`` that is not the simulated
-    table top.
+    table top. A profile that uses a sim part without ``world:`` gets the default
+    world, which is checked the same way.
     """
     if not _uses_sim(profile) or getattr(profile, "invalid", frozenset()) & _WORLD_INPUTS:
         return []

@@ -88,6 +88,11 @@ def sim_driver_options(emulator: PtyEmulator) -> dict[str, Any]:
     return {}
 
 
+def on_emulator(config: dict[str, Any]) -> bool:
+    """True when the arm runs on its firmware emulator (``port: sim``, the default)."""
+    return config.get("port", "sim") == "sim"
+
+
 def driver_port(
     config: dict[str, Any], context: RigContext, make_emulator: Callable[[], PtyEmulator]
 ) -> tuple[str, dict[str, Any]]:
@@ -100,7 +105,7 @@ def driver_port(
     """
     port = config.get("port", "sim")
     options: dict[str, Any] = {"clock": context.clock, "interrupt": context.interrupt}
-    if port == "sim":
+    if on_emulator(config):
         emulator = make_emulator()
         port = serve_in_run(emulator, context)
         options.update(sim_driver_options(emulator))
@@ -122,6 +127,7 @@ __all__ = [
     "check_position_target",
     "driver_port",
     "identify_foreign_protocol",
+    "on_emulator",
     "open_serial_port",
     "serve_in_run",
     "sim_driver_options",

@@ -12,7 +12,7 @@ from armtree.errors import ConfigError
 from armtree.motion.collision import CollisionChecker
 from armtree.motion.scene import Scene
 from armtree.params import Param
-from armtree.plugins.arms.common import driver_port
+from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.rig import RigContext
 
 from .driver import TRAJECTORY_KINDS, SSC32Driver
@@ -213,6 +213,7 @@ dh_factory.PARAMS = (
     ),
 )
 dh_factory.model = _model
+dh_factory.simulated = on_emulator
 dh_factory.emulator = _emulator
 dh_factory.grips_with = _grips_with
 

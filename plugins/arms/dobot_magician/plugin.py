@@ -8,7 +8,7 @@ import armtree
 from armtree.clock import Clock
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.arms.common import driver_port
+from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.rig import RigContext
 
 from .driver import MagicianDriver
@@ -97,6 +97,7 @@ magician_factory.PARAMS = (
     ),
 )
 magician_factory.model = _model
+magician_factory.simulated = on_emulator
 magician_factory.emulator = _emulator
 #: What the skills grip with (set_suction): the suction cup.
 magician_factory.grips_with = lambda config: "suction"

@@ -18,7 +18,7 @@ from armtree.errors import ConfigError
 from armtree.params import Param
 from armtree.rig import ArmDriver, RigContext
 
-from ..common import PtyEmulator, driver_port
+from ..common import PtyEmulator, driver_port, on_emulator
 from .driver import DobotV1Driver
 from .emulator import DobotV1Emulator
 from .kinematics import DEFAULT_TOOL_OFFSET, L1, L2, DobotV1Model
@@ -79,7 +79,7 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
     """Dobot V1.0 (original or open-dobot firmware) over pyserial; ``port: sim`` emulates it."""
     firmware = _firmware(config)
     model = dobot_v1_model(config)
-    simulated = config.get("port", "sim") == "sim"
+    simulated = on_emulator(config)
     port, options = driver_port(
         config, context, lambda: dobot_v1_emulator(config, context.clock, seed=context.seed)
     )
@@ -205,6 +205,7 @@ dobot_v1_factory.PARAMS = (
     ),
 )
 dobot_v1_factory.model = dobot_v1_model
+dobot_v1_factory.simulated = on_emulator
 dobot_v1_factory.emulator = dobot_v1_emulator
 #: What the skills grip with (set_suction): the suction cup.
 dobot_v1_factory.grips_with = lambda config: "suction"

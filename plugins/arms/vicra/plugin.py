@@ -8,7 +8,7 @@ import armtree
 from armtree.clock import Clock
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.plugins.arms.common import driver_port
+from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.rig import RigContext
 
 from .driver import VicraDriver
@@ -103,6 +103,7 @@ vicra_factory.PARAMS = (
     ),
 )
 vicra_factory.model = _model
+vicra_factory.simulated = on_emulator
 vicra_factory.emulator = _emulator
 #: What the skills grip with (set_suction): the pump or the gripper, as configured.
 vicra_factory.grips_with = lambda config: str(config.get("tool", "gripper"))

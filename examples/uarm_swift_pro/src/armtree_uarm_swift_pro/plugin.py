@@ -14,7 +14,7 @@ from typing import Any
 
 import armtree
 from armtree.clock import Clock
-from armtree.plugins.arms.common import driver_port
+from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.rig import RigContext
 
 from .driver import SwiftProDriver
@@ -84,6 +84,7 @@ uarm_swift_pro.PARAMS = (
 )
 uarm_swift_pro.model = model
 uarm_swift_pro.emulator = emulator
+uarm_swift_pro.simulated = on_emulator
 uarm_swift_pro.grips_with = lambda config: (
     "suction" if int(config.get("mode", 0)) in SUCTION_MODES else None
 )
