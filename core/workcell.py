@@ -16,6 +16,8 @@ workcell:
   sort: {trash: garbage_bin}   # the place each tag role belongs (sort.yaml)
   marker_heights_mm: {ducky: 30, trash: 20, duckybot: 40}   # each role's marker above the table
   tool_marker: {tag: tool, offset_mm: [0, 0, 20]}   # a marker on the tool (eye-to-hand)
+  bins:                    # containers at places: their inside and rim, to spread drops over
+    garbage_bin: {size_mm: [74, 74], rim_z_mm: -15}
 ```
 
 The camera mount (eye-in-hand or eye-to-hand, its pose) stays in ``camera:``.
@@ -119,6 +121,19 @@ class ToolMarker:
 
 
 @dataclass(frozen=True)
+class Bin:
+    """A container at a place: its inside ``size_mm`` [x, y] centred on the place's x, y
+    (aligned with the base frame's axes) and the height of its rim (base frame, mm).
+
+    Things let go there are spread across the inside rather than dropped on each
+    other, and let go high enough to clear the rim and what is already in it.
+    """
+
+    size_mm: tuple[float, float]
+    rim_z_mm: float
+
+
+@dataclass(frozen=True)
 class Workcell:
     """The parsed ``workcell:`` section; a value the profile leaves out is None (or its default)."""
 
@@ -132,6 +147,7 @@ class Workcell:
     sort: dict[str, str] = field(default_factory=dict)
     marker_heights_mm: dict[str, float] = field(default_factory=dict)
     tool_marker: ToolMarker | None = None
+    bins: dict[str, Bin] = field(default_factory=dict)
 
     def need(self, name: str, what: str) -> Any:
         """The value of key ``name``; :class:`ConfigError` saying how to add it when absent."""
@@ -210,8 +226,10 @@ def check_workcell(data: MarkedDict, errors: list[ConfigError]) -> None:
             _check_heights(value, where, data, errors)
         elif key == "tool_marker":
             _check_tool_marker(value, where, data, errors)
+        elif key == "bins":
+            _check_bins(value, where, data, errors)
         else:
-            choices = [*known, "survey", "sort", "marker_heights_mm", "tool_marker"]
+            choices = [*known, "survey", "sort", "marker_heights_mm", "tool_marker", "bins"]
             errors.append(
                 error_at(
                     f"workcell: unknown key {key!r}{did_you_mean(str(key), choices)}",
@@ -304,12 +322,25 @@ def _check_survey(value: Any, where: Any, errors: list[ConfigError]) -> None:
             )
 
 
+def _names(
+    value: Any, where: Any, errors: list[ConfigError], want: str, data: MarkedDict, section: str
+) -> dict[str, Any] | None:
+    """The profile's ``section`` (tags, places) a mapping's keys must name; None, with the
+    error ``want`` appended, when ``value`` is no mapping."""
+    if not isinstance(value, MarkedDict):
+        errors.append(error_at(want, where))
+        return None
+    names = data.get(section)
+    return names if isinstance(names, dict) else {}
+
+
 def _check_heights(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
     path = "workcell.marker_heights_mm"
-    if not isinstance(value, MarkedDict):
-        errors.append(error_at(f"{path}: expected a mapping of tag role: height (mm)", where))
+    tags = _names(
+        value, where, errors, f"{path}: expected a mapping of tag role: height (mm)", data, "tags"
+    )
+    if tags is None:
         return
-    tags = data.get("tags") if isinstance(data.get("tags"), dict) else {}
     for role, height in value.items():
         if role not in tags:
             errors.append(
@@ -329,10 +360,16 @@ def _check_heights(value: Any, where: Any, data: MarkedDict, errors: list[Config
 
 
 def _check_sort(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
-    if not isinstance(value, MarkedDict):
-        errors.append(error_at("workcell.sort: expected a mapping of tag role: place name", where))
+    tags = _names(
+        value,
+        where,
+        errors,
+        "workcell.sort: expected a mapping of tag role: place name",
+        data,
+        "tags",
+    )
+    if tags is None:
         return
-    tags = data.get("tags") if isinstance(data.get("tags"), dict) else {}
     places = data.get("places") if isinstance(data.get("places"), dict) else {}
     for role, place in value.items():
         if role not in tags:
@@ -387,6 +424,63 @@ def _check_tool_marker(value: Any, where: Any, data: MarkedDict, errors: list[Co
         )
 
 
+def _check_bins(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
+    want = "expected {size_mm: [x, y], rim_z_mm: z} (the inside's size and the rim's height, mm)"
+    places = _names(
+        value,
+        where,
+        errors,
+        f"workcell.bins: expected a mapping of place name: {want}",
+        data,
+        "places",
+    )
+    if places is None:
+        return
+    for place, spec in value.items():
+        path = f"workcell.bins.{place}"
+        if place not in places:
+            known = ", ".join(map(str, places)) or "none"
+            errors.append(
+                error_at(
+                    f"workcell.bins: {place!r} is not a place (places: {known})",
+                    value.key_mark(place),
+                )
+            )
+        if not isinstance(spec, MarkedDict):
+            errors.append(error_at(f"{path}: {want}", value.value_mark(place)))
+            continue
+        for key in spec:
+            if key not in ("size_mm", "rim_z_mm"):
+                errors.append(
+                    error_at(
+                        f"{path}: unknown key {key!r}"
+                        f"{did_you_mean(str(key), ['size_mm', 'rim_z_mm'])}",
+                        spec.key_mark(key),
+                    )
+                )
+        for key in ("size_mm", "rim_z_mm"):
+            if key not in spec:
+                errors.append(error_at(f"{path}: needs {key}; {want}", spec.mark))
+        size = spec.get("size_mm")
+        if "size_mm" in spec and not (
+            isinstance(size, list) and len(size) == 2 and all(_number(v) and v > 0 for v in size)
+        ):
+            errors.append(
+                error_at(
+                    f"{path}.size_mm: expected [x, y], each > 0 and <= {MAX_MM:g} (mm), got {size!r}",
+                    spec.value_mark("size_mm"),
+                )
+            )
+        if "rim_z_mm" in spec and not _number(spec["rim_z_mm"]):
+            errors.append(
+                error_at(
+                    f"{path}.rim_z_mm: expected a height within +/-{MAX_MM:g} (mm), "
+                    f"got {spec['rim_z_mm']!r}",
+                    spec.value_mark("rim_z_mm"),
+                )
+            )
+
+
 def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = None) -> Workcell:
     """The :class:`Workcell` of an already validated section; ``table_z`` (the profile's
     ``table: {z}``) stands in for a missing ``table_z_mm``."""
@@ -423,8 +517,20 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
     if isinstance(marker, Mapping) and marker.get("tag"):
         offset = marker.get("offset_mm") or (0.0, 0.0, 0.0)
         tool_marker = ToolMarker(str(marker["tag"]), tuple(float(v) for v in offset))  # type: ignore[arg-type]
+    bins = {
+        str(place): Bin(
+            tuple(float(v) for v in spec["size_mm"]),  # type: ignore[arg-type]
+            float(spec["rim_z_mm"]),
+        )
+        for place, spec in (cell.get("bins") or {}).items()
+    }
     return Workcell(
-        survey=survey, sort=sort, marker_heights_mm=heights, tool_marker=tool_marker, **values
+        survey=survey,
+        sort=sort,
+        marker_heights_mm=heights,
+        tool_marker=tool_marker,
+        bins=bins,
+        **values,
     )
 
 
@@ -535,6 +641,26 @@ def workcell_schema() -> dict[str, Any]:
         "required": ["tag"],
         "additionalProperties": False,
     }
+    properties["bins"] = {
+        "type": "object",
+        "description": "containers at places (a key of places:): things let go there are "
+        "spread across the inside and clear the rim and what is already in it",
+        "additionalProperties": {
+            "type": "object",
+            "properties": {
+                "size_mm": {
+                    "type": "array",
+                    "items": {"type": "number", "exclusiveMinimum": 0},
+                    "minItems": 2,
+                    "maxItems": 2,
+                    "description": "[x, y] size of the inside, centred on the place (mm)",
+                },
+                "rim_z_mm": {"type": "number", "description": "height of the rim (mm)"},
+            },
+            "required": ["size_mm", "rim_z_mm"],
+            "additionalProperties": False,
+        },
+    }
     return {
         "type": "object",
         "description": "the rig's task geometry the skills use (table, survey region, clearances, tool offsets)",
@@ -545,6 +671,7 @@ def workcell_schema() -> dict[str, Any]:
 
 __all__ = [
     "FIELDS",
+    "Bin",
     "Survey",
     "ToolMarker",
     "Workcell",

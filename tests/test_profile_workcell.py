@@ -34,6 +34,9 @@ def test_the_sim_profiles_carry_what_their_skills_need(name):
     assert cell.table_z_mm is not None and cell.clearance_z_mm is not None
     assert cell.survey is not None and cell.survey.shape == "ring"
     assert cell.sort == {"trash": "garbage_bin"}
+    # the bin the trash goes to is described, so drops spread across it
+    assert set(cell.bins) == {"garbage_bin"}
+    assert all(s > 0 for s in cell.bins["garbage_bin"].size_mm)
 
 
 def test_a_full_section_is_parsed_with_units_as_written(tmp_path):
@@ -144,6 +147,27 @@ def test_marker_heights_name_tag_roles_and_are_not_negative(tmp_path):
         load(tmp_path, "workcell: {table_z_mm: 5, marker_heights_mm: {trash: 20}}\n")
     )
     assert cell.marker_heights_mm == {"trash": 20.0}
+
+
+def test_a_bin_names_a_place_and_gives_its_inside_and_rim(tmp_path):
+    found = errors(
+        tmp_path,
+        """\
+        workcell:
+          bins:
+            bni: {size_mm: [74, 74], rim_z_mm: -15}
+            bin: {size_mm: [74, 0], rim: 3}
+        """,
+    )
+    text = "\n".join(found)
+    assert "6:5: workcell.bins: 'bni' is not a place (places: bin)" in text
+    assert "7:29: workcell.bins.bin: unknown key 'rim'" in text
+    assert "7:10: workcell.bins.bin: needs rim_z_mm" in text
+    assert "workcell.bins.bin.size_mm: expected [x, y], each > 0" in text
+    cell = workcell_of(
+        load(tmp_path, "workcell: {bins: {bin: {size_mm: [74, 60], rim_z_mm: -15}}}\n")
+    )
+    assert cell.bins["bin"].size_mm == (74.0, 60.0) and cell.bins["bin"].rim_z_mm == -15.0
 
 
 def test_a_marker_is_moved_along_the_camera_ray_onto_its_height():

@@ -281,3 +281,13 @@ def test_the_place_check_looks_around_the_target_when_the_view_over_it_misses():
     status, _ = run(node, rig)
     assert status is Status.SUCCESS, node.feedback_message
     assert "0 mm from the target" in node.feedback_message
+
+
+def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
+    from armtree.plugins.skills.manipulation import edge_toward_base
+
+    target = np.array([0.0, 200.0, -10.0])  # the base lies in -y
+    assert edge_toward_base(target, 25.0, None) == pytest.approx(12.5)
+    assert edge_toward_base(target, 25.0, 0.0) == pytest.approx(12.5)  # a side faces the base
+    # turned 45 degrees a corner faces the base: the edge is half the diagonal away
+    assert edge_toward_base(target, 25.0, np.pi / 4) == pytest.approx(12.5 * np.sqrt(2.0))

@@ -88,3 +88,18 @@ def test_load_ducky_in_a_randomised_world_on_the_magician_and_the_dh_arm(rig, se
     result = run.execute()
     check_loaded(seed, result, sim_world(run).score())
     assert result.verdict == "success", result.expectations
+
+
+@pytest.mark.slow
+def test_trash_dropped_in_the_shallow_bin_is_spread_not_stacked():
+    """sim_dobot reaches only ~41 mm above its bin: seed 84 draws three trash, and dropping
+    each at the bin's place stacked two and pressed the third into them (a collision).
+    Drops spread across the bin's inside (workcell.bins) land side by side."""
+    tree = load_tree("load_ducky.yaml", rig="sim_dobot")
+    run = Run(tree, None, seed=84, record=False, max_ticks=4000, quiet=True)
+    result = run.execute()
+    score = sim_world(run).score()
+    check_loaded(84, result, score)
+    trash = [n for n in score["objects"] if n.startswith("trash")]
+    assert sorted(score["in_bin"]) == sorted(trash) and len(trash) == 3, score["in_bin"]
+    assert all(score["objects"][n]["on"] == "garbage_bin" for n in trash), score["objects"]

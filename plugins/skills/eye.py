@@ -93,6 +93,9 @@ class Eye:
         #: Where the held object's marker sits in the tool frame (homogeneous, mm), set by
         #: a grip and taken by the release that follows, so its check knows where to look.
         self.held: np.ndarray | None = None
+        #: How far the held object reaches below the tool centre (mm): the grip's height
+        #: over the table it stood on. Set and taken with :attr:`held`.
+        self.held_hang_mm: float | None = None
         cell = workcell_of(getattr(rig, "profile", None))
         table = cell.table_z_mm
         self.planes = (

@@ -35,6 +35,7 @@ from armtree.perception.frames import EYE_IN_HAND
 from .actions import ArmHome, Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
+from .bins import Drop, contents_of, inside, plan_drop
 from .eye import eye_of
 from .locate import locate, look_over, nearest, out_of_view
 from .reach import nearest_reachable, reachable
@@ -58,14 +59,17 @@ def pick_steps(
     grasp_offset: float,
     dwell: float,
     marker_size: float = 0.0,
+    marker_yaw: float | None = None,
 ) -> Procedure:
     """Approach above ``target``, descend, close the tool (suction on), let it grip, lift back.
 
     A marker ``marker_size`` mm wide whose centre is out of reach is touched nearer the
-    arm's base on its face instead (suction cups only)."""
+    arm's base on its face instead (suction cups only); ``marker_yaw`` (radians, its x
+    axis in the base frame, as the camera saw it) says how far its edge lies that way."""
     rig, speed = skill.rig, skill.speed()
     # a suction cup holds anywhere on the marker's face: up to 3 mm inside its edge
-    inward = 0.0 if has_gripper(rig.arm) else max(0.0, 0.5 * marker_size - 3.0)
+    edge = edge_toward_base(target, marker_size, marker_yaw)
+    inward = 0.0 if has_gripper(rig.arm) else max(0.0, edge - 3.0)
     grip = grip_point(skill, target, grasp_offset, inward)
     over = above(skill, grip - UP * grasp_offset, approach + grasp_offset)
     if has_gripper(rig.arm):
@@ -78,6 +82,17 @@ def pick_steps(
     return grip
 
 
+def edge_toward_base(target: np.ndarray, size: float, yaw: float | None) -> float:
+    """Distance (mm) from a ``size`` mm marker's centre at ``target`` to its edge in the
+    direction of the arm's base: half its size across its sides, more across a corner;
+    half its size when its heading ``yaw`` (radians) is unknown."""
+    half = 0.5 * size
+    if yaw is None or np.hypot(target[0], target[1]) < 1e-6:
+        return half
+    angle = np.arctan2(-target[1], -target[0]) - yaw
+    return float(half / max(abs(np.cos(angle)), abs(np.sin(angle))))
+
+
 def release_steps(
     skill: ArmSkill, target: np.ndarray, approach: float, release: float, dwell: float
 ) -> Procedure:
@@ -87,16 +102,22 @@ def release_steps(
     workspace) gives way to the nearest reachable one within
     :data:`RELEASE_SLACK_MM`, no lower than :data:`RELEASE_DROP_MM` under it.
     """
-    rig, speed = skill.rig, skill.speed()
     point = target + UP * release
-    model = rig.arm.model
+    model = skill.rig.arm.model
     if not reachable(model, point):
         near = nearest_reachable(
             model, point, span=2 * RELEASE_SLACK_MM, min_z=point[2] - RELEASE_DROP_MM
         )
         if near is not None and np.linalg.norm(near - point) <= RELEASE_SLACK_MM:
             point = near
-    over = above(skill, point, max(0.0, approach - release))
+    return (yield from release_at(skill, point, max(0.0, approach - release), dwell))
+
+
+def release_at(skill: ArmSkill, point: np.ndarray, approach: float, dwell: float) -> Procedure:
+    """Approach ``approach`` mm above ``point`` (as much as reachable), descend to it, open
+    the tool, lift back. Returns ``point``."""
+    rig, speed = skill.rig, skill.speed()
+    over = above(skill, point, approach)
     yield Move(rig, over, speed=speed, label="approach")
     if over[2] > point[2] + 1e-6:
         yield Move(rig, point, speed=speed, label="descend")
@@ -317,6 +338,7 @@ class Gripping(ArmSkill):
                 self.workcell.grasp_offset_mm,
                 self.param("dwell_s"),
                 spec.size_mm if spec is not None else 0.0,
+                self.marker_yaw(marker),
             )
             if not tool_engaged(self.rig):
                 raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
@@ -329,10 +351,11 @@ class Gripping(ArmSkill):
                     self, tag, marker, target, float(self.param("verify_tolerance_mm"))
                 )
             # where the marker sits on the tool: the place check looks where it will land
+            eye = eye_of(self.rig)
             with contextlib.suppress(ValueError):  # the grip point's IK (Unreachable)
-                eye_of(self.rig).held = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(
-                    target, 1.0
-                )
+                eye.held = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(target, 1.0)
+            table = self.workcell.table_z_mm
+            eye.held_hang_mm = None if table is None else float(grip[2] - table)
         except SkillFailure:
             if marker is not None:
                 self.add_skip(marker)
@@ -346,6 +369,14 @@ class Gripping(ArmSkill):
             raise
         self.output("pose", as_list(target))
         return target
+
+    def marker_yaw(self, marker: int | None) -> float | None:
+        """The heading (radians) of marker ``marker`` in the camera's last view, if it is there."""
+        view = eye_of(self.rig).last
+        seen = None if view is None else next((s for s in view.sightings if s.id == marker), None)
+        if marker is None or seen is None:
+            return None
+        return float(np.arctan2(seen.pose[1, 0], seen.pose[0, 0]))
 
     def add_skip(self, marker: int) -> None:
         """Add ``marker`` to the ``skip`` list on the blackboard."""
@@ -528,19 +559,35 @@ class PuttingDown(ArmSkill):
 
     def put_down(self, target: np.ndarray, on_marker: bool) -> Procedure:
         """Let go over ``target`` (``workcell.release_offset_mm`` above a marker, at a place
-        itself) and check where the object went."""
+        itself, across the inside of a bin the profile's ``workcell.bins`` describes) and
+        check where the object went."""
         release = self.workcell.release_offset_mm if on_marker else 0.0
         eye = eye_of(self.rig)
         held, eye.held = eye.held, None
-        point = yield from release_steps(
-            self, target, self.param("approach_mm"), release, self.param("dwell_s")
-        )
+        hang, eye.held_hang_mm = eye.held_hang_mm, None
+        bin_name = None if on_marker else self.bin_at()
+        if bin_name is not None and hang is not None:
+            drop = self.plan_bin_drop(bin_name, target, held, hang)
+            point = yield from release_at(
+                self, drop.tool, max(0.0, self.param("approach_mm")), self.param("dwell_s")
+            )
+        else:
+            point = yield from release_steps(
+                self, target, self.param("approach_mm"), release, self.param("dwell_s")
+            )
         released = target + UP * release
         expected = None
         if held is not None:
             with contextlib.suppress(ValueError):  # the release point's IK (Unreachable)
                 landed = (tool_pose_at(self.rig, point) @ held)[:3]
                 expected = np.array([landed[0], landed[1], target[2]])
+        marker = self.param("marker")
+        if bin_name is not None:
+            # until the camera says otherwise it lies where it was let go, as high as that
+            landing = point if expected is None else expected
+            contents_of(self.rig).record(
+                bin_name, self.bin_key(marker), np.array([*landing[:2], point[2]])
+            )
         self.output("pose", as_list(released))
         obj = self.param("object")
         if not self.param("verify"):
@@ -550,7 +597,6 @@ class PuttingDown(ArmSkill):
         elif self.rig.camera is None or self.rig.tracker is None:
             self.feedback_message = self.unverified("no camera to check where it went")
         else:
-            marker = self.param("marker")
             self.feedback_message = yield from verify_place(
                 self,
                 obj,
@@ -560,7 +606,69 @@ class PuttingDown(ArmSkill):
                 None if marker is None else int(marker),
                 expected,
             )
+            if bin_name is not None and marker is not None and eye.last is not None:
+                seen = next((s for s in eye.last.sightings if s.id == int(marker)), None)
+                if seen is not None:
+                    contents_of(self.rig).record(bin_name, int(marker), seen.position)
         return released
+
+    def bin_at(self) -> str | None:
+        """The place ``at`` names when the profile describes a bin there, else None."""
+        value = self.param("at")
+        if isinstance(value, str) and value in self.workcell.bins:
+            return value
+        return None
+
+    def bin_key(self, marker: Any) -> Any:
+        """The key the held object is remembered by in a bin: its marker id, else a new one."""
+        if marker is not None:
+            return int(marker)
+        return ("drop", self.name, self.clock.now())
+
+    def plan_bin_drop(
+        self, name: str, place: np.ndarray, held: np.ndarray | None, hang: float
+    ) -> Drop:
+        """Where to let go in the bin at place ``name``: :func:`~.bins.plan_drop` over what
+        this run let go there and the markers last seen inside it (not the held one)."""
+        spec = self.workcell.bins[name]
+        marker = self.param("marker")
+        contents = contents_of(self.rig).of(name)
+        view = eye_of(self.rig).last
+        if view is not None:
+            contents += [
+                s.position
+                for s in view.sightings
+                if (marker is None or s.id != int(marker)) and inside(spec, place, s.position)
+            ]
+        obj = self.param("object")
+        tag = self.rig.tags.get(obj) if obj else None
+        offset = None
+        if held is not None:
+            with contextlib.suppress(ValueError):  # the place's IK (Unreachable)
+                offset = (tool_pose_at(self.rig, place) @ held)[:2] - place[:2]
+        drop = plan_drop(
+            self.rig.arm.model,
+            place,
+            spec,
+            contents,
+            hang,
+            tag.size_mm if tag is not None else 0.0,
+            offset,
+        )
+        if drop is None:
+            raise SkillFailure(
+                f"{self.name}: no room left in {name!r} within reach: the held object would "
+                f"not clear its rim or the {len(contents)} thing(s) in it; still holding it"
+            )
+        self.note(
+            "bin_drop",
+            bin=name,
+            landing_mm=as_list(drop.landing),
+            tool_mm=as_list(drop.tool),
+            room_mm=None if np.isinf(drop.room_mm) else round(drop.room_mm, 1),
+            contents=len(contents),
+        )
+        return drop
 
 
 class Place(PuttingDown):
@@ -643,6 +751,7 @@ __all__ = [
     "PuttingDown",
     "Release",
     "pick_steps",
+    "release_at",
     "release_steps",
     "verify_pick",
     "verify_place",
