@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 import math
 import textwrap
+from importlib import resources
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -261,3 +263,30 @@ def test_a_bare_on_key_reads_as_on(tmp_path):
     world = draw_scene(parse_scene(profile), 2, _Errors(profile))
     ducky = next(o for o in world.objects if o.name == "ducky")
     assert not math.isclose(ducky.yaw, 0.0)
+
+
+#: Every shipped simulated profile.
+SIM_PROFILES = sorted(
+    Path(p.name).stem
+    for p in resources.files("armtree.hardware").iterdir()
+    if p.name.startswith("sim_") and p.name.endswith(".yaml")
+)
+
+
+def test_every_sim_profile_with_a_ducky_draws_it_anywhere_on_60_mm_at_any_heading():
+    """Issue 11's sweep: the ducky anywhere on a spot of at least 60 x 60 mm, any yaw."""
+    with_ducky = []
+    for name in SIM_PROFILES:
+        scene = parse_scene(load_profile(name))
+        objects = {o.name: o for o in scene.objects}
+        if "ducky" not in objects:
+            continue
+        with_ducky.append(name)
+        draws = [] if scene.randomize is None else scene.randomize.objects
+        draw = next((d for d in draws if d.target == "ducky"), None)
+        assert draw is not None, f"{name}: the ducky is not drawn (world.randomize.objects.ducky)"
+        assert draw.region.kind == "on", f"{name}: the ducky is drawn {draw.region}"
+        spot = objects[draw.region.spot]
+        assert spot.kind == "spot" and min(spot.size[:2]) >= 60.0, f"{name}: {spot.size}"
+        assert draw.yaw == (-180.0, 180.0), f"{name}: yaw {draw.yaw}"
+    assert {"sim_dobot", "sim_vicra", "sim_magician", "sim_dh"} <= set(with_ducky)
