@@ -16,6 +16,7 @@ from typing import Any
 from armtree.outcomes import WorldObject, WorldTruth
 from armtree.profile import profile_section
 
+from .predicates import DUCKYBOTS, MARKERS, TOOL
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World
 
@@ -71,7 +72,9 @@ def scene_truth(scene: SceneSpec, profile: Any) -> WorldTruth:
 
 
 def world_truth(world: World, profile: Any) -> WorldTruth:
-    """The world's ground truth now: every body, what holds it, collisions, slips and drops."""
+    """The world's ground truth now: every body, what holds it, collisions, slips and drops;
+    in ``extra`` the Duckybots' phases and poses, the tool centre and the marker centres
+    (for :mod:`.predicates`)."""
     tags = _tag_roles(profile)
     with world.lock:
         objects = {}
@@ -90,6 +93,22 @@ def world_truth(world: World, profile: Any) -> WorldTruth:
                 container=b.kind == "bin",
             )
         events = list(world.events)
+        extra = {
+            DUCKYBOTS: {
+                name: {
+                    "phase": bot.phase,
+                    "pose": (bot.state.x, bot.state.y, math.degrees(bot.state.theta)),
+                }
+                for name, bot in world.duckybots.items()
+            },
+            MARKERS: {
+                name: tuple(float(v) for v in b.top_pose()[:3, 3])
+                for name, b in world.bodies.items()
+                if b.marker is not None
+            },
+        }
+        if world.arm is not None:
+            extra[TOOL] = tuple(float(v) for v in world.arm.tool_pose[:3, 3])
         return WorldTruth(
             objects=objects,
             roles=_roles_of(objects.values(), tags),
@@ -100,4 +119,5 @@ def world_truth(world: World, profile: Any) -> WorldTruth:
                 e.detail | {"time": round(e.time, 6)} for e in events if e.kind == "missed_steps"
             ],
             drops=[e.detail | {"time": round(e.time, 6)} for e in events if e.kind == "drop"],
+            extra=extra,
         )
