@@ -9,6 +9,7 @@ rest still hear of the event.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -16,6 +17,57 @@ import pluggy
 
 #: ``on_error(hook name, plugin name, exception)``.
 ErrorHandler = Callable[[str, str, BaseException], None]
+
+
+class PluginDict(dict):
+    """A hook implementation's ``dict`` result that names the plugin it came from (``.plugin``)."""
+
+    plugin: str
+
+
+class PluginList(list):
+    """A hook implementation's ``list`` result that names the plugin it came from (``.plugin``)."""
+
+    plugin: str
+
+
+def attributing(function: Callable[..., Any], plugin: str) -> Callable[..., Any]:
+    """``function`` (a hook implementation) returning its dict or list as a
+    :class:`PluginDict` / :class:`PluginList` naming ``plugin``.
+
+    pluggy calls it as it called ``function`` (positional arguments in the order of
+    its parameters), so wrappers and ordering work as for any implementation, and a
+    wrapper sees a plain dict or list.
+    """
+
+    @functools.wraps(function)
+    def call(*args: Any) -> Any:
+        result = function(*args)
+        if isinstance(result, dict):
+            result = PluginDict(result)
+        elif isinstance(result, list):
+            result = PluginList(result)
+        else:
+            return result
+        result.plugin = plugin
+        return result
+
+    return call
+
+
+def plugin_of(result: Any, default: str = "a hook wrapper") -> str:
+    """The plugin whose implementation returned ``result``; ``default`` for a result
+    that no attributed implementation returned (a wrapper added it)."""
+    return getattr(result, "plugin", None) or default
+
+
+def type_name(result: Any) -> str:
+    """The name of ``result``'s type as its plugin returned it (``dict``, not PluginDict)."""
+    if isinstance(result, PluginDict):
+        return "dict"
+    if isinstance(result, PluginList):
+        return "list"
+    return type(result).__name__
 
 
 def has_implementations(pm: pluggy.PluginManager | None, name: str) -> bool:
@@ -75,7 +127,7 @@ def _raiser(impls: list[Any], exc: BaseException) -> Any:
     while tb is not None:
         frame = tb.tb_frame
         for impl in impls:
-            function = impl.function
+            function = getattr(impl.function, "__wrapped__", impl.function)
             if getattr(function, "__code__", None) is not frame.f_code:
                 continue
             owner = getattr(function, "__self__", None)

@@ -22,6 +22,7 @@ import pluggy
 from . import hookspecs
 from .constructor_params import declared_params
 from .errors import ConfigError, Mark
+from .hook_calls import attributing, plugin_of, type_name
 from .plugin_checks import interface_problems, version_problem
 
 ENTRY_POINT_GROUP = "armtree"
@@ -39,6 +40,8 @@ KINDS: dict[str, str] = {
     "predicate": "armtree_predicates",
     "profile_section": "armtree_profile_sections",
 }
+#: Hooks whose results must name the plugin behind them (in errors and ``armtree plugins``).
+ATTRIBUTED_HOOKS = frozenset({*KINDS.values(), "armtree_validate_profile"})
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,19 @@ class _Pluggy(pluggy.PluginManager):
     whose name is misspelt is reported by ``check_pending`` instead of being
     silently ignored.
     """
+
+    def register(self, plugin: Any, name: str | None = None) -> str | None:
+        """Register ``plugin``; its implementations of :data:`ATTRIBUTED_HOOKS` return
+        results that name it (:func:`armtree.hook_calls.attributing`)."""
+        registered = super().register(plugin, name)
+        if registered is None:
+            return None
+        for hook_name in ATTRIBUTED_HOOKS:
+            caller = getattr(self.hook, hook_name, None)
+            for impl in caller.get_hookimpls() if caller is not None else ():
+                if impl.plugin is plugin and not (impl.wrapper or impl.hookwrapper):
+                    impl.function = attributing(impl.function, registered)  # type: ignore[misc]
+        return registered
 
     def parse_hookimpl_opts(self, plugin: Any, name: str) -> Any:
         opts = super().parse_hookimpl_opts(plugin, name)
@@ -240,18 +256,16 @@ class PluginManager:
         return self._registry
 
     def _collect(self) -> dict[str, dict[str, Component]]:
+        """Every registration hook called through pluggy; each dict names its plugin."""
         found: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS}
         for kind, hook_name in KINDS.items():
-            caller = getattr(self.pm.hook, hook_name)
-            for impl in caller.get_hookimpls():
-                plugin_name = self.pm.get_name(impl.plugin) or repr(impl.plugin)
-                result = impl.function()
-                if result is None:
-                    continue
+            # pluggy calls the last registered first: reversed, the first registered wins.
+            for result in reversed(getattr(self.pm.hook, hook_name)()):
+                plugin_name = plugin_of(result)
                 if not isinstance(result, dict):
                     raise ConfigError(
                         f"plugin {plugin_name!r}: {hook_name}() must return a dict of "
-                        f"{{name: factory}}, got {type(result).__name__}"
+                        f"{{name: factory}}, got {type_name(result)}"
                     )
                 for name, factory in result.items():
                     if name in found[kind]:

@@ -40,6 +40,7 @@ from typing import Any
 
 from .calibration import check_calibration
 from .errors import ConfigError, Mark, shown
+from .hook_calls import call_isolated, plugin_of
 from .motion.scene import Scene
 from .params import check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
@@ -543,12 +544,17 @@ def _checked(
     try:
         found = call()
     except ConfigError as exc:
-        found = list(exc.errors)
+        return list(exc.errors)
     except Exception as exc:  # noqa: BLE001 - a plugin's bug is reported, not raised
         if not clean:
             return []
         message = f"plugin {plugin!r} failed to {what[0]}: {type(exc).__name__}: {exc}"
         return [ConfigError(message, file=file)]
+    return _as_errors(found, plugin, what[1], file)
+
+
+def _as_errors(found: Any, plugin: str, what: str, file: str) -> list[ConfigError]:
+    """What a plugin's check returned, as ConfigErrors; anything else is the plugin's mistake."""
     out: list[ConfigError] = []
     for item in found or ():
         if isinstance(item, ConfigError):
@@ -556,7 +562,7 @@ def _checked(
         else:
             out.append(
                 ConfigError(
-                    f"plugin {plugin!r}: {what[1]} must return ConfigErrors, "
+                    f"plugin {plugin!r}: {what} must return ConfigErrors, "
                     f"got {type(item).__name__}",
                     file=file,
                 )
@@ -565,24 +571,28 @@ def _checked(
 
 
 def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> list[ConfigError]:
-    """Every ``armtree_validate_profile`` implementation's errors, one plugin after another.
+    """Every ``armtree_validate_profile`` implementation's errors, called through pluggy.
 
-    Each implementation is called on its own so one plugin's failure does not hide
-    another's findings.
+    A plugin that raises is left out and the hook called again, so one plugin's
+    failure does not hide another's findings. An exception other than ConfigError
+    is a plugin bug when the profile is otherwise valid (``clean``); else it follows
+    from errors already reported and is dropped.
     """
+    file = str(profile.source or profile.name)
     out: list[ConfigError] = []
-    for impl in reversed(manager.hook.armtree_validate_profile.get_hookimpls()):
-        if impl.hookwrapper or getattr(impl, "wrapper", False):
-            # A wrapper returns nothing of its own to report; only plain implementations check.
-            continue
-        plugin = manager.pm.get_name(impl.plugin) or repr(impl.plugin)
-        out += _checked(
-            lambda impl=impl: impl.function(profile=profile),
-            plugin,
-            ("check the profile", "armtree_validate_profile"),
-            clean,
-            str(profile.source or profile.name),
-        )
+
+    def raised(hook: str, plugin: str, exc: BaseException) -> None:
+        if isinstance(exc, ConfigError):
+            out.extend(exc.errors)
+        elif clean:
+            message = f"plugin {plugin!r} failed to check the profile: {type(exc).__name__}: {exc}"
+            out.append(ConfigError(message, file=file))
+
+    results = call_isolated(
+        manager.pm, "armtree_validate_profile", raised, call_again=True, profile=profile
+    )
+    for found in reversed(results or []):
+        out += _as_errors(found, plugin_of(found), "armtree_validate_profile", file)
     return out
 
 

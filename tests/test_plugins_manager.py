@@ -239,3 +239,48 @@ def test_an_unmarked_misspelt_hook_is_reported_and_an_unmarked_one_works(tmp_pat
     manager = private()
     manager.load(str(tmp_path / "unmarked_ok.py"))
     assert manager.registry.has("behaviour", "plain")
+
+
+def test_a_plugins_hook_wrappers_see_registration_and_profile_checks_through_pluggy():
+    import py_trees
+
+    seen = []
+
+    class Wrapper:
+        @armtree.hookimpl(wrapper=True)
+        def armtree_behaviours(self):
+            result = yield
+            seen.append(("behaviours", {name for found in result for name in found}))
+            return [*result, {"from_wrapper": py_trees.behaviours.Success}]
+
+        @armtree.hookimpl(wrapper=True)
+        def armtree_validate_profile(self, profile):
+            result = yield
+            seen.append(("validate", profile.name, ["not an error"] in result))
+            return result
+
+    class Checker:
+        @armtree.hookimpl(tryfirst=True)
+        def armtree_behaviours(self):
+            return {"checked": py_trees.behaviours.Success}
+
+        @armtree.hookimpl
+        def armtree_validate_profile(self, profile):
+            return ["not an error"]
+
+    manager = PluginManager(autoload=False)
+    manager.load_entry_points()
+    manager.register(Wrapper(), "wrapper")
+    manager.register(Checker(), "checker")
+    registry = manager.registry
+    (names,) = [entry[1] for entry in seen if entry[0] == "behaviours"]
+    assert {"checked", "success", "pick"} <= names
+    assert registry.get("behaviour", "checked").plugin == "checker"
+    assert registry.get("behaviour", "pick").plugin == "skills"
+    assert registry.get("behaviour", "from_wrapper").plugin == "a hook wrapper"
+    with pytest.raises(armtree.ConfigError) as info:
+        armtree.load_profile("sim_dobot", manager=manager)
+    assert "plugin 'checker': armtree_validate_profile must return ConfigErrors" in str(
+        info.value.message
+    )
+    assert ("validate", "sim_dobot", True) in seen  # around the checker's implementation
