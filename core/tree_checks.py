@@ -12,7 +12,8 @@ found here, with the tree's (or the profile's) file, line and column:
 * a string that looks like a blackboard binding but names no key (``"{}"``);
 * a behaviour's ``NEEDS`` (``"camera"``: a camera and a tracker) and a ``"tool"``
   among its ``RESOURCES`` (an arm that grips with something) are on the rig, and the
-  ``workcell:`` keys in its ``WORKCELL`` (a sweep's ``survey``) are in the profile.
+  ``workcell:`` keys in its ``WORKCELL`` (a sweep's ``survey``), or those its
+  ``workcell_for(params)`` names for the parameters the tree gives it, are in the profile.
 
 Reach is judged with the arm's kinematic model (``factory.model(config)``, which
 opens no port): some inverse-kinematics solution within the joint limits.

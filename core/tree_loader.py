@@ -597,12 +597,20 @@ class _Loader:
         node = _Node(ntype, type_mark, node_name, path)
         params = self.check_params(factory, options, node, ctx)
         if self.rig_checks is not None:
+            # a behaviour whose workcell needs depend on its parameters says so through
+            # workcell_for(params) (a sweep needs the survey region only with sweep: true)
+            workcell_for = getattr(factory, "workcell_for", None)
+            workcell = (
+                workcell_for(params or {})
+                if callable(workcell_for)
+                else getattr(factory, "WORKCELL", ())
+            )
             for error in self.rig_checks.needs(
                 ntype,
                 getattr(factory, "NEEDS", ()),
                 getattr(factory, "RESOURCES", ()),
                 type_mark,
-                getattr(factory, "WORKCELL", ()),
+                workcell,
             ):
                 self.error(error.message, type_mark, ctx)
         built_children: Any = None

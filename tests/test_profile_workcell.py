@@ -194,3 +194,23 @@ def test_a_sweep_on_a_profile_without_a_survey_is_refused_at_load(tmp_path):
         armtree.load_tree(tree, rig=profile)
     messages = [f"{e.line}:{e.column}: {e.message}" for e in info.value.errors]
     assert any(m.startswith("2:3: sweep needs workcell.survey") for m in messages), messages
+
+
+def test_clean_up_needs_the_survey_only_when_it_sweeps_and_check_says_so_at_load(
+    tmp_path, capsys
+):
+    from armtree import cli
+
+    profile = tmp_path / "rig.yaml"
+    profile.write_text(
+        "arm: {type: vicra}\ncamera: {type: sim}\ntracker: {type: aruco}\n"
+        "places: {garbage_bin: [0, 300, 100]}\ntags: {trash: {ids: [2], size_mm: 25}}\n"
+    )
+    here = tmp_path / "here.yaml"
+    here.write_text("root:\n  clean_up: {}\n")
+    assert cli.main(["check", str(here), "--rig", str(profile)]) == 0  # looks from where it is
+    swept = tmp_path / "swept.yaml"
+    swept.write_text("root:\n  sequence:\n    children:\n      - clean_up: {sweep: true}\n")
+    assert cli.main(["check", str(swept), "--rig", str(profile)]) == 2
+    err = capsys.readouterr().err
+    assert f"{swept}:4:9: clean_up needs workcell.survey in the hardware profile" in err

@@ -11,7 +11,7 @@ uncaught failure ends the behaviour as FAILURE with its message.
 
 from __future__ import annotations
 
-from collections.abc import Generator
+from collections.abc import Generator, Mapping
 from typing import Any
 
 import numpy as np
@@ -104,7 +104,8 @@ class Skill(armtree.Behaviour):
     # Parameters naming a place or a tag role declare it with ``Param(kind="place")`` /
     # ``kind="tag_role"``: the loader resolves them against the profile at load time
     # (with the tree's line), and setup checks them again against the rig it is given.
-    #: Keys of the profile's ``workcell:`` the skill cannot run without (checked at setup).
+    #: Keys of the profile's ``workcell:`` the skill cannot run without (checked when the
+    #: tree loads and again at setup); :meth:`workcell_for` when they depend on parameters.
     WORKCELL: tuple[str, ...] = ()
 
     def __init__(self, name: str, **params: Any) -> None:
@@ -137,9 +138,15 @@ class Skill(armtree.Behaviour):
             self._workcell = workcell_of(getattr(self.rig, "profile", None))
         return self._workcell
 
+    @classmethod
+    def workcell_for(cls, params: Mapping[str, Any]) -> tuple[str, ...]:
+        """The ``workcell:`` keys a node with these parameters needs (default
+        :attr:`WORKCELL`); the loader asks before anything is built, with the tree's line."""
+        return cls.WORKCELL
+
     def workcell_needs(self) -> tuple[str, ...]:
-        """The ``workcell:`` keys this skill needs on this rig (default :attr:`WORKCELL`)."""
-        return self.WORKCELL
+        """The ``workcell:`` keys this skill needs with its parameters."""
+        return self.workcell_for(self.params)
 
     def procedure(self) -> Procedure:
         """The skill's steps; yield actions, return the result, raise SkillFailure to fail."""

@@ -8,8 +8,9 @@ garbage bin and returns to where it was.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -232,8 +233,10 @@ class CleanUp(ArmSkill):
     RESOURCES = ("arm", "tool")
     NEEDS = ("arm", "camera")
 
-    def workcell_needs(self) -> tuple[str, ...]:
-        return ("survey", "table_z_mm") if self.params.get("sweep") else ()
+    @classmethod
+    def workcell_for(cls, params: Mapping[str, Any]) -> tuple[str, ...]:
+        """The survey region and table height, only when it sweeps (``sweep`` true or bound)."""
+        return ("survey", "table_z_mm") if params.get("sweep") else ()
 
     def procedure(self) -> Procedure:
         poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
