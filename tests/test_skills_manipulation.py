@@ -291,3 +291,45 @@ def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
     assert edge_toward_base(target, 25.0, 0.0) == pytest.approx(12.5)  # a side faces the base
     # turned 45 degrees a corner faces the base: the edge is half the diagonal away
     assert edge_toward_base(target, 25.0, np.pi / 4) == pytest.approx(12.5 * np.sqrt(2.0))
+
+
+def held_release(bias, at=(200.0, 0.0, 0.0)):
+    """Eye-to-hand: a ducky held at the tool centre, joints that lost steps by ``bias``
+    (base deg, reach mm, height mm), let go at [200, 0, 0] mm."""
+    from armtree.plugins.skills.eye import eye_of
+    from armtree.plugins.skills.manipulation import Release
+
+    held = Marker(0, np.array([at[0], at[1], 80.0]), held=True)
+    rig = make_rig([held], mount="eye_to_hand")
+    rig.world.held = held
+    rig.arm.suction = True
+    rig.arm.bias = np.asarray(bias, dtype=float)
+    eye_of(rig).held = np.array([0.0, 0.0, 0.0, 1.0])  # the grip left the marker at the tool
+    node = Release("let go", at=list(at), object="ducky", verify=False)
+    status, _ = run(node, rig)
+    return status, node, rig, held
+
+
+def test_a_held_marker_off_the_joints_moves_the_release_and_never_lowers_it():
+    # steps lost: the tool is really 6 mm farther out and 8 mm lower than the joints say
+    status, node, rig, held = held_release([0.0, 6.0, -8.0])
+    assert status is Status.SUCCESS, node.feedback_message
+    # let go where it was meant to land, not 8 mm lower (into what is under it)
+    np.testing.assert_allclose(held.dropped_at, [200.0, 0.0, 0.0], atol=1.0)
+    # a marker higher than the joints say is no reason to go lower
+    status, node, rig, held = held_release([0.0, 0.0, 8.0])
+    assert status is Status.SUCCESS and held.dropped_at[2] == pytest.approx(8.0, abs=1.0)
+
+
+def test_joints_that_agree_with_the_held_marker_change_nothing():
+    status, node, rig, held = held_release([0.0, 0.0, 0.0])
+    assert status is Status.SUCCESS, node.feedback_message
+    np.testing.assert_allclose(held.dropped_at, [200.0, 0.0, 0.0], atol=1e-6)
+
+
+def test_a_correction_out_of_reach_fails_still_holding():
+    # the tool is really 10 mm nearer the base: the corrected release lies past its reach
+    status, node, rig, held = held_release([0.0, -10.0, 0.0], at=(315.0, 0.0, 0.0))
+    assert status is Status.FAILURE
+    assert "out of reach; still holding it" in node.feedback_message
+    assert held.held and rig.arm.suction

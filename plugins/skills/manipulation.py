@@ -24,6 +24,7 @@ base frame, mm.
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,10 @@ ON_TOP_MM = 5.0
 #: Steps of the look around a place the check did not see the object at, as a fraction
 #: of the camera's view on the table.
 CHECK_STEP = 0.3
+#: A held marker this far (mm) beside or below where the arm's joints put it moves the
+#: release; one farther than the limit is not the held object's.
+HELD_TOLERANCE_MM = 4.0
+HELD_LIMIT_MM = 40.0
 #: How far a release point may move to within reach (mm), and how much lower at most.
 RELEASE_SLACK_MM = 15.0
 RELEASE_DROP_MM = 3.0
@@ -94,9 +99,15 @@ def edge_toward_base(target: np.ndarray, size: float, yaw: float | None) -> floa
 
 
 def release_steps(
-    skill: ArmSkill, target: np.ndarray, approach: float, release: float, dwell: float
+    skill: ArmSkill,
+    target: np.ndarray,
+    approach: float,
+    release: float,
+    dwell: float,
+    check: Callable[[np.ndarray], Procedure] | None = None,
 ) -> Procedure:
-    """Approach above ``target``, descend to ``release`` mm above it, open the tool, lift back.
+    """Approach above ``target``, descend to ``release`` mm above it, open the tool, lift back
+    (``check``: as :func:`release_at`'s).
 
     A release point just out of reach (a Duckybot parked at the edge of a small
     workspace) gives way to the nearest reachable one within
@@ -110,15 +121,25 @@ def release_steps(
         )
         if near is not None and np.linalg.norm(near - point) <= RELEASE_SLACK_MM:
             point = near
-    return (yield from release_at(skill, point, max(0.0, approach - release), dwell))
+    return (yield from release_at(skill, point, max(0.0, approach - release), dwell, check))
 
 
-def release_at(skill: ArmSkill, point: np.ndarray, approach: float, dwell: float) -> Procedure:
+def release_at(
+    skill: ArmSkill,
+    point: np.ndarray,
+    approach: float,
+    dwell: float,
+    check: Callable[[np.ndarray], Procedure] | None = None,
+) -> Procedure:
     """Approach ``approach`` mm above ``point`` (as much as reachable), descend to it, open
-    the tool, lift back. Returns ``point``."""
+    the tool, lift back. Returns the point let go at: ``check(point)``, when given, runs
+    at the approach and returns the point to descend to instead (a correction)."""
     rig, speed = skill.rig, skill.speed()
     over = above(skill, point, approach)
     yield Move(rig, over, speed=speed, label="approach")
+    if check is not None:
+        point = yield from check(point)
+        over = np.array([point[0], point[1], max(over[2], point[2])])
     if over[2] > point[2] + 1e-6:
         yield Move(rig, point, speed=speed, label="descend")
     yield Suction(rig, False)
@@ -566,14 +587,19 @@ class PuttingDown(ArmSkill):
         held, eye.held = eye.held, None
         hang, eye.held_hang_mm = eye.held_hang_mm, None
         bin_name = None if on_marker else self.bin_at()
+        marker = self.param("marker")
+
+        def check(point: np.ndarray) -> Procedure:
+            return (yield from self.check_held(point, held, marker))
+
         if bin_name is not None and hang is not None:
             drop = self.plan_bin_drop(bin_name, target, held, hang)
             point = yield from release_at(
-                self, drop.tool, max(0.0, self.param("approach_mm")), self.param("dwell_s")
+                self, drop.tool, max(0.0, self.param("approach_mm")), self.param("dwell_s"), check
             )
         else:
             point = yield from release_steps(
-                self, target, self.param("approach_mm"), release, self.param("dwell_s")
+                self, target, self.param("approach_mm"), release, self.param("dwell_s"), check
             )
         released = target + UP * release
         expected = None
@@ -581,7 +607,6 @@ class PuttingDown(ArmSkill):
             with contextlib.suppress(ValueError):  # the release point's IK (Unreachable)
                 landed = (tool_pose_at(self.rig, point) @ held)[:3]
                 expected = np.array([landed[0], landed[1], target[2]])
-        marker = self.param("marker")
         if bin_name is not None:
             # until the camera says otherwise it lies where it was let go, as high as that
             landing = point if expected is None else expected
@@ -611,6 +636,41 @@ class PuttingDown(ArmSkill):
                 if seen is not None:
                     contents_of(self.rig).record(bin_name, int(marker), seen.position)
         return released
+
+    def check_held(self, point: np.ndarray, held: np.ndarray | None, marker: Any) -> Procedure:
+        """Eye-to-hand, before descending to let go at ``point``: the held object's marker
+        should ride where the grip left it on the tool (``held``); the fixed camera sees
+        where it is. Joints that lost steps put it elsewhere, so the descent is moved by
+        the disagreement beside the camera's ray and raised (never lowered) by how much
+        lower it hangs; beyond :data:`HELD_LIMIT_MM` the release fails, still holding.
+        Returns the point to descend to."""
+        rig, obj = self.rig, self.param("object")
+        if rig.camera is None or rig.tracker is None or rig.camera.mount == EYE_IN_HAND:
+            return point
+        if held is None or not obj:
+            return point
+        view = yield Look(rig, self.clock, want=obj, frames=3, settle=self.settle(), average=True)
+        expected = (rig.arm.pose() @ held)[:3]
+        mine = [s for s in view if marker is None or s.id == int(marker)]
+        seen = nearest(mine, obj, expected, HELD_LIMIT_MM)
+        if seen is None:
+            self.unverified(f"the held {obj!r} tag is not in view before letting go")
+            return point
+        off = seen.position - expected
+        flat, low = float(np.linalg.norm(off[:2])), float(-off[2])
+        ok = flat <= HELD_TOLERANCE_MM and low <= HELD_TOLERANCE_MM
+        self.note("check", check="held", ok=ok, tag=obj, offset_mm=as_list(off))
+        if ok:
+            return point
+        corrected = point - np.array([off[0], off[1], 0.0]) + UP * max(0.0, low)
+        if not reachable(rig.arm.model, corrected):
+            raise SkillFailure(
+                f"{self.name}: the held {obj!r} tag is at {fmt(seen.position)}, {flat:.1f} mm "
+                f"beside and {low:.1f} mm below where the arm's joints put it, and the "
+                f"corrected release {fmt(corrected)} is out of reach; still holding it"
+            )
+        self.note("corrected", why="held marker off the tool", point_mm=as_list(corrected))
+        return corrected
 
     def bin_at(self) -> str | None:
         """The place ``at`` names when the profile describes a bin there, else None."""
