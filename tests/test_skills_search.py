@@ -185,3 +185,18 @@ def test_search_on_a_profile_without_a_survey_region_says_what_to_add():
     ):
         node.setup(rig=rig, clock=rig.clock)
     assert rig.arm.moves == []
+
+
+def test_clean_up_spreads_its_drops_across_a_bin_the_profile_describes():
+    items = [Marker(2, np.array([205.0, 10.0, 0.0])), Marker(4, np.array([195.0, -15.0, 0.0]))]
+    bins = {"garbage_bin": {"size_mm": [74.0, 74.0], "rim_z_mm": 20.0}}
+    rig = make_rig(workcell={"look_height_mm": 100.0, "bins": bins}, markers=items)
+    rig.arm.q = np.array([0.0, 200.0, 120.0])
+    node = CleanUp("clean", count=Binding("n"))
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert node.bb.get("n") == 2
+    a, b = (m.dropped_at for m in items)
+    # both inside the bin, a marker's diagonal apart: side by side, not one on the other
+    assert all(np.all(np.abs(p[:2] - [60.0, 230.0]) <= 37.0) for p in (a, b))
+    assert np.linalg.norm(a[:2] - b[:2]) >= 25.0 * np.sqrt(2.0)

@@ -296,6 +296,54 @@ def verify_place(
     return f"the {obj!r} tag is {flat:.0f} mm from the target"
 
 
+def bin_drop(
+    skill: ArmSkill,
+    name: str,
+    place: np.ndarray,
+    held: np.ndarray | None,
+    hang: float,
+    role: str,
+    marker: int | None,
+) -> Drop:
+    """Where to let go in the bin at place ``name``: :func:`~.bins.plan_drop` over what
+    this run let go there and the markers last seen inside it (not the held ``marker``).
+
+    ``held``: the held marker in the tool frame (None: at the tool centre); ``hang``: how
+    far the held object reaches below the tool (mm); ``role``: its tag role. Raises
+    :class:`SkillFailure`, still holding, when no reachable release clears what is there.
+    """
+    rig = skill.rig
+    spec = skill.workcell.bins[name]
+    contents = contents_of(rig).of(name)
+    view = eye_of(rig).last
+    if view is not None:
+        contents += [
+            s.position for s in view.sightings if s.id != marker and inside(spec, place, s.position)
+        ]
+    tag = rig.tags.get(role) if role else None
+    offset = None
+    if held is not None:
+        with contextlib.suppress(ValueError):  # the place's IK (Unreachable)
+            offset = (tool_pose_at(rig, place) @ held)[:2] - place[:2]
+    drop = plan_drop(
+        rig.arm.model, place, spec, contents, hang, tag.size_mm if tag is not None else 0.0, offset
+    )
+    if drop is None:
+        raise SkillFailure(
+            f"{skill.name}: no room left in {name!r} within reach: the held object would "
+            f"not clear its rim or the {len(contents)} thing(s) in it; still holding it"
+        )
+    skill.note(
+        "bin_drop",
+        bin=name,
+        landing_mm=as_list(drop.landing),
+        tool_mm=as_list(drop.tool),
+        room_mm=None if np.isinf(drop.room_mm) else round(drop.room_mm, 1),
+        contents=len(contents),
+    )
+    return drop
+
+
 def skipped(value: Any) -> list[int]:
     """Marker ids from a ``skip`` parameter's value (None or a list)."""
     return [int(v) for v in value] if isinstance(value, (list, tuple)) else []
@@ -688,47 +736,17 @@ class PuttingDown(ArmSkill):
     def plan_bin_drop(
         self, name: str, place: np.ndarray, held: np.ndarray | None, hang: float
     ) -> Drop:
-        """Where to let go in the bin at place ``name``: :func:`~.bins.plan_drop` over what
-        this run let go there and the markers last seen inside it (not the held one)."""
-        spec = self.workcell.bins[name]
+        """Where to let go in the bin at place ``name`` (:func:`bin_drop`)."""
         marker = self.param("marker")
-        contents = contents_of(self.rig).of(name)
-        view = eye_of(self.rig).last
-        if view is not None:
-            contents += [
-                s.position
-                for s in view.sightings
-                if (marker is None or s.id != int(marker)) and inside(spec, place, s.position)
-            ]
-        obj = self.param("object")
-        tag = self.rig.tags.get(obj) if obj else None
-        offset = None
-        if held is not None:
-            with contextlib.suppress(ValueError):  # the place's IK (Unreachable)
-                offset = (tool_pose_at(self.rig, place) @ held)[:2] - place[:2]
-        drop = plan_drop(
-            self.rig.arm.model,
+        return bin_drop(
+            self,
+            name,
             place,
-            spec,
-            contents,
+            held,
             hang,
-            tag.size_mm if tag is not None else 0.0,
-            offset,
+            self.param("object"),
+            None if marker is None else int(marker),
         )
-        if drop is None:
-            raise SkillFailure(
-                f"{self.name}: no room left in {name!r} within reach: the held object would "
-                f"not clear its rim or the {len(contents)} thing(s) in it; still holding it"
-            )
-        self.note(
-            "bin_drop",
-            bin=name,
-            landing_mm=as_list(drop.landing),
-            tool_mm=as_list(drop.tool),
-            room_mm=None if np.isinf(drop.room_mm) else round(drop.room_mm, 1),
-            contents=len(contents),
-        )
-        return drop
 
 
 class Place(PuttingDown):
@@ -805,6 +823,7 @@ class Release(PuttingDown):
 
 __all__ = [
     "Grasp",
+    "bin_drop",
     "Gripping",
     "Pick",
     "Place",

@@ -19,8 +19,9 @@ from armtree import Param
 from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
 from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
+from .bins import contents_of
 from .eye import Sighting
-from .manipulation import release_steps
+from .manipulation import bin_drop, release_at, release_steps
 from .survey import survey_points, sweep_angles
 
 
@@ -77,7 +78,15 @@ def clean_one(
     yield Pause(skill.clock, skill.param("dwell_s"))
     yield Move(rig, over, speed=speed, label="lift")
     approach = skill.param("approach_mm")
-    yield from release_steps(skill, bin_xyz, approach, 0.0, skill.param("dwell_s"))
+    name, cell = skill.param("bin"), skill.workcell
+    if isinstance(name, str) and name in cell.bins and cell.table_z_mm is not None:
+        # spread across the bin's inside, clear of what is in it (manipulation's place does too)
+        hang = float(grip[2] - cell.table_z_mm)
+        drop = bin_drop(skill, name, bin_xyz, None, hang, skill.param("trash"), item.id)
+        point = yield from release_at(skill, drop.tool, approach, skill.param("dwell_s"))
+        contents_of(rig).record(name, item.id, np.array([*drop.landing, point[2]]))
+    else:
+        yield from release_steps(skill, bin_xyz, approach, 0.0, skill.param("dwell_s"))
     log.carried += 1
     log.last = (item.id, item.position)
     yield Move(rig, origin, speed=speed, label="return")
