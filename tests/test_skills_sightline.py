@@ -6,7 +6,7 @@ import numpy as np
 
 from armtree.plugins.arms.vicra.kinematics import VicraModel
 from armtree.plugins.skills.arm_skill import camera_over
-from armtree.plugins.skills.locate import out_of_view, shadow
+from armtree.plugins.skills.locate import joints_out_of_view, out_of_view, shadow
 from armtree.plugins.skills.reach import reachable
 from armtree.plugins.skills.sightline import hides, segment_hits_boxes
 from armtree.plugins.skills.survey import survey_points
@@ -43,7 +43,8 @@ def vicra_skill(q):
     arm = SimpleNamespace(model=model, joints=lambda: q, pose=lambda: model.fk(q))
     camera = SimpleNamespace(mount="eye_to_hand", extrinsics=CAMERA)
     return SimpleNamespace(
-        rig=SimpleNamespace(arm=arm, camera=camera), workcell=workcell_of({"workcell": CELL})
+        rig=SimpleNamespace(arm=arm, camera=camera, planner=None),
+        workcell=workcell_of({"workcell": CELL}),
     )
 
 
@@ -64,6 +65,11 @@ def test_out_of_view_clears_the_links_from_the_line_of_sight_not_just_the_tool()
     assert hides(model, model.ik(farthest, near=q), CAMERA[:3, 3], target)  # distance alone fails
     away = out_of_view(skill, target)
     assert not hides(model, model.ik(away, near=q), CAMERA[:3, 3], target)
+    # over every solution: the joints themselves, clear of the target's line of sight
+    joints = joints_out_of_view(skill, target)
+    assert not hides(model, joints, CAMERA[:3, 3], target)
+    tool = model.position(joints)  # a pose of the survey ring, the camera 100 mm over it
+    assert np.isclose(np.hypot(tool[0], tool[1]), 185.0, atol=1e-6) and np.isclose(tool[2], 100.0)
 
 
 def test_the_arms_shadow_holds_the_point_under_its_tool():

@@ -17,14 +17,14 @@ import numpy as np
 
 from armtree import Param
 from armtree.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Look, Move, SkillFailure
+from armtree.plugins.skills.actions import Look, Move, SkillFailure, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill
 from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
-from armtree.plugins.skills.locate import out_of_view, shadow
+from armtree.plugins.skills.locate import joints_out_of_view, shadow
 
 from .behaviours import Measure, _half_view, _list
-from .occupied import declared_keep_outs, free, seen_keep_outs
+from .occupied import blocker, declared_keep_outs, free, seen_keep_outs
 from .poses import in_view, reachable_mask
 
 #: Fraction of the half image a target and the tool's marker over it may use.
@@ -48,8 +48,10 @@ class PlanTargets(ArmSkill):
         Param("margin_mm", "float", 15.0, "mm", "room kept around a target within the workspace", minimum=0.0, maximum=200.0),
         Param("tag", "str", "target", "", "tag role of the target marker (not an obstacle)", kind="tag_role"),
         Param("keep_out_mm", "float", 80.0, "mm", "least distance from a target's centre to a marker seen on the table", minimum=0.0, maximum=1000.0),
+        Param("spare", "int", 10, "", "further points drawn for targets found occupied when placed", minimum=0, maximum=1000),
         Param("seed", "int", 0, "", "random targets", minimum=0, maximum=2**31),
         Param("targets", "any", None, "mm", "output: table points", io="out"),
+        Param("spares", "any", None, "mm", "output: the spare table points", io="out"),
         *ArmSkill.COMMON,
     )  # fmt: skip
     RESOURCES = ("arm",)
@@ -71,7 +73,11 @@ class PlanTargets(ArmSkill):
                 f"the table; {self.param('count')} wanted (clear the table or ask for fewer)"
             )
         rng = np.random.default_rng(self.param("seed") + 1)
-        chosen = points[rng.choice(len(points), self.param("count"), replace=False)]
+        count = self.param("count")
+        drawn = min(len(points), count + self.param("spare"))
+        chosen = points[rng.choice(len(points), drawn, replace=False)]
+        self.output("spares", [_list(p) for p in chosen[count:]])
+        chosen = chosen[:count]
         self.output("targets", [_list(p) for p in chosen])
         self.feedback_message = f"{len(chosen)} targets"
         return len(chosen)
@@ -111,9 +117,9 @@ class PlanTargets(ArmSkill):
         rig = self.rig
         if len(points):
             sample = points[:: max(1, len(points) // 200)]
-            away = out_of_view(self, sample)
+            away = joints_out_of_view(self, sample)
             if away is not None:
-                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+                yield Move(rig, joints=away, speed=self.speed(), label="out of the camera's way")
         sightings = yield Look(rig, self.clock, frames=3, settle=self.settle(), average=True)
         skip = {self.param("tag")}
         marker = self.workcell.tool_marker
@@ -134,12 +140,15 @@ class PlanTargets(ArmSkill):
 
 class PlaceTarget(ArmSkill):
     """Have the next target placed (the measuring device: a person, or the simulation), with the
-    arm waiting out of the camera's way at ``park``."""
+    arm waiting out of the camera's way: with a fixed camera and a survey, where its links do not
+    hide the target (:func:`~armtree.plugins.skills.locate.joints_out_of_view`), else at ``park``."""
 
     PARAMS = (
-        Param("targets", "any", doc="plan_targets' output"),
+        Param("targets", "any", None, "mm", "in/out: plan_targets' targets (one found occupied is replaced by a spare)", io="inout"),
+        Param("spares", "any", None, "mm", "in/out: plan_targets' spares", io="inout"),
+        Param("keep_out_mm", "float", 80.0, "mm", "least distance from the target to a marker seen on the table", minimum=0.0, maximum=1000.0),
         Param("tag", "str", "target", doc="tag role of the target marker", kind="tag_role"),
-        Param("park", "str", "home", doc="where the arm waits while the target is placed", kind="place"),
+        Param("park", "str", "home", doc="where the arm waits while the target is placed (without a fixed camera's survey)", kind="place"),
         Param("index", "any", None, "", "in/out: the trial's number (0 first)", io="inout"),
         Param("progress", "any", None, "", "output: {done, total, what}", io="out"),
         Param("reset", "any", None, "", "output: set to None (the servo's error of the last trial)", io="out"),
@@ -162,13 +171,63 @@ class PlaceTarget(ArmSkill):
         )
         self.output("reset", None)
         self.output("reset_failure", "")
-        yield Move(
-            rig, self.point(self.param("park"), self.name), speed=self.speed(), label="wait aside"
-        )
+        self._note = ""
+        away = self._out_of_view(np.asarray(targets[index], dtype=float))
+        if away is None:
+            park = self.point(self.param("park"), self.name)
+            yield Move(rig, park, speed=self.speed(), label="wait aside")
+        else:
+            yield Move(rig, joints=away, speed=self.speed(), label="wait aside")
+        if away is not None and rig.tracker is not None:
+            # something may have come to stand there since the targets were drawn
+            was = targets[index]
+            targets = yield from self._still_free(list(targets), index)
+            if targets[index] != was:
+                away = self._out_of_view(np.asarray(targets[index], dtype=float))
+                if away is not None:
+                    yield Move(rig, joints=away, speed=self.speed(), label="wait aside")
         marker_id = rig.tags[self.param("tag")].ids[0]
         yield Measure(lambda: rig.reference.place_marker(marker_id, np.asarray(targets[index])[:2]))
         self.output("index", index)
+        if self._note:
+            self.feedback_message = self._note
         return index
+
+    def _still_free(self, targets: list[Any], index: int) -> Procedure:
+        """``targets`` with target ``index`` replaced by the first spare clear of what the camera
+        sees now, when something stands on it (a Duckybot parked there since); unchanged else."""
+        sightings = yield Look(self.rig, self.clock, frames=3, settle=self.settle(), average=True)
+        skip = {self.param("tag")}
+        marker = self.workcell.tool_marker
+        if marker is not None:
+            skip.add(marker.tag)
+        keep = seen_keep_outs(sightings, skip, float(self.param("keep_out_mm")))
+        if free(np.asarray(targets[index], dtype=float), keep)[0]:
+            return targets
+        spares = list(self.param("spares") or [])
+        for k, spare in enumerate(spares):
+            if free(np.asarray(spare, dtype=float), keep)[0]:
+                was = targets[index]
+                targets[index] = spare
+                self.output("targets", targets)
+                self.output("spares", spares[:k] + spares[k + 1 :])
+                self._note = (
+                    f"target {index + 1} at {fmt(np.asarray(was))} is under {blocker(was, keep)}: "
+                    f"placed at {fmt(np.asarray(spare))} instead"
+                )
+                return targets
+        raise SkillFailure(
+            f"{self.name}: target {index + 1} at {fmt(np.asarray(targets[index]))} is under "
+            f"{blocker(targets[index], keep)} and no spare target is clear"
+        )
+
+    def _out_of_view(self, targets: np.ndarray) -> np.ndarray | None:
+        """With a fixed camera, the joints of the survey pose whose links hide the target
+        (and least of the view) from it; None otherwise (the arm waits at ``park``)."""
+        rig = self.rig
+        if rig.camera is None or rig.camera.mount == EYE_IN_HAND or not len(targets):
+            return None
+        return joints_out_of_view(self, targets.reshape(-1, 3))
 
 
 class RecordTrial(Skill):

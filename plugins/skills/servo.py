@@ -31,7 +31,7 @@ from armtree.perception.frames import EYE_IN_HAND, along_ray_to_height
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure
 from .eye import Sighting
-from .locate import nearest, out_of_view, shadow
+from .locate import joints_out_of_view, nearest, shadow
 from .manipulation import ArmSkill
 
 
@@ -187,9 +187,9 @@ class VisualServo(ArmSkill):
         sighting = yield from self._look_for(tag)
         if sighting is None:
             hidden = shadow(self)
-            away = out_of_view(self, hidden if len(hidden) else rig.arm.pose()[:3, 3])
+            away = joints_out_of_view(self, hidden if len(hidden) else rig.arm.pose()[:3, 3])
             if away is not None:
-                yield Move(rig, away, speed=self.speed(), label="out of the camera's way")
+                yield Move(rig, joints=away, speed=self.speed(), label="out of the camera's way")
                 sighting = yield from self._look_for(tag)
         if sighting is None:
             raise SkillFailure(f"{self.name}: the target {tag!r} tag is not in view")

@@ -59,11 +59,14 @@ def hides(
     """Boolean ``(...)``: with the joints ``q`` ``(..., n)`` some link box, grown by
     ``margin`` mm, crosses the line from the ``camera`` position to ``point`` (mm).
 
-    An arm without link boxes hides nothing (the caller falls back on distances).
+    ``point`` broadcasts against the joints' leading shape with one more axis for
+    the boxes (points ``(N, 1, 1, 3)`` and joints ``(K, n)`` give ``(N, K)``). An arm
+    without link boxes hides nothing (the caller falls back on distances).
     """
     q = np.asarray(q, dtype=float)
+    point = np.asarray(point, dtype=float)
     if not model.boxes:
-        return np.zeros(q.shape[:-1], dtype=bool)
+        return np.zeros(np.broadcast_shapes(q.shape[:-1], point.shape[:-2]), dtype=bool)
     half = 0.5 * model.box_sizes() + float(margin)
     hit = segment_hits_boxes(camera, point, model.box_poses(q), half)
     return np.any(hit, axis=-1)

@@ -24,9 +24,9 @@ MAX_SIDE_PX = 64.0
 #: Least grey-level difference between the border and the white cells.
 MIN_CONTRAST = 40.0
 #: Least distance of a cell's level from the threshold, as a fraction of the contrast.
-MIN_MARGIN = 0.15
+MIN_MARGIN = 0.08
 #: Where each cell is read, as fractions of the cell (a 3 x 3 grid in its middle).
-_IN_CELL = np.array([0.3, 0.5, 0.7])
+_IN_CELL = np.array([0.4, 0.5, 0.6])
 
 
 class Rescuer:
