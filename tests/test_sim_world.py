@@ -133,6 +133,16 @@ def test_collision_without_halting_when_configured(make_world):
     assert emu.model.position(emu.q)[0] == pytest.approx(300)
 
 
+def test_a_body_moved_into_a_resting_arm_is_a_collision(make_world):
+    world, emu = make_world(physics={"halt_on_collision": False})
+    emu.put([200, 100, 60])
+    run_world(world, emu, 0.5)
+    assert world.score()["collision_count"] == 0
+    world.bodies["wall"].pose[0, 3] = 200.0  # slid (in place) over the still tool
+    run_world(world, emu, 0.1)
+    assert {c["other"] for c in world.score()["collisions"]} == {"wall"}
+
+
 def test_touching_a_top_face_is_not_a_collision(make_world):
     world, emu = make_world()
     ducky = world.bodies["ducky"]

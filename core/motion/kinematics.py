@@ -165,7 +165,10 @@ class KinematicModel(ABC):
 
     def box_poses(self, q: np.ndarray) -> np.ndarray:
         """Pose of every link box centre, ``(..., B, 4, 4)``, mm."""
-        frames = self.link_frames(np.asarray(q, dtype=float))
+        return self.box_poses_in(self.link_frames(np.asarray(q, dtype=float)))
+
+    def box_poses_in(self, frames: np.ndarray) -> np.ndarray:
+        """:meth:`box_poses` from link frames already computed by :meth:`link_frames`."""
         idx = [b.link for b in self.boxes]
         offsets = np.stack([b.offset for b in self.boxes])
         return frames[..., idx, :, :] @ offsets

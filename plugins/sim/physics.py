@@ -8,6 +8,7 @@ and again only after the two have come apart. Millimetres, seconds.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -22,7 +23,7 @@ class SolidBox:
     pose: np.ndarray
     size: np.ndarray
 
-    @property
+    @cached_property
     def radius(self) -> float:
         """Radius of the bounding sphere, mm."""
         return 0.5 * float(np.linalg.norm(self.size))

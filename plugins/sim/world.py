@@ -56,6 +56,10 @@ class Body:
     off_table: bool = False
     #: Height of its bottom (mm) when it started to fall.
     fall_from: float = 0.0
+    #: :meth:`solids` as last built, and the pose and size it was built for.
+    _solids_memo: tuple[bytes, list[SolidBox]] | None = field(
+        default=None, repr=False, compare=False
+    )
 
     @property
     def name(self) -> str:
@@ -108,6 +112,13 @@ class Body:
 
     def solids(self) -> list[SolidBox]:
         """Collision boxes: one for a solid, five (floor and walls) for a bin, none for a spot."""
+        # Rebuilt only when the pose or size changed: most bodies rest for most of a run.
+        key = self.pose.tobytes() + self.size.tobytes()
+        if self._solids_memo is None or self._solids_memo[0] != key:
+            self._solids_memo = (key, self._build_solids())
+        return list(self._solids_memo[1])
+
+    def _build_solids(self) -> list[SolidBox]:
         if self.kind == "spot":
             return []
         if self.kind != "bin":
@@ -189,6 +200,7 @@ class World:
         self._last_gripper: float | None = None
         self._grip_mode = "suction"
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
+        self._contact_inputs_checked: bytes | None = None
         self._slip_rng = np.random.default_rng(self._seq.spawn(2)[1])
         self._last_joints: np.ndarray | None = None
         self.events: list[WorldEvent] = []
@@ -210,6 +222,7 @@ class World:
             self.emulator = emulator
             self.model = emulator.model if model is None else model
             self.tool_boxes = _tool_rigid_boxes(self.model)
+            self.arm = None
             for fault, options in self.scene.faults.items():
                 emulator.inject(fault, **options)
             self._read_arm()
@@ -219,17 +232,24 @@ class World:
             return
         q = np.asarray(self.emulator.true_joints(), dtype=float)
         tool = self.emulator.tool()
+        suction, gripper = bool(getattr(tool, "suction", False)), getattr(tool, "gripper", None)
+        last = self.arm
+        if last is not None and last.joints.tobytes() == q.tobytes():
+            # The same joints, bit for bit, place the links exactly as last tick.
+            self.arm = ArmView(
+                q, last.tool_pose, last.box_poses, last.box_sizes, last.box_names, suction, gripper
+            )
+            return
         model = self.model
         frames = model.link_frames(q)
-        boxes = model.box_poses(q) if model.boxes else np.zeros((0, 4, 4))
         self.arm = ArmView(
             joints=q,
             tool_pose=frames[-1],
-            box_poses=boxes,
+            box_poses=model.box_poses_in(frames) if model.boxes else np.zeros((0, 4, 4)),
             box_sizes=model.box_sizes() if model.boxes else np.zeros((0, 3)),
             box_names=tuple(b.name for b in model.boxes),
-            suction=bool(getattr(tool, "suction", False)),
-            gripper=getattr(tool, "gripper", None),
+            suction=suction,
+            gripper=gripper,
         )
 
     # -- stepping -------------------------------------------------------------------
@@ -245,9 +265,11 @@ class World:
                 bot.advance(now)
                 body = self.bodies[name]
                 body.pose = pose(rot_z(bot.state.theta), [bot.state.x, bot.state.y, body.bottom])
-                delta = body.pose @ np.linalg.inv(before)
-                for carried in self.carried_by(name):
-                    carried.pose = delta @ carried.pose
+                carried = self.carried_by(name)
+                if carried:
+                    delta = body.pose @ np.linalg.inv(before)
+                    for other in carried:
+                        other.pose = delta @ other.pose
             self._tool_physics(now)
             self._fall(dt, now)
             self._check_collisions(now)
@@ -260,7 +282,13 @@ class World:
         arm = self.arm
         if slips is None or arm is None or dt <= 0:
             return
-        moving = self._last_joints is not None and not np.allclose(arm.joints, self._last_joints)
+        last = self._last_joints
+        moving = (
+            last is not None
+            # equal lists are close; the list test spares np.allclose on a resting arm
+            and last.tolist() != arm.joints.tolist()
+            and not np.allclose(arm.joints, last)
+        )
         self._last_joints = arm.joints.copy()
         if not (moving or self.held is not None):
             return
@@ -454,19 +482,34 @@ class World:
             return {}
         held = self.bodies[self.held]
         name = f"held {held.name}"
+        centre = held.center_pose()
         out: dict[tuple[str, str], float] = {}
         for body in self.bodies.values():
             if body.held or body.name in checked:
                 continue
             for solid in body.solids():
-                depth = obb_penetration(held.center_pose(), held.size, solid.pose, solid.size)
+                depth = obb_penetration(centre, held.size, solid.pose, solid.size)
                 out[(name, solid.name)] = max(out.get((name, solid.name), 0.0), float(depth))
         return out
+
+    def _contact_inputs(self) -> bytes:
+        """Everything a collision check reads: the arm's boxes and tool, what it holds, the bodies."""
+        arm = self.arm
+        assert arm is not None
+        parts = [arm.box_poses.tobytes(), arm.tool_pose.tobytes(), str(self.held).encode()]
+        for body in self.bodies.values():
+            parts += [body.pose.tobytes(), body.size.tobytes(), b"H" if body.held else b"-"]
+        return b"".join(parts)
 
     def _check_collisions(self, now: float) -> None:
         arm = self.arm
         if arm is None:
             return
+        inputs = self._contact_inputs()
+        if inputs == self._contact_inputs_checked:
+            # Nothing moved since the last check: the same contacts, none of them new.
+            return
+        self._contact_inputs_checked = inputs
         links, others = self._solids()
         extra = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
         extra.update(self._held_contacts({solid.name for solid in others}))
