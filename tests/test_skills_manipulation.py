@@ -333,3 +333,54 @@ def test_a_correction_out_of_reach_fails_still_holding():
     assert status is Status.FAILURE
     assert "out of reach; still holding it" in node.feedback_message
     assert held.held and rig.arm.suction
+
+
+def beside_a_ducky(dy, height=30.0):
+    """A trash marker at [200, 0, 20] mm and a ``height`` mm tall ducky's marker ``dy`` mm
+    beside it, and a tool whose 40 x 40 x 60 mm body rises from the tool centre."""
+    from armtree.motion.kinematics import LinkBox
+
+    trash = Marker(2, np.array([200.0, 0.0, 20.0]))
+    other = Marker(0, np.array([200.0, dy, height]))
+    rig = make_rig(
+        [trash, other],
+        workcell={"marker_heights_mm": {"ducky": height, "trash": 20.0}},
+    )
+    body = np.eye(4)
+    body[2, 3] = 30.0
+    rig.arm.model.boxes = (LinkBox("cup", 0, (40.0, 40.0, 60.0), body),)
+    return rig
+
+
+def test_a_grip_whose_tool_would_hit_a_neighbour_moves_away_within_the_marker():
+    rig = beside_a_ducky(38.0)  # the tool's side 21 mm out, the ducky's about 20 mm
+    node = Pick("pick", tag="trash", **{"from": [200.0, 0.0, 20.0]})
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    assert rig.world.held is not None and rig.world.held.id == 2
+    lowest = min(rig.arm.moves, key=lambda q: rig.arm.model.position(q)[2])
+    grip = rig.arm.model.position(lowest)
+    assert grip[2] == pytest.approx(20.0, abs=1e-6)
+    assert np.hypot(grip[0] - 200.0, grip[1]) < 5.0  # still on the trash
+    assert grip[1] < -0.5  # away from the ducky
+
+
+def test_a_grip_that_cannot_clear_a_neighbour_is_refused_before_going_down():
+    rig = beside_a_ducky(25.0)
+    node = Pick("pick", tag="trash", **{"from": [200.0, 0.0, 20.0]}, skip=Binding("skipped"))
+    node.bb.set("skipped", [], overwrite=True)
+    status, _ = run(node, rig)
+    assert status is Status.FAILURE
+    assert "would hit the ducky (marker 0)" in node.feedback_message
+    assert rig.world.held is None and not rig.arm.suction
+    assert min(rig.arm.model.position(q)[2] for q in rig.arm.moves) > 30.0  # above its top
+    assert node.bb.get("skipped") == [2]  # a clean-up moves on to other trash
+
+
+def test_a_neighbour_lower_than_the_grip_is_no_obstacle():
+    rig = beside_a_ducky(25.0, height=15.0)  # its top below the tool's body at the grip
+    node = Pick("pick", tag="trash", **{"from": [200.0, 0.0, 20.0]})
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message
+    lowest = min(rig.arm.moves, key=lambda q: rig.arm.model.position(q)[2])
+    assert np.allclose(rig.arm.model.position(lowest), [200.0, 0.0, 20.0], atol=1e-6)

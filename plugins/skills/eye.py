@@ -90,6 +90,10 @@ class Eye:
         self.rig = rig
         self.last: View | None = None
         self.frames = 0
+        #: The newest sighting of every marker seen this run, by id, and when it was read
+        #: (s, run clock): where objects beside a grip stand when the last frame missed them.
+        self.seen: dict[int, Sighting] = {}
+        self.seen_at: dict[int, float] = {}
         #: Where the held object's marker sits in the tool frame (homogeneous, mm), set by
         #: a grip and taken by the release that follows, so its check knows where to look.
         self.held: np.ndarray | None = None
@@ -127,19 +131,27 @@ class Eye:
                 pose[:3, 3] = onto_plane(base_T_camera, pose[:3, 3], plane)
             pose[:3, 3] = self.calibration.seen(pose[:3, 3])
             seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
+        now = rig.clock.now()
+        self.seen.update(seen)
+        self.seen_at.update(dict.fromkeys(seen, now))
         k = np.asarray(frame.camera_matrix, dtype=float)
         h, w = frame.image.shape[:2]
         half = (0.5 * w / k[0, 0], 0.5 * h / k[1, 1]) if k[0, 0] > 0 and k[1, 1] > 0 else (0.4, 0.3)
         self.last = View(
             frame.index,
             frame.timestamp,
-            rig.clock.now(),
+            now,
             tool,
             list(seen.values()),
             base_T_camera,
             half,
         )
         return self.last
+
+    def forget(self, marker: int) -> None:
+        """Drop marker ``marker`` from :attr:`seen`: it was gripped away from where it was."""
+        self.seen.pop(marker, None)
+        self.seen_at.pop(marker, None)
 
     def recent(self, max_age: float) -> View | None:
         """A view read at most ``max_age`` seconds ago, reading a new frame only when the

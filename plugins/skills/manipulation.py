@@ -38,6 +38,7 @@ from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .bins import Drop, contents_of, inside, plan_drop
 from .eye import eye_of
+from .footprint import clear_grip, neighbours
 from .locate import locate, look_over, nearest, out_of_view
 from .reach import nearest_reachable, reachable
 
@@ -55,6 +56,8 @@ HELD_LIMIT_MM = 40.0
 #: How far a release point may move to within reach (mm), and how much lower at most.
 RELEASE_SLACK_MM = 15.0
 RELEASE_DROP_MM = 3.0
+#: A gripper's jaws still hold an object gripped this fraction of its marker's side off centre.
+GRIP_HOLD = 0.2
 
 
 def pick_steps(
@@ -65,17 +68,25 @@ def pick_steps(
     dwell: float,
     marker_size: float = 0.0,
     marker_yaw: float | None = None,
+    marker: int | None = None,
 ) -> Procedure:
     """Approach above ``target``, descend, close the tool (suction on), let it grip, lift back.
 
     A marker ``marker_size`` mm wide whose centre is out of reach is touched nearer the
     arm's base on its face instead (suction cups only); ``marker_yaw`` (radians, its x
-    axis in the base frame, as the camera saw it) says how far its edge lies that way."""
+    axis in the base frame, as the camera saw it) says how far its edge lies that way.
+    Before anything moves, the tool's boxes at the grip are checked against the objects
+    the camera saw beside it (other than ``marker``'s, :mod:`.footprint`): a grip that
+    would hit one moves within what still holds the object, else it fails (SkillFailure)
+    naming what it would hit."""
     rig, speed = skill.rig, skill.speed()
     # a suction cup holds anywhere on the marker's face: up to 3 mm inside its edge
     edge = edge_toward_base(target, marker_size, marker_yaw)
     inward = 0.0 if has_gripper(rig.arm) else max(0.0, edge - 3.0)
     grip = grip_point(skill, target, grasp_offset, inward)
+    # jaws closing on it hold an object gripped up to a fifth of its marker off centre
+    hold = GRIP_HOLD * marker_size if has_gripper(rig.arm) else max(0.0, 0.5 * marker_size - 3.0)
+    grip = clear_of_neighbours(skill, target, grip, grasp_offset, approach, marker, hold)
     over = above(skill, grip - UP * grasp_offset, approach + grasp_offset)
     if has_gripper(rig.arm):
         yield Suction(rig, False)  # a gripper opens before it goes down
@@ -85,6 +96,49 @@ def pick_steps(
     yield Pause(skill.clock, dwell)
     yield Move(rig, over, speed=speed, label="lift")
     return grip
+
+
+def clear_of_neighbours(
+    skill: ArmSkill,
+    target: np.ndarray,
+    grip: np.ndarray,
+    grasp_offset: float,
+    approach: float,
+    marker: int | None,
+    hold: float,
+) -> np.ndarray:
+    """``grip`` (mm), or a grip up to ``hold`` mm beside it whose tool boxes clear the
+    objects the camera saw near ``target``; raises SkillFailure naming the object hit
+    when none does. Logged as a ``footprint`` event when it had to act."""
+    model = skill.rig.arm.model
+    objects = neighbours(skill, target, marker)
+    if not objects:
+        return grip
+    over = above(skill, grip - UP * grasp_offset, approach + grasp_offset)
+    try:
+        near = model.ik(over, near=skill.rig.arm.joints())
+    except ValueError:  # the approach point is out of reach: the move will say so
+        return grip
+    found = clear_grip(model, grip, near, objects, hold)
+    if not found.blocked_by:
+        return grip
+    what = ", ".join(
+        f"the {o.role} (marker {o.id}) at {fmt(o.centre[:2])}" for o in found.blocked_by
+    )
+    if found.grip is None:
+        skill.note("footprint", refused=as_list(grip), hits=[o.id for o in found.blocked_by])
+        raise SkillFailure(
+            f"{skill.name}: gripping at {fmt(grip)} would hit {what} "
+            f"(the tool's boxes at the grip height), and no grip within {hold:.1f} mm "
+            "beside it clears it"
+        )
+    skill.note(
+        "footprint",
+        moved=as_list(found.grip),
+        shift_mm=round(found.shift_mm, 1),
+        hits=[o.id for o in found.blocked_by],
+    )
+    return found.grip
 
 
 def edge_toward_base(target: np.ndarray, size: float, yaw: float | None) -> float:
@@ -408,6 +462,7 @@ class Gripping(ArmSkill):
                 self.param("dwell_s"),
                 spec.size_mm if spec is not None else 0.0,
                 self.marker_yaw(marker),
+                marker,
             )
             if not tool_engaged(self.rig):
                 raise SkillFailure(f"{self.name}: the tool reports it is not gripping")
@@ -421,6 +476,8 @@ class Gripping(ArmSkill):
                 )
             # where the marker sits on the tool: the place check looks where it will land
             eye = eye_of(self.rig)
+            if marker is not None:
+                eye.forget(marker)  # no longer where it stood
             with contextlib.suppress(ValueError):  # the grip point's IK (Unreachable)
                 eye.held = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(target, 1.0)
             table = self.workcell.table_z_mm
