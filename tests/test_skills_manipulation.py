@@ -335,13 +335,14 @@ def test_a_correction_out_of_reach_fails_still_holding():
     assert held.held and rig.arm.suction
 
 
-def beside_a_ducky(dy, height=30.0):
+def beside_a_ducky(dy, height=30.0, lifted=0.0):
     """A trash marker at [200, 0, 20] mm and a ``height`` mm tall ducky's marker ``dy`` mm
-    beside it, and a tool whose 40 x 40 x 60 mm body rises from the tool centre."""
+    beside it (``lifted`` mm off the table), and a tool whose 40 x 40 x 60 mm body rises
+    from the tool centre."""
     from armtree.motion.kinematics import LinkBox
 
     trash = Marker(2, np.array([200.0, 0.0, 20.0]))
-    other = Marker(0, np.array([200.0, dy, height]))
+    other = Marker(0, np.array([200.0, dy, height + lifted]))
     rig = make_rig(
         [trash, other],
         workcell={"marker_heights_mm": {"ducky": height, "trash": 20.0}},
@@ -384,3 +385,10 @@ def test_a_neighbour_lower_than_the_grip_is_no_obstacle():
     assert status is Status.SUCCESS, node.feedback_message
     lowest = min(rig.arm.moves, key=lambda q: rig.arm.model.position(q)[2])
     assert np.allclose(rig.arm.model.position(lowest), [200.0, 0.0, 20.0], atol=1e-6)
+
+
+def test_a_neighbour_seen_off_the_table_is_no_obstacle():
+    rig = beside_a_ducky(25.0, lifted=40.0)  # carried: it will not stand there
+    node = Pick("pick", tag="trash", **{"from": [200.0, 0.0, 20.0]})
+    status, _ = run(node, rig)
+    assert status is Status.SUCCESS, node.feedback_message

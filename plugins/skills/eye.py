@@ -132,8 +132,12 @@ class Eye:
             pose[:3, 3] = self.calibration.seen(pose[:3, 3])
             seen[det.id] = Sighting(role, det.id, pose, det, frame.timestamp)
         now = rig.clock.now()
-        self.seen.update(seen)
-        self.seen_at.update(dict.fromkeys(seen, now))
+        for marker, sighting in seen.items():
+            plane = self.planes.get(sighting.role)
+            if plane is not None and sighting.pose[2, 3] > plane + PLANE_TOLERANCE_MM:
+                self.forget(marker)  # off the table (carried): it stands nowhere now
+            else:
+                self.seen[marker], self.seen_at[marker] = sighting, now
         k = np.asarray(frame.camera_matrix, dtype=float)
         h, w = frame.image.shape[:2]
         half = (0.5 * w / k[0, 0], 0.5 * h / k[1, 1]) if k[0, 0] > 0 and k[1, 1] > 0 else (0.4, 0.3)

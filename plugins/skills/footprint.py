@@ -56,14 +56,16 @@ class Neighbour:
 def neighbours(skill: Any, target: np.ndarray, marker: int | None) -> list[Neighbour]:
     """The objects whose markers the camera saw within :data:`NEAR_MM` of ``target``
     (mm) in the last :data:`MEMORY_S` seconds, other than marker ``marker`` (the one
-    gripped) and those already gripped away."""
+    gripped), the tool's own (``workcell.tool_marker``) and those gripped away or
+    last seen carried off the table."""
     eye = eye_of(skill.rig)
     now = skill.rig.clock.now()
     cell = skill.workcell
     table = cell.table_z_mm
+    tool = cell.tool_marker.tag if cell.tool_marker is not None else None
     out = []
     for seen in eye.seen.values():
-        if seen.id == marker or now - eye.seen_at.get(seen.id, now) > MEMORY_S:
+        if seen.id == marker or seen.role == tool or now - eye.seen_at[seen.id] > MEMORY_S:
             continue
         where = seen.position
         if np.hypot(*(where[:2] - target[:2])) > NEAR_MM:
