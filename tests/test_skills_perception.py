@@ -69,7 +69,7 @@ def test_eq17_recovers_the_camera_offset_from_touch_tests():
         estimate_camera_offset([], [], [], np.eye(3))
 
 
-@settings(max_examples=50)
+@settings(max_examples=50, deadline=None)  # a loaded machine can take 200 ms for one example
 @given(
     r=rotvec,
     t=vec3,
