@@ -49,6 +49,7 @@ from .control import RunControl
 from .display import NullView, make_view
 from .errors import HardwareFault
 from .feedback_log import FeedbackLog
+from .halting import Halter
 from .interrupts import EXIT_INTERRUPTED, Interrupts, StopKey
 from .outcomes import FailureLog, judge, predicates_for, verdict
 from .resources import Resources
@@ -56,6 +57,7 @@ from .rig import Rig
 from .rig_builder import build_rig, uses_real_hardware
 from .run_hooks import RunHooks
 from .runlog import RunLog, default_run_dir, jsonable
+from .tree_replacement import TreeReplacement
 from .watchdog import (
     DEFAULT_TICK_S,
     TickAbandoned,
@@ -226,8 +228,10 @@ class Run:
         #: Run time at which the last tick started (the ``t`` of its log records).
         self.tick_time = 0.0
         self._anchor: tuple[float, float, float] | None = None
-        # A validated tree waiting for a safe point to replace the running one (--watch).
-        self._replacement: Any = None
+        #: A validated tree waiting for a safe point to replace the running one (--watch).
+        self.replacement = TreeReplacement(self)
+        #: Halts the tree's running nodes and waits until they are safe.
+        self.halter = Halter(self)
         self._bt: py_trees.trees.BehaviourTree | None = None
         self.resources = Resources(halt=self._halt_owner)
         self.view = view if view is not None else (NullView() if quiet else make_view(False))
@@ -257,13 +261,10 @@ class Run:
         # Filled in as the run ends: what failed, where, and what was running.
         self._end_traceback: str | None = None
         self._failed_node: str | None = None
-        self._raiser: py_trees.behaviour.Behaviour | None = None
         self._running: list[str] | None = None
         self._key: StopKey | None = None
         self.tick_limit = tick_limit if tick_limit is not None else _profile_tick_limit(profile)
         self._watchdog: TickWatchdog | None = None
-        # Set when a tick was abandoned inside a component step: the rig is not stepped again.
-        self._rig_stuck = False
         self._watchdog_closed = False
         self._stopped = threading.Event()
         self.failures = FailureLog()
@@ -509,8 +510,8 @@ class Run:
                 self._hold(stop_key)
                 if interrupts.requested:
                     return self._interrupted()
-            if self._replacement is not None and self._may_replace():
-                self._replace()
+            if self.replacement.due():
+                self.replacement.swap()
                 root = self.root
             self.tick_count += 1
             tick_start = time.monotonic()
@@ -589,66 +590,32 @@ class Run:
         """Run ``tree`` (validated, built with this run's profile) instead of the current one.
 
         Safe from any thread: the swap happens between ticks at the next safe
-        point, where the arm has no command under way and the tool holds
-        nothing, unless the new tree's first leaf commands the tool (a place or
-        a release). The old tree is halted cleanly first; the rig, the clock,
-        the log and the blackboard carry on. A later call replaces a tree still
-        waiting. ``armtree_tree_replaced`` is called after the swap.
+        point (:class:`armtree.tree_replacement.TreeReplacement`). The old tree is
+        halted cleanly first; the rig, the clock, the log and the blackboard carry
+        on. A later call replaces a tree still waiting. ``armtree_tree_replaced``
+        is called after the swap.
         """
-        self._replacement = tree
+        self.replacement.offer(tree)
 
     @property
     def replacement_waiting(self) -> str | None:
         """Why a tree given to :meth:`replace_tree` still waits (``None`` when none waits)."""
-        if self._replacement is None:
-            return None
-        return self._unsafe_to_replace(self._replacement) or "the next tick"
+        return self.replacement.waiting
 
-    def _may_replace(self) -> bool:
-        return self._unsafe_to_replace(self._replacement) is None
-
-    def _unsafe_to_replace(self, tree: Any) -> str | None:
-        arm = getattr(self.rig, "arm", None)
-        if arm is None:
-            return None
-        if arm.busy():
-            return "the arm is moving"
-        try:
-            holding = bool(arm.tool.suction)
-        except Exception:  # noqa: BLE001 - no reading: take it as holding
-            holding = True
-        if holding and "tool" not in getattr(_first_leaf(tree.root), "RESOURCES", ()):
-            return "the tool holds something and the new tree does not start by handling it"
-        return None
-
-    def _replace(self) -> None:
-        """Halt the old tree, set the new one up, carry on (on the tick thread)."""
-        tree, self._replacement = self._replacement, None
-        now = self.clock.now()
-        errors = self.halt_tree()
-        self._settle()
-        self._track(now, self.log.enabled)
+    def install_tree(self, tree: Any) -> None:
+        """Make ``tree`` the one ticked: the previous one shut down, ``tree`` set up and
+        its nodes indexed for the log and views (for :class:`TreeReplacement`)."""
         with contextlib.suppress(Exception):
             if self._bt is not None:
                 self._bt.shutdown()
-        self.resources.release_all()
-        previous = self.tree
         self.tree, self.root = tree, tree.root
-        for key, value in (getattr(tree, "blackboard", None) or {}).items():
-            Blackboard.set(key if key.startswith("/") else "/" + key, value)
         self._bt = py_trees.trees.BehaviourTree(self.root)
         self._setup(self._bt)
         self._index_nodes()
-        self.log.event(
-            self.tick_count,
-            now,
-            "reload",
-            source=str(getattr(tree, "source", "") or ""),
-            previous=getattr(previous, "name", None),
-            halt_errors=errors,
-        )
-        self.view.message(f"tree replaced at tick {self.tick_count}: {tree.name}")
-        self.hooks.notify("armtree_tree_replaced", run=self, previous=previous)
+
+    def note_statuses(self, now: float) -> None:
+        """Log and show the status changes since the last tick (after a halt between ticks)."""
+        self._track(now, self.log.enabled)
 
     def _hold(self, keys: StopKey | None) -> None:
         """Stand still (clock held, nothing halted) until resumed, stepped or stopped."""
@@ -816,7 +783,7 @@ class Run:
         self._end_traceback = "".join(tb_module.format_exception(exc))
         where = self.where(node) if node is not None else "the tree"
         self._failed_node = self.path_of(node) if node is not None else None
-        self._raiser = node
+        self.halter.raiser = node
         message = f"{type(exc).__name__} in {phase} of {where}: {exc}"
         self.log.event(
             self.tick_count,
@@ -902,62 +869,9 @@ class Run:
         }
 
     def halt_tree(self) -> list[str]:
-        """Stop every RUNNING node with INVALID (calling its terminate); return errors raised.
-
-        The root is stopped first, so composites stop their children in order;
-        a sweep then stops any node left RUNNING by a tick cut short by an
-        exception, deepest first. Finished nodes keep their SUCCESS or FAILURE.
-        """
-        errors: list[str] = []
-        raiser = self._raiser
-        raiser_running = raiser is not None and raiser.status == Status.RUNNING
-        candidates = [self.root, *self.root.iterate()]
-        for node in candidates:
-            if node.status != Status.RUNNING:
-                continue
-            try:
-                node.stop(Status.INVALID)
-            except Exception as exc:  # noqa: BLE001 - halting continues past a broken terminate
-                errors.append(f"{self.where(node)}: {type(exc).__name__}: {exc}")
-        if raiser is not None and not raiser_running:
-            # The node that raised may have started something before it raised.
-            try:
-                raiser.terminate(Status.INVALID)
-            except Exception as exc:  # noqa: BLE001
-                errors.append(f"{self.where(raiser)}: {type(exc).__name__}: {exc}")
-        return errors
-
-    def _halting(self) -> list[py_trees.behaviour.Behaviour]:
-        pending = []
-        for node in self.root.iterate():
-            halting = getattr(node, "halting", None)
-            if halting is None:
-                continue
-            try:
-                if halting():
-                    pending.append(node)
-            except Exception:  # noqa: BLE001 - a broken halting() must not hold the stop
-                continue
-        return pending
-
-    def _settle(self) -> list[str]:
-        """Step the clock and rig while behaviours report ``halting()``, up to ``stop_timeout``."""
-        deadline = self.clock.now() + self.stop_timeout
-        pending = self._halting()
-        while pending and self.clock.now() < deadline - 1e-9:
-            target = self.clock.now() + self.period
-            if self.clock.virtual:
-                self.clock.sleep_until(target)
-            else:
-                self.interrupts.wake.clear()
-                self.interrupts.wake.wait(max(0.0, target - self.clock.now()))
-            if self.rig is not None and not self._rig_stuck:
-                try:
-                    self.rig.step(self.clock.now())
-                except Exception:  # noqa: BLE001 - keep stopping
-                    break
-            pending = self._halting()
-        return [self.path_of(n) for n in pending]
+        """Stop every RUNNING node with INVALID (calling its terminate); return errors raised
+        (:meth:`armtree.halting.Halter.halt`)."""
+        return self.halter.halt()
 
     def _finish(self, end: _End, bt: py_trees.trees.BehaviourTree, wall0: float) -> RunResult:
         self.interrupts.stopping = True
@@ -965,10 +879,10 @@ class Run:
         running = self._running
         if running is None:
             running = self._running_leaves() if end.status != "SUCCESS" else []
-        errors = self.halt_tree()
+        errors = self.halter.halt()
         if end.status != "SUCCESS" and self.rig is not None:
             self.rig.stop()
-        unsafe = self._settle()
+        unsafe = self.halter.settle()
         if self._nodes:
             self._track(self.clock.now(), self.log.enabled)
         with contextlib.suppress(Exception):
@@ -1106,7 +1020,7 @@ class Run:
         stuck_in = watchdog.phase if watchdog.tick_started is not None else ""
         watchdog.close()
         if watchdog.fired:
-            self._rig_stuck = stuck_in == "a component step"
+            self.halter.rig_stuck = stuck_in == "a component step"
             if self._owns_process:
                 # The stop may be stuck as well (a terminate that never returns): the
                 # process ends with the cause's code after the stop's own time.
@@ -1130,7 +1044,7 @@ class Run:
         node = running_behaviour(frame, lambda o: isinstance(o, py_trees.behaviour.Behaviour))
         if node is not None:
             # Halted like a node that raised: it may have started something.
-            self._raiser = node
+            self.halter.raiser = node
             self._failed_node = self.path_of(node)
             return self.where(node)
         return innermost_code(frame)
@@ -1175,13 +1089,6 @@ def lateness_ms(lateness: Sequence[float]) -> dict[str, float]:
         return ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 
     return {"p50": pct(0.50), "p99": pct(0.99), "max": ms[-1], "ticks": float(len(ms))}
-
-
-def _first_leaf(node: py_trees.behaviour.Behaviour) -> py_trees.behaviour.Behaviour:
-    """The leaf a tree ticks first: down the first children from ``node``."""
-    while node.children:
-        node = node.children[0]
-    return node
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:
