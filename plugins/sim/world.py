@@ -3,9 +3,10 @@
 A :class:`World` is built from a validated :class:`~.scene.SceneSpec` and lives
 only in ``RigContext.shared`` (never on the Rig), so skills cannot reach it.
 :meth:`World.step` advances it to the run's time after the arm emulators:
-it reads the arm's true joints and tool, moves the Duckybots, applies
-suction and gripper physics, lets released objects fall and records
-collisions. :meth:`World.score` is the ground truth for tests and the run summary.
+it reads the arm's true joints and tool, moves the Duckybots, and hands the
+rest to its collaborators: :class:`~.grasping.Grasp` (suction and gripper),
+:class:`~.falling.Gravity` (supports, falls, landings) and
+:class:`~.contacts.ArmContacts` (collisions). :meth:`World.score` is the ground truth for tests and the run summary.
 Every event (pick, release, land, drop, collision, missed step) also goes to
 the callables in :attr:`World.listeners` as it happens, and a collision under
 ``halt_on_collision`` to :attr:`World.on_halt` (the run ends there).
@@ -24,20 +25,15 @@ from typing import Any
 
 import numpy as np
 
+from .contacts import ArmContacts
 from .duckybot import Duckybot
-from .geometry import obb_penetration, point_in_polygon, pose, rot_z
+from .falling import Gravity
+from .geometry import point_in_polygon, pose, rot_z
+from .grasping import Grasp
 from .physics import CollisionMonitor, SolidBox
 from .randomize import draw_scene
 from .scene import MarkerSpec, ObjectSpec, SceneSpec, _Errors, parse_scene
 
-#: Kinds an end effector can lift.
-MOVABLE = ("ducky", "trash", "block")
-#: Gravity, mm/s^2.
-GRAVITY = 9810.0
-#: Where an object that falls off the table ends up, below the table top (mm).
-FLOOR_DROP = 750.0
-#: A fall longer than this (mm) outside a bin is a drop: a place let go too high.
-DROP_MM = 15.0
 #: Step (s) and longest time (s) :meth:`World.settle` lets falling bodies fall.
 SETTLE_STEP_S = 0.01
 SETTLE_LIMIT_S = 2.0
@@ -170,10 +166,13 @@ class World:
         self.time = 0.0
         self.version = 0
         self.bodies: dict[str, Body] = {}
+        self.gravity = Gravity(self)
+        self.grasp = Grasp(self)
+        self.contacts = ArmContacts(self)
         for spec in scene.objects:
             self.bodies[spec.name] = Body(spec, pose(rot_z(spec.yaw), spec.position))
         for spec in scene.objects:
-            self.bodies[spec.name].support = self._support_below(self.bodies[spec.name])[0]
+            self.bodies[spec.name].support = self.gravity.support_below(self.bodies[spec.name])[0]
         bot_rng = np.random.default_rng(self._seq.spawn(1)[0])
         self.duckybots: dict[str, Duckybot] = {}
         for bot in scene.duckybots:
@@ -195,12 +194,7 @@ class World:
         #: Indices of link boxes that move rigidly with the tool (the end effector).
         self.tool_boxes: frozenset[int] = frozenset()
         self.arm: ArmView | None = None
-        self.held: str | None = None
-        self._held_rel: np.ndarray | None = None
-        self._last_gripper: float | None = None
-        self._grip_mode = "suction"
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
-        self._contact_inputs_checked: bytes | None = None
         self._slip_rng = np.random.default_rng(self._seq.spawn(2)[1])
         self._last_joints: np.ndarray | None = None
         self.events: list[WorldEvent] = []
@@ -208,6 +202,11 @@ class World:
         self.listeners: list[Callable[[WorldEvent], None]] = []
         #: Called with the reason when a collision halts the arm (``halt_on_collision``).
         self.on_halt: Callable[[str], None] | None = None
+
+    @property
+    def held(self) -> str | None:
+        """The name of the body the end effector holds, or None."""
+        return self.grasp.held
 
     # -- wiring -------------------------------------------------------------------
 
@@ -270,9 +269,9 @@ class World:
                     delta = body.pose @ np.linalg.inv(before)
                     for other in carried:
                         other.pose = delta @ other.pose
-            self._tool_physics(now)
-            self._fall(dt, now)
-            self._check_collisions(now)
+            self.grasp.step(now)
+            self.gravity.fall(dt, now)
+            self.contacts.check(now)
             self.time = now
             self.version += 1
 
@@ -298,231 +297,15 @@ class World:
         joint = int(joints[int(self._slip_rng.integers(len(joints)))])
         amount = float(self._slip_rng.uniform(-slips.max_amount, slips.max_amount))
         self.emulator.inject("missed_steps", joint=joint, amount=amount)
-        self._event(now, "missed_steps", {"joint": joint, "amount": round(amount, 4)})
-
-    def _tool_physics(self, now: float) -> None:
-        arm = self.arm
-        if arm is None:
-            return
-        tip = arm.tool_pose[:3, 3]
-        if self.held is not None:
-            body = self.bodies[self.held]
-            assert self._held_rel is not None
-            body.pose = arm.tool_pose @ self._held_rel
-            if not self._still_holding(arm, body):
-                self._release(now)
-        elif arm.suction:
-            target = self._suction_target(tip)
-            if target is not None:
-                self._grab(target, arm, now, "suction")
-        elif arm.gripper is not None:
-            target = self._gripper_target(arm)
-            if target is not None:
-                self._grab(target, arm, now, "gripper")
-        self._last_gripper = arm.gripper
-
-    def _opening_mm(self, arm: ArmView) -> float | None:
-        if arm.gripper is None:
-            return None
-        return float(arm.gripper) * self.physics.gripper_mm_per_unit
-
-    def _still_holding(self, arm: ArmView, body: Body) -> bool:
-        if self._grip_mode == "suction":
-            return arm.suction
-        opening = self._opening_mm(arm)
-        return opening is not None and opening <= min(body.size[:2]) + 1.0
-
-    def _suction_target(self, tip: np.ndarray) -> Body | None:
-        """The highest movable body whose top face is within the pick tolerance of the cup."""
-        tol = self.physics.pick_tolerance_mm
-        best = None
-        for body in self.bodies.values():
-            if body.kind not in MOVABLE or body.falling or body.held:
-                continue
-            if abs(tip[2] - body.top) > tol:
-                continue
-            if not point_in_polygon(tip[:2], body.footprint()):
-                continue
-            if best is None or body.top > best.top:
-                best = body
-        return best
-
-    def _gripper_target(self, arm: ArmView) -> Body | None:
-        """A movable body between the jaws when they close on it."""
-        opening = self._opening_mm(arm)
-        if opening is None:
-            return None
-        was = (
-            None
-            if self._last_gripper is None
-            else self._last_gripper * self.physics.gripper_mm_per_unit
-        )
-        tip = arm.tool_pose[:3, 3]
-        for body in self.bodies.values():
-            if body.kind not in MOVABLE or body.falling or body.held:
-                continue
-            width = float(min(body.size[:2]))
-            closing_on_it = opening <= width + 1.0 and (was is None or was > width + 1.0)
-            # The jaws reach a little below the tool centre: a grip from just above the top holds.
-            inside = body.bottom - 1.0 <= tip[2] <= body.top + self.physics.pick_tolerance_mm
-            centred = np.linalg.norm(tip[:2] - body.pose[:2, 3]) <= 0.25 * width
-            if closing_on_it and inside and centred:
-                return body
-        return None
-
-    def _grab(self, body: Body, arm: ArmView, now: float, mode: str) -> None:
-        self.held = body.name
-        self._grip_mode = mode
-        body.held, body.falling, body.vz, body.support = True, False, 0.0, None
-        self._held_rel = np.linalg.inv(arm.tool_pose) @ body.pose
-        for other in self.bodies.values():
-            if other.support == body.name:
-                other.support, other.falling, other.vz = None, True, 0.0
-                other.fall_from = other.bottom
-        self._event(now, "pick", {"object": body.name, "by": mode})
-
-    def _release(self, now: float) -> None:
-        assert self.held is not None
-        body = self.bodies[self.held]
-        # A released object hangs level: keep only its heading and position.
-        body.pose = pose(rot_z(body.yaw), body.pose[:3, 3])
-        body.held, body.falling, body.vz = False, True, 0.0
-        body.fall_from = body.bottom
-        self.held, self._held_rel = None, None
-        self._event(now, "release", {"object": body.name, "at": body.pose[:3, 3].round(2).tolist()})
-
-    def _support_below(self, body: Body) -> tuple[str, float]:
-        """The surface under the body's centre: (name, height mm); the table at least.
-
-        A surface up to the collision tolerance above the body's bottom still
-        counts (it is raised onto it): contacts that shallow are not collisions,
-        so a body let go that shallowly inside another rests on it.
-        """
-        centre = body.pose[:2, 3]
-        slack = self.physics.collision_tolerance_mm
-        if not point_in_polygon(centre, self.table.polygon()):
-            return "floor", self.table.height - FLOOR_DROP
-        best_name, best_z = "table", self.table.height
-        for other in self.bodies.values():
-            if other is body or other.held or other.kind == "spot" or other.falling:
-                continue
-            if other.support == body.name:
-                continue
-            if other.kind == "bin":
-                inner = other.footprint(shrink=other.spec.wall)
-                z = other.bottom + other.spec.wall if point_in_polygon(centre, inner) else other.top
-            else:
-                z = other.top
-            if (
-                z > best_z
-                and z <= body.bottom + slack + 1e-6
-                and point_in_polygon(centre, other.footprint())
-            ):
-                best_name, best_z = other.name, z
-        return best_name, best_z
-
-    def _fall(self, dt: float, now: float) -> None:
-        for body in self.bodies.values():
-            if not body.falling:
-                continue
-            name, z = self._support_below(body)
-            body.vz += GRAVITY * dt
-            new_bottom = body.bottom - body.vz * dt
-            if new_bottom <= z:
-                body.pose[2, 3] = z
-                body.falling, body.vz, body.support = False, 0.0, name
-                body.off_table = name == "floor"
-                fall = round(body.fall_from - z, 2)
-                self._event(now, "land", {"object": body.name, "on": name, "fall_mm": fall})
-                if body.off_table or (fall > DROP_MM and self.in_bin(body) is None):
-                    self._event(now, "drop", {"object": body.name, "on": name, "fall_mm": fall})
-            else:
-                body.pose[2, 3] = new_bottom
+        self.event(now, "missed_steps", {"joint": joint, "amount": round(amount, 4)})
 
     def start_overlaps(self) -> list[tuple[str, str]]:
         """(link, body) pairs that interpenetrate now: a world placing bodies inside the arm."""
         with self.lock:
-            if self.arm is None:
-                return []
-            links, others = self._solids()
-            probe = CollisionMonitor(self.collisions.tolerance)
-            return [(hit.link, hit.other) for hit in probe.update(self.time, links, others)]
+            return self.contacts.start_overlaps()
 
-    def _solids(self) -> tuple[list[SolidBox], list[SolidBox]]:
-        """The arm's boxes (and what it holds), and the bodies they could hit."""
-        arm = self.arm
-        assert arm is not None
-        links = [
-            SolidBox(n, p, s)
-            for n, p, s in zip(arm.box_names, arm.box_poses, arm.box_sizes, strict=True)
-        ]
-        if self.held is not None:
-            held = self.bodies[self.held]
-            links += [SolidBox(f"held {held.name}", held.center_pose(), held.size)]
-        tip = arm.tool_pose[:3, 3]
-        tol = self.physics.pick_tolerance_mm
-        # The tool centre (suction cup, gripper tips) is the lowest point of an end
-        # effector: a body whose top is below it is touched at most, never hit, even
-        # where a model's link box reaches lower than the tool centre.
-        others = [
-            solid
-            for b in self.bodies.values()
-            if not b.held and b.top > tip[2] + tol
-            for solid in b.solids()
-        ]
-        return links, others
-
-    def _held_contacts(self, checked: set[str]) -> dict[tuple[str, str], float]:
-        """Depths (mm) of the held body in the bodies :meth:`_solids` leaves out.
-
-        The tool centre's exemption is the end effector's: what it holds hangs
-        below it and is pressed into a body under the tool as any link would be.
-        """
-        if self.held is None:
-            return {}
-        held = self.bodies[self.held]
-        name = f"held {held.name}"
-        centre = held.center_pose()
-        out: dict[tuple[str, str], float] = {}
-        for body in self.bodies.values():
-            if body.held or body.name in checked:
-                continue
-            for solid in body.solids():
-                depth = obb_penetration(centre, held.size, solid.pose, solid.size)
-                out[(name, solid.name)] = max(out.get((name, solid.name), 0.0), float(depth))
-        return out
-
-    def _contact_inputs(self) -> bytes:
-        """Everything a collision check reads: the arm's boxes and tool, what it holds, the bodies."""
-        arm = self.arm
-        assert arm is not None
-        parts = [arm.box_poses.tobytes(), arm.tool_pose.tobytes(), str(self.held).encode()]
-        for body in self.bodies.values():
-            parts += [body.pose.tobytes(), body.size.tobytes(), b"H" if body.held else b"-"]
-        return b"".join(parts)
-
-    def _check_collisions(self, now: float) -> None:
-        arm = self.arm
-        if arm is None:
-            return
-        inputs = self._contact_inputs()
-        if inputs == self._contact_inputs_checked:
-            # Nothing moved since the last check: the same contacts, none of them new.
-            return
-        self._contact_inputs_checked = inputs
-        links, others = self._solids()
-        extra = {("tool", "table"): float(self.table.height - arm.tool_pose[2, 3])}
-        extra.update(self._held_contacts({solid.name for solid in others}))
-        fresh = self.collisions.update(now, links, others, extra)
-        for hit in fresh:
-            self._event(now, "collision", dataclasses.asdict(hit))
-            if self.physics.halt_on_collision and self.emulator is not None:
-                reason = f"collision: {hit.link} hit {hit.other} ({hit.depth_mm:.1f} mm deep)"
-                self.emulator.halt(reason)
-                if self.on_halt is not None:
-                    self.on_halt(reason)
-
-    def _event(self, now: float, kind: str, detail: dict[str, Any]) -> None:
+    def event(self, now: float, kind: str, detail: dict[str, Any]) -> None:
+        """Record what happened at run time ``now`` and tell the listeners."""
         event = WorldEvent(now, kind, detail)
         self.events.append(event)
         for listener in self.listeners:
@@ -537,7 +320,7 @@ class World:
             waited = 0.0
             while any(b.falling for b in self.bodies.values()) and waited < limit_s:
                 waited += SETTLE_STEP_S
-                self._fall(SETTLE_STEP_S, self.time + waited)
+                self.gravity.fall(SETTLE_STEP_S, self.time + waited)
 
     # -- queries --------------------------------------------------------------------
 
