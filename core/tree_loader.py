@@ -79,12 +79,19 @@ from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
 from .constructor_params import declared_params, name_argument, takes_signature_params
 from .errors import ConfigError, Mark, shown
 from .outcomes import WorldTruth, parse_expectations, predicates_for
-from .params import REQUIRED, Binding, Param, check_value
+from .params import Binding, Param, check_value
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile import Override, Profile, load_profile, override_sections, parse_overrides
 from .resolve import available, resolve
 from .tree import NodeInfo, Tree
 from .tree_checks import RigChecks
+from .tree_params import (
+    BINDING,
+    TreeParams,
+    has_missing,
+    placeholders,
+    substitute,
+)
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml_file
 
 #: Every top-level key a tree file may have.
@@ -110,13 +117,6 @@ TICK_HZ_RANGE = (0.1, 1000.0)
 MAX_NODES = 20_000
 #: Deepest chain of subtree includes.
 MAX_INCLUDE_DEPTH = 32
-
-#: Stands for a required file parameter that was not given, so that what depends on it
-#: is not reported a second time.
-MISSING: Any = object()
-
-BINDING = re.compile(r"^\{(/?[A-Za-z_][\w./]*)\}$")
-PLACEHOLDER = re.compile(r"\{([A-Za-z_]\w*)\}")
 
 
 def load_tree(
@@ -193,6 +193,8 @@ class _Loader:
         self.keys = BlackboardUse()
         self.blackboard: dict[str, Any] = {}
         self.node_count = 0
+        #: The files' ``params:``: declared, bound per instance.
+        self.params = TreeParams(self.error)
         #: Resolves places, tag roles, reach and rig parts once the profile is known.
         self.rig_checks: RigChecks | None = None
 
@@ -260,9 +262,9 @@ class _Loader:
         except ConfigError as exc:
             self.errors.extend(exc.errors)
             raise self.fail() from None
-        declared = self.declared_params(data, ctx)
+        declared = self.params.declared(data, ctx)
         given = {o.keys[0]: o for o in other if len(o.keys) == 1 and o.keys[0] in (declared or {})}
-        ctx.params = self.bind_params(declared, {k: o.value for k, o in given.items()}, None, ctx)
+        ctx.params = self.params.bind(declared, {k: o.value for k, o in given.items()}, None, ctx)
         self.initial_blackboard(data, ctx)
         for o in other:
             if o.keys[0] not in given:
@@ -384,7 +386,7 @@ class _Loader:
             return []
         world = world_inventory(profile, self.manager) if profile is not None else None
         expect, errors = parse_expectations(
-            _substitute(data["expect"], ctx.params),
+            substitute(data["expect"], ctx.params),
             data.value_mark("expect"),
             str(ctx.file),
             world,
@@ -424,87 +426,10 @@ class _Loader:
                 continue
             if ctx.namespace and not key.startswith("/"):
                 key = f"{ctx.namespace}/{key}"
-            self.blackboard.setdefault(key, _plain(_substitute(value, ctx.params)))
+            self.blackboard.setdefault(key, _plain(substitute(value, ctx.params)))
             self.keys.write(key)
 
     # ------------------------------------------------------------ parameters
-
-    def declared_params(
-        self, data: MarkedDict, ctx: _Context
-    ) -> dict[str, tuple[Any, Mark | None]] | None:
-        """A file's ``params:`` as ``{name: (default or REQUIRED, mark)}``; None when undeclared."""
-        spec = data.get("params")
-        if spec is None:
-            return None
-        out: dict[str, tuple[Any, Mark | None]] = {}
-        if isinstance(spec, MarkedList) and all(isinstance(p, str) for p in spec):
-            return {p: (REQUIRED, spec.item_mark(i)) for i, p in enumerate(spec)}
-        if not isinstance(spec, MarkedDict):
-            self.error(
-                "params: expected a mapping of name: {default: V, doc: TEXT} or a list of names",
-                data.value_mark("params"),
-                ctx,
-            )
-            return None
-        for name, info in spec.items():
-            if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_]\w*", name):
-                self.error(
-                    f"params: {shown(name)} is not a valid parameter name", spec.key_mark(name), ctx
-                )
-                continue
-            if info is None:
-                out[name] = (REQUIRED, spec.key_mark(name))
-            elif isinstance(info, MarkedDict) and set(info) <= {"default", "doc"}:
-                out[name] = (
-                    info.get("default", REQUIRED) if "default" in info else REQUIRED,
-                    spec.key_mark(name),
-                )
-            else:
-                self.error(
-                    f"params.{name}: expected {{default: V, doc: TEXT}} (both optional)",
-                    spec.value_mark(name),
-                    ctx,
-                )
-        return out
-
-    def bind_params(
-        self,
-        declared: dict[str, tuple[Any, Mark | None]] | None,
-        given: dict[str, Any],
-        given_marks: MarkedDict | None,
-        ctx: _Context,
-        where: Mark | None = None,
-    ) -> dict[str, Any]:
-        """The parameter values of one file instance: given ones, else declared defaults."""
-        if declared is None:
-            return dict(given)
-        values: dict[str, Any] = {}
-        for name, value in given.items():
-            if name not in declared:
-                mark = given_marks.key_mark(name) if given_marks is not None else where
-                self.error(
-                    f"{ctx.file.name} has no parameter {shown(name)}{did_you_mean(name, declared)}",
-                    mark,
-                )
-                continue
-            values[name] = value
-        for name, (default, declared_at) in declared.items():
-            if name in values:
-                continue
-            if default is REQUIRED:
-                how = (
-                    "with: {" + name + ": ...}"
-                    if given_marks is not None or where
-                    else f"--set {name}=VALUE"
-                )
-                self.error(
-                    f"{ctx.file.name} needs parameter {shown(name)}: give it with {how}",
-                    where or declared_at or _file_mark(ctx),
-                )
-                values[name] = MISSING
-            else:
-                values[name] = default
-        return values
 
     # ------------------------------------------------------------------ nodes
 
@@ -646,8 +571,8 @@ class _Loader:
         if "name" not in options:
             return ntype
         raw = options.pop("name")
-        value = _substitute(raw, ctx.params)
-        if _has_missing(value):
+        value = substitute(raw, ctx.params)
+        if has_missing(value):
             return ntype
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             value = str(value)
@@ -709,8 +634,8 @@ class _Loader:
                     f"{node.type} has no parameter {shown(key)}{hint}", options.key_mark(key), ctx
                 )
                 continue
-            value = _substitute(raw, ctx.params, ctx.namespace)
-            if _has_missing(value):
+            value = substitute(raw, ctx.params, ctx.namespace)
+            if has_missing(value):
                 incomplete = True
                 continue
             binding = BINDING.match(value) if isinstance(value, str) else None
@@ -804,7 +729,7 @@ class _Loader:
                     ctx,
                 )
                 ok = False
-        file = _substitute(spec.get("file"), ctx.params)
+        file = substitute(spec.get("file"), ctx.params)
         file_mark = spec.value_mark("file")
         if not isinstance(file, str) or not file:
             self.error("subtree needs file: the tree file to include", spec.mark, ctx)
@@ -863,10 +788,10 @@ class _Loader:
         except ConfigError as exc:
             self.errors.extend(exc.errors)
             return None
-        values = {k: _substitute(v, ctx.params, ctx.namespace) for k, v in given.items()}
-        declared = self.declared_params(data, inner)
+        values = {k: substitute(v, ctx.params, ctx.namespace) for k, v in given.items()}
+        declared = self.params.declared(data, inner)
         if declared is None:
-            used = _placeholders(data.get("root"))
+            used = placeholders(data.get("root"))
             for key in given:
                 if key not in used:
                     self.error(
@@ -875,7 +800,7 @@ class _Loader:
                         ctx,
                     )
                     ok = False
-        inner.params = self.bind_params(declared, values, given, inner, type_mark)
+        inner.params = self.params.bind(declared, values, given, inner, type_mark)
         self.initial_blackboard(data, inner)
         if name is None and "name" in spec:
             holder = MarkedDict({"name": spec["name"]}, mark=spec.mark)
@@ -933,76 +858,6 @@ def is_bindable(factory: Any) -> bool:
     if isinstance(flag, bool):
         return flag
     return isinstance(factory, type) and issubclass(factory, Behaviour)
-
-
-def _file_mark(ctx: _Context) -> Mark:
-    return Mark(str(ctx.file), 1, 1)
-
-
-def _substitute(value: Any, params: dict[str, Any], namespace: str = "") -> Any:
-    """Replace ``{param}`` references by parameter values (see the module docstring).
-
-    With a ``namespace``, a resulting ``"{key}"`` binding that is not a parameter's
-    value and not absolute (``"{/key}"``) becomes ``"{namespace/key}"``.
-    """
-    if not params and not namespace:
-        return value
-    if isinstance(value, str):
-        if "{" not in value:
-            return value
-        whole = PLACEHOLDER.fullmatch(value)
-        if whole and whole.group(1) in params:
-            return params[whole.group(1)]
-        if any(params.get(name) is MISSING for name in PLACEHOLDER.findall(value)):
-            return MISSING
-
-        def text(m: re.Match) -> str:
-            v = params.get(m.group(1), m)
-            if v is m or isinstance(v, (dict, list)):
-                return m.group(0)
-            return str(v).lower() if isinstance(v, bool) else str(v)
-
-        out = PLACEHOLDER.sub(text, value) if params else value
-        binding = BINDING.match(out) if namespace else None
-        if binding and not binding.group(1).startswith("/"):
-            return f"{{{namespace}/{binding.group(1)}}}"
-        return out
-    if isinstance(value, MarkedDict):
-        out_map = MarkedDict(mark=value.mark)
-        for k, v in value.items():
-            out_map[k] = _substitute(v, params, namespace)
-        out_map.key_marks, out_map.value_marks = value.key_marks, value.value_marks
-        return out_map
-    if isinstance(value, MarkedList):
-        items = MarkedList([_substitute(v, params, namespace) for v in value], mark=value.mark)
-        items.item_marks = value.item_marks
-        return items
-    return value
-
-
-def _has_missing(value: Any) -> bool:
-    """True when ``value`` depends on a parameter that was not given (already reported)."""
-    if value is MISSING:
-        return True
-    if isinstance(value, dict):
-        return any(_has_missing(v) for v in value.values())
-    if isinstance(value, list):
-        return any(_has_missing(v) for v in value)
-    return False
-
-
-def _placeholders(value: Any, found: set[str] | None = None) -> set[str]:
-    """Every ``{name}`` referenced anywhere in ``value``."""
-    found = set() if found is None else found
-    if isinstance(value, str):
-        found.update(PLACEHOLDER.findall(value))
-    elif isinstance(value, dict):
-        for v in value.values():
-            _placeholders(v, found)
-    elif isinstance(value, list):
-        for v in value:
-            _placeholders(v, found)
-    return found
 
 
 def _plain(value: Any) -> Any:
