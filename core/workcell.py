@@ -343,12 +343,7 @@ def _check_heights(value: Any, where: Any, data: MarkedDict, errors: list[Config
         return
     for role, height in value.items():
         if role not in tags:
-            errors.append(
-                error_at(
-                    f"{path}: {role!r} is not a tag role (tags: {', '.join(map(str, tags)) or 'none'})",
-                    value.key_mark(role),
-                )
-            )
+            errors.append(_not_a_role(path, role, tags, value))
         if not _number(height) or height < 0:
             errors.append(
                 error_at(
@@ -357,6 +352,12 @@ def _check_heights(value: Any, where: Any, data: MarkedDict, errors: list[Config
                     value.value_mark(role),
                 )
             )
+
+
+def _not_a_role(path: str, role: Any, tags: Any, value: MarkedDict) -> ConfigError:
+    """``role`` (a key of ``value`` at ``path``) names no tag role of the profile."""
+    known = ", ".join(map(str, tags)) or "none"
+    return error_at(f"{path}: {role!r} is not a tag role (tags: {known})", value.key_mark(role))
 
 
 def _check_sort(value: Any, where: Any, data: MarkedDict, errors: list[ConfigError]) -> None:
@@ -373,12 +374,7 @@ def _check_sort(value: Any, where: Any, data: MarkedDict, errors: list[ConfigErr
     places = data.get("places") if isinstance(data.get("places"), dict) else {}
     for role, place in value.items():
         if role not in tags:
-            errors.append(
-                error_at(
-                    f"workcell.sort: {role!r} is not a tag role (tags: {', '.join(map(str, tags)) or 'none'})",
-                    value.key_mark(role),
-                )
-            )
+            errors.append(_not_a_role("workcell.sort", role, tags, value))
         if not isinstance(place, str) or place not in places:
             errors.append(
                 error_at(

@@ -136,7 +136,8 @@ def direct_factory(
 direct_factory.validate = validate_start
 
 
-direct_factory.PARAMS = (
+#: How finely a path is checked and with what clearance: the keys every checking planner takes.
+CHECK_PARAMS = (
     Param(
         "resolution_deg",
         "float",
@@ -155,6 +156,10 @@ direct_factory.PARAMS = (
         minimum=0.0,
         maximum=200.0,
     ),
+)
+
+direct_factory.PARAMS = (
+    *CHECK_PARAMS,
     Param(
         "min_singular", "any", 0.2, "mm/deg", "smallest allowed Jacobian singular value, or null"
     ),

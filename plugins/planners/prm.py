@@ -35,7 +35,7 @@ from armtree.motion.kinematics import KinematicModel
 from armtree.motion.validation import check_config
 from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
-from armtree.plugins.planners.direct import planner_checker, validate_start
+from armtree.plugins.planners.direct import CHECK_PARAMS, planner_checker, validate_start
 from armtree.rig import Planner
 
 #: Bump when the cache file layout or the construction changes meaning.
@@ -452,24 +452,7 @@ prm_factory.PARAMS = (
         minimum=0,
         maximum=2**32 - 1,
     ),
-    Param(
-        "resolution_deg",
-        "float",
-        2.0,
-        "deg",
-        "largest joint step between checked samples",
-        minimum=0.05,
-        maximum=45.0,
-    ),
-    Param(
-        "margin_mm",
-        "float",
-        0.0,
-        "mm",
-        "clearance added around every link box",
-        minimum=0.0,
-        maximum=200.0,
-    ),
+    *CHECK_PARAMS,
     Param("cache", "bool", True, "", "keep the roadmap in the user's cache folder for next runs"),
     Param(
         "progress",

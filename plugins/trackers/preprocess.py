@@ -14,15 +14,14 @@ trackers take the same ``preprocess:`` mapping from the profile:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import cv2
 import numpy as np
 
-from armtree.component_config import config_error
-from armtree.params import Param, check_value
+from armtree.component_config import check_config, config_error
+from armtree.params import Param
 
 #: The keys of a ``preprocess:`` mapping.
 PREPROCESS_PARAMS: tuple[Param, ...] = (
@@ -63,24 +62,7 @@ class Preprocessing:
     @classmethod
     def from_config(cls, config: Any, where: Any = None) -> Preprocessing:
         """Validate a profile's ``preprocess:`` mapping (None for none); ConfigError names the key."""
-        if config is None:
-            return cls()
-        if not isinstance(config, Mapping):
-            raise config_error(where, "tracker.preprocess", f"expected a mapping, got {config!r}")
-        known = {p.name: p for p in PREPROCESS_PARAMS}
-        values: dict[str, Any] = {}
-        for key, value in config.items():
-            if key not in known:
-                raise config_error(
-                    where, "tracker.preprocess", f"unknown key {key!r}; known: {', '.join(known)}"
-                )
-            if value is None and key == "threshold":
-                values[key] = None
-                continue
-            try:
-                values[key] = check_value(known[key], value)
-            except ValueError as exc:
-                raise config_error(where, f"tracker.preprocess.{key}", f"{exc}") from None
+        values = check_config(config, PREPROCESS_PARAMS, "tracker.preprocess", where)
         prep = cls(**values)
         if prep.threshold is not None and not 0.0 < prep.threshold < 1.0:
             raise config_error(

@@ -34,12 +34,14 @@ def dobot_shape(
     lo, hi = model.lower, model.upper
     coupled = [c.g for c in model.constraints]
     reach = l1 + l2 + d
+    section = dobot_profile(l1, l2, d, lo, hi, coupled, drop)
+    sector = sector_constraint(lo[0], hi[0])
     return WorkspaceShape(
-        constraints=dobot_constraints(l1, l2, d, lo, hi, coupled, drop),
+        constraints=plane_constraints(section, sector),
         lower=np.array([-reach, -reach, -(l1 + l2) - drop]),
         upper=np.array([reach, reach, l1 + l2 - drop]),
-        section=dobot_profile(l1, l2, d, lo, hi, coupled, drop),
-        sector=sector_constraint(lo[0], hi[0]),
+        section=section,
+        sector=sector,
     )
 
 
@@ -57,30 +59,14 @@ def scara_shape(
     )
 
 
-def dobot_constraints(
-    l1: float,
-    l2: float,
-    d: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
-    coupled: Sequence[Callable[[Any], Any]] = (),
-    drop: float = 0.0,
+def plane_constraints(
+    section: Callable[[Any, Any], list[Any]], sector: Callable[[Any], Any] | None
 ) -> ConstraintSystem:
-    """Reachability of a Dobot-style arm (seed 004 geometry) as ``g_j(x, y, z) <= 0``, mm.
-
-    The inverse kinematics of seed 004 (eqs. 8-10) written in interval-friendly
-    operations: theta1 = 90 deg - phi - alpha, theta2 = 180 deg - phi - alpha -
-    gamma for the elbow-up branch (and the elbow-down branch too, the union of
-    both), each held to the joint limits ``lower``/``upper`` (deg; joint 0 is
-    the base, 1 the rear arm, 2 the forearm, any further joints do not move the
-    tool) and to the ``coupled`` constraints ``c(q_deg) <= 0`` (seed 004, eq. 4).
-    ``d`` is the horizontal wrist-to-tool offset, ``drop`` the tool below the wrist.
-    """
-    profile = dobot_profile(l1, l2, d, lower, upper, coupled, drop)
-    sector = sector_constraint(lower[0], upper[0])
+    """``g_j(x, y, z) <= 0`` of an arm whose reach in its vertical plane is ``section(r, z)``
+    (``r`` the distance from the base axis, mm), turned by a base joint within ``sector``."""
 
     def system(p: Any) -> list[Any]:
-        gs = profile(iv.hypot(p[..., 0], p[..., 1]), p[..., 2])
+        gs = section(iv.hypot(p[..., 0], p[..., 1]), p[..., 2])
         if sector is not None:
             gs.append(sector(p))
         return gs
@@ -97,10 +83,18 @@ def dobot_profile(
     coupled: Sequence[Callable[[Any], Any]] = (),
     drop: float = 0.0,
 ) -> Callable[[Any, Any], list[Any]]:
-    """The part of :func:`dobot_constraints` in the arm's plane: ``g_j(r, z)``, mm.
+    """Reachability of a Dobot-style arm (seed 004 geometry) in its plane: ``g_j(r, z) <= 0``, mm.
 
     ``r`` is the tool's distance from the base axis: everything but the base
-    joint's sector depends on (r, z) alone.
+    joint's sector depends on (r, z) alone. The inverse kinematics of seed 004
+    (eqs. 8-10) written in interval-friendly operations: theta1 = 90 deg - phi -
+    alpha, theta2 = 180 deg - phi - alpha - gamma for the elbow-up branch (and the
+    elbow-down branch too, the union of both), each held to the joint limits
+    ``lower``/``upper`` (deg; joint 0 is the base, 1 the rear arm, 2 the forearm,
+    any further joints do not move the tool) and to the ``coupled`` constraints
+    ``c(q_deg) <= 0`` (seed 004, eq. 4). ``d`` is the horizontal wrist-to-tool
+    offset, ``drop`` the tool below the wrist. :func:`plane_constraints` turns it
+    into 3-D constraints.
     """
     deg = 180.0 / np.pi
 
