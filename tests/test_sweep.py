@@ -101,14 +101,14 @@ def test_seed_ranges():
     ]:
         with pytest.raises(ConfigError, match=message) as info:
             parse_seeds(text)
-        assert info.value.file == "--seeds"
+        assert info.value.file == f"--seeds {text}"
 
 
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--seeds", "5-1"], "--seeds: --seeds 5-1: the range ends before it starts; write 1-5"),
-        (["--seeds", "x"], "--seeds: --seeds 'x': give a range A-B"),
+        (["--seeds", "5-1"], "--seeds 5-1: the range ends before it starts; write 1-5"),
+        (["--seeds", "x"], "--seeds x: give a range A-B"),
         (
             ["--seeds", "1-2", "--scheduler", "localhost:8786"],
             "give the scheduler's address as tcp://HOST:PORT",
@@ -120,7 +120,9 @@ def test_seed_ranges():
 )
 def test_bad_options_exit_2_before_anything_runs(work, capsys, args, message):
     assert main(["sweep", "seeds.yaml", *args]) == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err
+    assert ": --" not in err  # the option is named once: "--seeds 5-1: ...", not "--seeds: --seeds"
     assert not (work / "sweeps").exists()
 
 
@@ -129,7 +131,7 @@ def test_a_folder_holding_a_sweep_is_refused_without_overwrite(work, capsys):
     (work / "old" / "sweep.json").write_text("{}")
     assert main(["sweep", "seeds.yaml", "--seeds", "1", "--out", "old"]) == 2
     assert (
-        "--out old already holds a sweep (sweep.json); give another folder, or --overwrite"
+        "--out old: already holds a sweep (sweep.json); give another folder, or --overwrite"
         in capsys.readouterr().err
     )
     assert (work / "old" / "sweep.json").read_text() == "{}"

@@ -100,13 +100,13 @@ def _out_dir(value: str | None, tree_name: str, overwrite: bool) -> Path:
         return Path("sweeps") / f"{tree_name}-{time.strftime('%Y%m%d-%H%M%S')}"
     out = Path(value)
     if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {value}: a file, not a folder", file="--out")
+        raise ConfigError("a file, not a folder", file=f"--out {value}")
     held = [name for name in SWEEP_FILES if (out / name).exists()]
     if held and not overwrite:
         raise ConfigError(
-            f"--out {value} already holds a sweep ({', '.join(held)}); give another folder, "
+            f"already holds a sweep ({', '.join(held)}); give another folder, "
             "or --overwrite to replace it",
-            file="--out",
+            file=f"--out {value}",
         )
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -115,8 +115,8 @@ def _out_dir(value: str | None, tree_name: str, overwrite: bool) -> Path:
             shutil.rmtree(target) if target.is_dir() else target.unlink()
     except OSError as exc:
         raise ConfigError(
-            f"--out {value}: cannot write there ({exc.strerror or exc}); give a folder you can write to",
-            file="--out",
+            f"cannot write there ({exc.strerror or exc}); give a folder you can write to",
+            file=f"--out {value}",
         ) from None
     return out
 
@@ -195,16 +195,13 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
 
     seeds = parse_seeds(args.seeds)
     if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"--workers {args.workers}: give at least 1", file="--workers")
+        raise ConfigError("give at least 1", file=f"--workers {args.workers}")
     if args.run_timeout is not None and args.run_timeout <= 0:
         raise ConfigError(
-            f"--run-timeout {args.run_timeout:g}: give a positive number of seconds",
-            file="--run-timeout",
+            "give a positive number of seconds", file=f"--run-timeout {args.run_timeout:g}"
         )
     if args.timeout is not None and args.timeout <= 0:
-        raise ConfigError(
-            f"--timeout {args.timeout:g}: give a positive number of seconds", file="--timeout"
-        )
+        raise ConfigError("give a positive number of seconds", file=f"--timeout {args.timeout:g}")
     if args.scheduler is not None:
         check_address(args.scheduler)
     manager = getattr(args, "manager", None) or get_plugin_manager(
