@@ -191,6 +191,13 @@ def test_missed_steps_under_load_at_the_configured_rate(make_world):
     assert 8 <= len(slips) <= 35
     assert all(o["joint"] in (1, 2) and abs(o["amount"]) <= 1.5 for o in slips)
     assert len(world.score()["missed_steps"]) == len(slips)
+    events = [e for e in world.events if e.kind == "missed_steps"]
+    units = {e.detail["unit"] for e in events}
+    assert units == {world.model.joints[e.detail["joint"]].unit for e in events} and units
+    from armtree.plugins.sim.plugin import _NOTABLE
+
+    shown = _NOTABLE["missed_steps"](events[0].detail)  # what the live view and summary show
+    assert shown.endswith(f" {events[0].detail['unit']}") and "slipped by" in shown
     again, emu2 = make_world(faults=faults)
     run_world(again, emu2, 5.0)
     emu2.target = emu2.model.ik(np.array([150.0, 150.0, 100.0]))

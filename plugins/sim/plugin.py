@@ -256,7 +256,9 @@ def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError
 _NOTABLE = {
     "collision": lambda d: f"collision: {d['link']} hit {d['other']} {d['depth_mm']:.1f} mm deep",
     "drop": lambda d: f"drop: {d['object']} fell {d['fall_mm']:.0f} mm onto {d['on']}",
-    "missed_steps": lambda d: f"missed steps: joint {d['joint']} slipped by {d['amount']:.2f}",
+    "missed_steps": lambda d: (
+        f"missed steps: joint {d['joint']} slipped by {d['amount']:.2f} {d.get('unit', 'deg')}"
+    ),
 }
 
 

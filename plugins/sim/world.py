@@ -297,7 +297,9 @@ class World:
         joint = int(joints[int(self._slip_rng.integers(len(joints)))])
         amount = float(self._slip_rng.uniform(-slips.max_amount, slips.max_amount))
         self.emulator.inject("missed_steps", joint=joint, amount=amount)
-        self.event(now, "missed_steps", {"joint": joint, "amount": round(amount, 4)})
+        joints = getattr(self.model, "joints", None) or ()
+        unit = joints[joint].unit if joint < len(joints) else "deg"
+        self.event(now, "missed_steps", {"joint": joint, "amount": round(amount, 4), "unit": unit})
 
     def start_overlaps(self) -> list[tuple[str, str]]:
         """(link, body) pairs that interpenetrate now: a world placing bodies inside the arm."""
