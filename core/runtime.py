@@ -695,15 +695,37 @@ class Run:
     def _new_failures(
         self, last: Sequence[str], current: Sequence[str], now: float
     ) -> dict[str, str] | None:
-        """Nodes that turned FAILURE this tick: noted with their feedback message (the reason)."""
-        why = {}
-        for i, (old, new) in enumerate(zip(last, current, strict=True)):
-            if new is _FAILURE and old is not _FAILURE:
-                path = self._paths[i]
-                reason = str(getattr(self._nodes[i], "feedback_message", "") or "")
-                self.failures.add(self.tick_count, now, path, reason)
-                why[path] = reason
+        """Nodes that turned FAILURE this tick, noted with their reason: their feedback
+        message, or for a composite or decorator without one, which child failed and why."""
+        why: dict[str, str] = {}
+        turned = [
+            i
+            for i, (old, new) in enumerate(zip(last, current, strict=True))
+            if new is _FAILURE and old is not _FAILURE
+        ]
+        for i in turned:
+            own = str(getattr(self._nodes[i], "feedback_message", "") or "")
+            # The chain of failures shows the child below each node itself.
+            self.failures.add(self.tick_count, now, self._paths[i], own)
+        # From the deepest node up, so a parent finds its child's reason.
+        for i in sorted(turned, key=lambda i: -_depth(self._nodes[i])):
+            node = self._nodes[i]
+            reason = str(getattr(node, "feedback_message", "") or "")
+            if not reason and node.children:
+                reason = self._child_failure(node, why)
+            why[self._paths[i]] = reason
         return why or None
+
+    def _child_failure(self, node: py_trees.behaviour.Behaviour, why: dict[str, str]) -> str:
+        """``"'child' failed: reason"`` for the child that failed ``node`` (the last one
+        that did), or what ``node`` did when no child failed (an inverter's success)."""
+        child = next((c for c in reversed(node.children) if c.status == Status.FAILURE), None)
+        if child is None:
+            shown = ", ".join(f"{c.name!r} {c.status.value}" for c in node.children)
+            return f"failed with its children at {shown}"
+        path = self.path_of(child)
+        reason = why.get(path) or str(getattr(child, "feedback_message", "") or "")
+        return f"{child.name!r} failed" + (f": {reason}" if reason else "")
 
     def _log_blackboard(self, items: list[Any], now: float) -> None:
         writes = self.tick_writes
@@ -1089,6 +1111,14 @@ def lateness_ms(lateness: Sequence[float]) -> dict[str, float]:
         return ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 
     return {"p50": pct(0.50), "p99": pct(0.99), "max": ms[-1], "ticks": float(len(ms))}
+
+
+def _depth(node: py_trees.behaviour.Behaviour) -> int:
+    """How many parents ``node`` has."""
+    depth = 0
+    while node.parent is not None:
+        node, depth = node.parent, depth + 1
+    return depth
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:

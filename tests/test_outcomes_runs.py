@@ -225,7 +225,7 @@ def test_every_failure_is_logged_with_its_reason_and_the_summary_chains_them(tmp
         ("Task/Twice/Pick", "no ducky seen"),
         ("Task/Either/Look", "nothing in view 3 times"),
         ("Task/Place", "the Duckybot left"),
-        ("Task", ""),
+        ("Task", "'Place' failed: the Duckybot left"),  # a sequence says which child failed
     ]
     assert not [r for r in log if r["kind"] == "status" and r["to"] != "FAILURE" and "why" in r]
     assert record["chain"][-1] == {

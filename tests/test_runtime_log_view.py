@@ -241,3 +241,36 @@ def test_the_printed_summary_never_wraps_long_paths():
     )
     display.print_summary(result, out)
     assert long in out.getvalue()
+
+
+class _Refuses(py_trees.behaviour.Behaviour):
+    def update(self) -> Status:
+        self.feedback_message = "no ducky seen"
+        return Status.FAILURE
+
+
+def test_a_composite_that_fails_is_logged_with_the_child_that_failed_and_why(tmp_path):
+    inverted = py_trees.decorators.Inverter("Never", child=py_trees.behaviours.Success("Ok"))
+    inner = py_trees.composites.Sequence("Look", memory=True, children=[_Refuses("Find")])
+    tries = py_trees.composites.Selector("Tries", memory=True, children=[inverted, inner])
+    root = py_trees.composites.Sequence("Root", memory=True, children=[tries])
+    result = run(Tree(name="why", root=root, source=None), record=tmp_path / "log")
+    why = {
+        r["node"]: r.get("why")
+        for r in read_log(result.log_path)
+        if r["kind"] == "status" and r["to"] == "FAILURE"
+    }
+    assert why == {
+        "Root/Tries/Never": "success -> failure",  # the inverter says why itself
+        "Root/Tries/Look/Find": "no ducky seen",
+        "Root/Tries/Look": "'Find' failed: no ducky seen",
+        "Root/Tries": "'Look' failed: 'Find' failed: no ducky seen",
+        "Root": "'Tries' failed: 'Look' failed: 'Find' failed: no ducky seen",
+    }
+    # the failure chain names each node once, with its own reason only
+    assert [(f.name, f.reason) for f in result.chain] == [
+        ("Root", ""),
+        ("Tries", ""),
+        ("Look", ""),
+        ("Find", "no ducky seen"),
+    ]
