@@ -266,7 +266,7 @@ class BenchCommand:
 
 def _commands(manager: Any) -> dict[str, Any]:
     commands: dict[str, Any] = {"run": RunCommand(manager), "bench": BenchCommand()}
-    commands.update(manager.registry.instances("command", OWN_COMMANDS))
+    commands.update(manager.components("command").instances("command", OWN_COMMANDS))
     return commands
 
 

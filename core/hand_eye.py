@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
 
 from .perception.frames import EYE_IN_HAND, EYE_TO_HAND, eye_to_hand_from_three_positions
 
@@ -370,6 +369,9 @@ def eih_pnp(views: Sequence[MarkerView], guess: np.ndarray, marker_z: float | No
             marker0[2:] if free_z else [],
         ]
     )
+    # Imported here: scipy.optimize is slow to import and only a fit needs it.
+    from scipy.optimize import least_squares
+
     solution = least_squares(residuals, x0, method="lm" if len(views) * 2 > len(x0) else "trf")
     pose, marker = unpack(solution.x)
     return _eih_fit("pnp", views, pose, marker)

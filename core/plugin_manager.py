@@ -116,6 +116,7 @@ class PluginManager:
         self.autoload = autoload
         self._distributions: dict[str, str | None] = {}
         self._registry: Registry | None = None
+        self._partial: dict[str, Registry] = {}
         #: ``--plugin`` / ``plugins:`` specs loaded into this manager, in order.
         self.specs: list[str] = []
         #: True for managers shared through :func:`get_plugin_manager` (never mutated).
@@ -233,6 +234,7 @@ class PluginManager:
             ) from exc
         self._distributions[name] = distribution
         self._registry = None
+        self._partial = {}
 
     @property
     def registry(self) -> Registry:
@@ -242,23 +244,37 @@ class PluginManager:
         its interface (:func:`armtree.plugin_checks.interface_problems`).
         """
         if self._registry is None:
-            components = self._collect()
-            problems = [
-                problem.error()
-                for kind in components.values()
-                for component in kind.values()
-                for problem in interface_problems(component)
-            ]
-            if problems:
-                first = problems[0]
-                raise ConfigError(first.message, file=first.file, line=first.line, errors=problems)
-            self._registry = Registry(components)
+            self._registry = self._checked(KINDS)
         return self._registry
 
-    def _collect(self) -> dict[str, dict[str, Component]]:
-        """Every registration hook called through pluggy; each dict names its plugin."""
-        found: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS}
-        for kind, hook_name in KINDS.items():
+    def components(self, kind: str) -> Registry:
+        """The registry of one kind of component only (the others empty), for commands
+        that need no more: ``armtree sweep`` finds its command without calling every
+        plugin's behaviours, arms and cameras."""
+        if self._registry is not None:
+            return self._registry
+        if kind not in self._partial:
+            self._partial[kind] = self._checked((kind,))
+        return self._partial[kind]
+
+    def _checked(self, kinds: Iterable[str]) -> Registry:
+        components = self._collect(kinds)
+        problems = [
+            problem.error()
+            for found in components.values()
+            for component in found.values()
+            for problem in interface_problems(component)
+        ]
+        if problems:
+            first = problems[0]
+            raise ConfigError(first.message, file=first.file, line=first.line, errors=problems)
+        return Registry({kind: components.get(kind, {}) for kind in KINDS})
+
+    def _collect(self, kinds: Iterable[str]) -> dict[str, dict[str, Component]]:
+        """The registration hooks of ``kinds`` called through pluggy; each dict names its plugin."""
+        found: dict[str, dict[str, Component]] = {kind: {} for kind in kinds}
+        for kind in kinds:
+            hook_name = KINDS[kind]
             # pluggy calls the last registered first: reversed, the first registered wins.
             for result in reversed(getattr(self.pm.hook, hook_name)()):
                 plugin_name = plugin_of(result)

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy.optimize import least_squares
 
 from armtree.errors import ConfigError
 from armtree.motion.kinematics import KinematicModel
@@ -149,6 +148,9 @@ def fit_kinematics(
         ]
     )
     # x_scale="jac": lengths (~100 mm), angles (~1 deg) and scales (~1) differ in size.
+    # Imported here: scipy.optimize is slow to import and only a fit needs it.
+    from scipy.optimize import least_squares
+
     solution = least_squares(residuals, x0, method="trf", x_scale="jac")
     params, offsets, scales = unpack(solution.x)
     model = build(params)

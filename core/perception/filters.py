@@ -17,7 +17,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 #: Weight of a new measurement, seed 004 appendix D.
 DEFAULT_ALPHA = 0.2
@@ -81,6 +80,8 @@ class PoseFilter:
         the estimate as it is; later ones move it by ``alpha`` of the difference.
         """
         t = np.asarray(tvec, dtype=float).reshape(3)
+        from scipy.spatial.transform import Rotation  # loaded with the first pose filtered
+
         q_new = None if rvec is None else Rotation.from_rotvec(np.reshape(rvec, 3)).as_quat()
         old = self._poses.get(marker_id)
         if old is None:
@@ -141,4 +142,6 @@ class PoseFilter:
 
 
 def _rotvec(q: np.ndarray | None) -> np.ndarray | None:
+    from scipy.spatial.transform import Rotation
+
     return None if q is None else Rotation.from_quat(q).as_rotvec()

@@ -8,7 +8,6 @@ from typing import Any
 
 import armtree
 
-from .live import LiveFeed
 from .session import KEY, MonitorSession
 from .watch import TreeWatcher
 
@@ -65,6 +64,8 @@ def armtree_run_opening(run: Any) -> None:
     port, host = settings.get("monitor"), settings.get("monitor_host")
     if port is None and host is None:
         return
+    from .live import LiveFeed  # its web server loads only when a run asks for the monitor
+
     feed = LiveFeed(run, host or "127.0.0.1", DEFAULT_PORT if port is None else port)
     url = feed.start()
     session = MonitorSession.of(run)

@@ -12,12 +12,13 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from armtree.interrupts import EXIT_INTERRUPTED
 
-from .recorded import Recording
-from .server import Client, PageServer, image_message
+if TYPE_CHECKING:  # the web server loads when a replay is served, not with the plugin
+    from .recorded import Recording
+    from .server import Client
 
 
 class ReplayFeed:
@@ -25,6 +26,8 @@ class ReplayFeed:
 
     def __init__(self, recording: Recording, host: str, port: int) -> None:
         self.recording = recording
+        from .server import PageServer
+
         self.server = PageServer(self, host, port, option="--port", host_option="--host")
 
     def hello(self) -> list[dict[str, Any]]:
@@ -72,6 +75,8 @@ class ReplayFeed:
         if found is not None:
             header, jpeg = found
             header["tick"] = state["tick"]
+            from .server import image_message
+
             client.queue.put_nowait(image_message(header, jpeg))
 
     def on_clients(self, count: int) -> None:
@@ -102,6 +107,8 @@ class ReplayCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Serve until Ctrl-C or SIGTERM (exit 130); exit 2 for a directory that is not a run."""
+        from .recorded import Recording
+
         recording = Recording.open(Path(args.run_dir))
         feed = ReplayFeed(recording, args.host, args.port)
         url = feed.server.start()

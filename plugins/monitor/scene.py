@@ -14,7 +14,6 @@ import contextlib
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from armtree.perception.frames import camera_in_base
 
@@ -30,6 +29,8 @@ def poses(matrices: np.ndarray) -> list[list[float]]:
     matrices = np.asarray(matrices, dtype=float).reshape(-1, 4, 4)
     if len(matrices) == 0:
         return []
+    from scipy.spatial.transform import Rotation  # loaded when a monitored run draws
+
     quats = Rotation.from_matrix(matrices[:, :3, :3]).as_quat()
     out = np.column_stack([matrices[:, :3, 3].round(2), quats.round(5)])
     return out.tolist()

@@ -22,12 +22,10 @@ import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
 import platformdirs
-from scipy.spatial import cKDTree
 
 from armtree.errors import ConfigError, PlanningError
 from armtree.motion.collision import CollisionChecker
@@ -37,6 +35,10 @@ from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
 from armtree.plugins.planners.direct import CHECK_PARAMS, planner_checker, validate_start
 from armtree.rig import Planner
+
+if TYPE_CHECKING:  # networkx and scipy load when a roadmap is built, not with the plugin
+    import networkx as nx
+    from scipy.spatial import cKDTree
 
 #: Bump when the cache file layout or the construction changes meaning.
 CACHE_VERSION = 1
@@ -53,6 +55,8 @@ class Roadmap:
 
     def graph(self) -> nx.Graph:
         """The roadmap as an undirected NetworkX graph weighted by joint-space length."""
+        import networkx as nx
+
         g = nx.Graph()
         g.add_nodes_from(range(len(self.nodes)))
         g.add_weighted_edges_from(
@@ -130,6 +134,8 @@ def build_roadmap(
     rng = np.random.default_rng(seed)
     nodes = sample_free(checker, milestones, rng)
     k = min(neighbours + 1, len(nodes))
+    from scipy.spatial import cKDTree
+
     _, idx = cKDTree(nodes).query(nodes, k=k)
     i = np.repeat(np.arange(len(nodes)), k - 1)
     j = idx[:, 1:].reshape(-1)
@@ -235,6 +241,8 @@ class PRMPlanner(Planner):
                 roadmap.save(path)
         self._roadmap = roadmap
         self._graph = roadmap.graph()
+        from scipy.spatial import cKDTree
+
         self._tree = cKDTree(roadmap.nodes)
         self._checked_edges = set()
         return roadmap
@@ -313,6 +321,8 @@ class PRMPlanner(Planner):
 
         # The query nodes are added to the shared graph for the search (seed 004,
         # appendix E); the lock keeps concurrent queries from seeing each other's.
+        import networkx as nx
+
         with self._lock:
             graph.add_weighted_edges_from((s_id, n, w) for n, w in s_links)
             graph.add_weighted_edges_from((g_id, n, w) for n, w in g_links)
