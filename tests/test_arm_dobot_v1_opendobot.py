@@ -165,7 +165,7 @@ def test_bad_crc_is_silently_dropped_and_the_driver_retries(sim):
     assert handle.status is MotionStatus.DONE
 
 
-@pytest.mark.timeout(60)  # before the fix, driver and emulator asked and answered for ever
+@pytest.mark.timeout(60)  # a link re-asked for ever would hang here: the timeout fails it
 def test_a_link_of_corrupt_replies_is_lost_not_asked_again_for_ever(sim):
     handle = sim.arm.move_joints([5.0, 5.0, 45.0])
     sim.emu.inject("corrupt", rate=1.0)  # every reply fails its CRC
