@@ -16,7 +16,6 @@ Millimetres and the robot base frame (z up); times are seconds on the run's cloc
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import threading
 from collections.abc import Callable
@@ -33,6 +32,7 @@ from .grasping import Grasp
 from .physics import CollisionMonitor, SolidBox
 from .randomize import draw_scene
 from .scene import MarkerSpec, ObjectSpec, SceneSpec, _Errors, parse_scene
+from .scoring import world_score
 
 #: Step (s) and longest time (s) :meth:`World.settle` lets falling bodies fall.
 SETTLE_STEP_S = 0.01
@@ -376,59 +376,9 @@ class World:
             }
 
     def score(self) -> dict[str, Any]:
-        """Ground truth for scoring a run (never for deciding): bins, Duckybots, collisions."""
+        """Ground truth for scoring a run (never for deciding): :func:`~.scoring.world_score`."""
         with self.lock:
-            objects = {}
-            in_bin = []
-            for name, b in sorted(self.bodies.items()):
-                where = self.in_bin(b)
-                if where is not None:
-                    in_bin.append(name)
-                objects[name] = {
-                    "kind": b.kind,
-                    "position_mm": b.pose[:3, 3].round(2).tolist(),
-                    "yaw_deg": round(math.degrees(b.yaw), 2),
-                    "on": b.support,
-                    "held": b.held,
-                    "in_bin": where,
-                    "marker": None if b.marker is None else b.marker.id,
-                }
-            on_bots = {
-                name: sorted(c.name for c in self.carried_by(name, kinds=("ducky",)))
-                for name in self.duckybots
-            }
-            trash = [n for n, b in self.bodies.items() if b.kind == "trash"]
-            return {
-                "time_s": round(self.time, 6),
-                "objects": objects,
-                "in_bin": in_bin,
-                "trash_total": len(trash),
-                "trash_in_bin": sum(1 for n in trash if n in in_bin),
-                "duckies_on_duckybots": on_bots,
-                "ducky_on_duckybot": any(on_bots.values()),
-                "held": self.held,
-                "fell_off_table": sorted(n for n, b in self.bodies.items() if b.off_table),
-                "collision_count": len(self.collisions.log),
-                "collisions": [dataclasses.asdict(c) for c in self.collisions.log],
-                "duckybots": {
-                    name: {
-                        "pose": [
-                            round(bot.state.x, 2),
-                            round(bot.state.y, 2),
-                            round(math.degrees(bot.state.theta), 2),
-                        ],
-                        "phase": bot.phase,
-                        "max_tracking_error_mm": round(bot.max_tracking_error, 3),
-                    }
-                    for name, bot in self.duckybots.items()
-                },
-                "missed_steps": [
-                    e.detail | {"time": round(e.time, 6)}
-                    for e in self.events
-                    if e.kind == "missed_steps"
-                ],
-                "events": len(self.events),
-            }
+            return world_score(self)
 
 
 #: Key of the world in ``RigContext.shared``.
