@@ -412,9 +412,12 @@ class Renderer:
         pc = world @ r_cw.T + t_cw
         # All vertices in front: project them once; faces index into them.
         uv_all = self.camera.pixels(pc) if np.all(pc[:, 2] > NEAR) else None
+        # Per-face colours and fixed-point pixels for all faces at once (the same numbers).
+        colors = np.minimum(255.0, base * shade[:, None]).tolist()
+        fixed_all = None if uv_all is None else np.round(uv_all * _SCALE).astype(np.int32)
         bbox = []
         for i in np.flatnonzero(facing):
-            color = tuple(np.minimum(255.0, base * shade[i]).tolist())
+            color = tuple(colors[i])
             face = list(mesh.faces[i])
             pts = world[face]
             if d.shape == "bin" and normals[i, 2] > 0.9:
@@ -426,9 +429,7 @@ class Renderer:
             ):
                 uv = self._fill(img, pts, r_cw, t_cw, color)
             else:
-                cv2.fillPoly(
-                    img, [np.round(uv * _SCALE).astype(np.int32)], color, cv2.LINE_AA, _SHIFT
-                )
+                cv2.fillPoly(img, [fixed_all[face]], color, cv2.LINE_AA, _SHIFT)
             if uv is not None:
                 bbox.append(uv)
         if d.marker is not None and d.marker_pose is not None:

@@ -67,19 +67,23 @@ class SSC32Emulator(PtyEmulator):
         self._t1 = np.zeros(CHANNELS)
         self._outputs: dict[int, bool] = {}
         self._buf = bytearray()
+        # The servo maps as arrays: one numpy expression turns every pulse into its joint.
+        self._servo_channels = np.array([m.channel for m in self.servos], dtype=int)
+        self._servo_slopes = np.array([m.slope for m in self.servos], dtype=float)
+        self._servo_intercepts = np.array([m.intercept for m in self.servos], dtype=float)
 
     # ------------------------------------------------------------------ pulses in time
 
     def pulses(self, t: float) -> np.ndarray:
         """Every channel's pulse width at ``t`` (microseconds)."""
         span = np.maximum(self._t1 - self._t0, 1e-12)
-        s = np.clip((t - self._t0) / span, 0.0, 1.0)
+        s = np.minimum(np.maximum((t - self._t0) / span, 0.0), 1.0)
         s = np.where(self._t1 <= self._t0, 1.0, s)
         return self._p0 + (self._p1 - self._p0) * s
 
     def _angles(self, t: float) -> np.ndarray:
-        p = self.pulses(t)
-        return np.array([float(m.angle(p[m.channel])) for m in self.servos])
+        # ServoMap.angle for every joint at once.
+        return self._servo_slopes * self.pulses(t)[self._servo_channels] + self._servo_intercepts
 
     def true_joints(self) -> np.ndarray:
         """Joint angles from the servo pulses (plus any injected slip), degrees / mm."""
@@ -130,22 +134,24 @@ class SSC32Emulator(PtyEmulator):
 
     def _command(self, line: str, t: float) -> None:
         req = S.parse_request(line)
-        upper = line.upper()
+        compact = line.upper().replace(" ", "")
         for ch in range(CHANNELS):
-            if f"#{ch}H" in upper.replace(" ", ""):
+            if f"#{ch}H" in compact:
                 self._outputs[ch] = True
-            elif f"#{ch}L" in upper.replace(" ", ""):
+            elif f"#{ch}L" in compact:
                 self._outputs[ch] = False
         if req.stops:
             self._freeze([c for c in req.stops if 0 <= c < CHANNELS], t)
         if req.moves:
             self._group_move(req, t)
         out = bytearray()
+        pulses = None
         for kind, ch in req.queries:
             if kind == "Q":
                 out += b"+" if self.moving(t) else b"."
             elif ch is not None and 0 <= ch < CHANNELS:
-                out.append(int(round(self.pulses(t)[ch] / 10.0)) & 0xFF)
+                pulses = self.pulses(t) if pulses is None else pulses
+                out.append(int(round(pulses[ch] / 10.0)) & 0xFF)
         if req.version:
             out += (S.VERSION + "\r").encode("ascii")
         if out:

@@ -191,7 +191,11 @@ class DobotV1Driver(SerialArmDriver):
 
     def _update_handles(self, status: codec.Status) -> None:
         q = np.array(status.joints)
-        still = self._previous is not None and np.allclose(q, self._previous, atol=1e-6)
+        previous = self._previous
+        still = previous is not None and (
+            # equal lists are close; the list test spares np.allclose on a resting arm
+            q.tolist() == previous.tolist() or np.allclose(q, previous, atol=1e-6)
+        )
         self._previous = q
         while self._inflight:
             handle, start, target = self._inflight[0]

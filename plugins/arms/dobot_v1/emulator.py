@@ -171,10 +171,16 @@ class DobotV1Emulator(PtyEmulator):
         self._start_due_moves(t)
 
     def _command(self, cmd: codec.Command, t: float) -> None:
-        fields = np.array(
-            [cmd.state, cmd.axis, cmd.r_head, cmd.is_grab, cmd.start_vel, cmd.end_vel, cmd.max_vel]
+        fields = (
+            cmd.state,
+            cmd.axis,
+            cmd.r_head,
+            cmd.is_grab,
+            cmd.start_vel,
+            cmd.end_vel,
+            cmd.max_vel,
         )
-        if not np.all(np.isfinite(fields)) or np.any(np.abs(fields) > 1e6):
+        if not all(math.isfinite(v) and abs(v) <= 1e6 for v in fields):
             # garbage the firmware cannot act on (a corrupted frame): ignored
             self.refused += 1
             return
