@@ -92,6 +92,9 @@ class Grasp:
         was = (
             None if self._last_gripper is None else self._last_gripper * physics.gripper_mm_per_unit
         )
+        # Jaws that are not closing grab nothing: closing_on_it below needs was > opening.
+        if was is not None and was <= opening:
+            return None
         tip = arm.tool_pose[:3, 3]
         for body in self._world.bodies.values():
             if body.kind not in MOVABLE or body.falling or body.held:
