@@ -57,6 +57,7 @@ from .rig import Rig
 from .rig_builder import build_rig, uses_real_hardware
 from .run_hooks import RunHooks
 from .runlog import RunLog, default_run_dir, jsonable
+from .status_tracking import StatusTracker
 from .tree_replacement import TreeReplacement
 from .watchdog import (
     DEFAULT_TICK_S,
@@ -245,14 +246,8 @@ class Run:
         self._runs_dir = Path(runs_dir)
         self.log = RunLog(None)
         self.record_dir: Path | None = None
-        self._nodes: list[py_trees.behaviour.Behaviour] = []
-        self._paths: tuple[str, ...] = ()
-        self._last: tuple[str, ...] = ()
-        # Per node, for the final frame of a view: its last status other than INVALID
-        # (py_trees' halt resets nodes to INVALID) and whether it was halted from RUNNING.
-        self._shown: list[str] = []
-        self._halted: list[bool] = []
-        self._index: dict[str, int] = {}
+        #: Every node's status from tick to tick: logged, noted when failing, shown.
+        self.status = StatusTracker(self)
         #: Writes the run log's feedback records (replaced with the log in _open_log).
         self.feedback = FeedbackLog(self.log)
         self.hooks = RunHooks(self)
@@ -345,12 +340,12 @@ class Run:
     @property
     def nodes(self) -> list[py_trees.behaviour.Behaviour]:
         """Every node of the tree, depth first from the root (the order of :attr:`statuses`)."""
-        return self._nodes
+        return self.status.nodes
 
     @property
     def node_paths(self) -> tuple[str, ...]:
         """Each node's path, in the order of :attr:`nodes`."""
-        return self._paths
+        return self.status.paths
 
     @property
     def statuses(self) -> tuple[str, ...]:
@@ -359,7 +354,7 @@ class Run:
         A new tuple only when some status changed, so ``is`` tells a monitor
         whether to look closer.
         """
-        return self._last
+        return self.status.last
 
     # ------------------------------------------------------------------
     # The run
@@ -475,13 +470,8 @@ class Run:
             raise self._behaviour_exception(exc, "setup") from exc
 
     def _index_nodes(self) -> None:
-        self._nodes = list(self.root.iterate())
-        self._paths = tuple(self.path_of(n) for n in self._nodes)
-        self._last = tuple([n.status._value_ for n in self._nodes])
-        self._shown = list(self._last)
-        self._halted = [False] * len(self._nodes)
-        self._index = {path: i for i, path in enumerate(self._paths)}
-        self.feedback.reset(self._nodes, self._paths)
+        self.status.reset(self.root)
+        self.feedback.reset(self.status.nodes, self.status.paths)
 
     def _loop(self, stop_key: StopKey | None) -> _End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -655,26 +645,7 @@ class Run:
             self._anchor = (wall, t, speed)
 
     def _track(self, now: float, logging: bool) -> None:
-        last = self._last
-        # Status names, not members: ``_value_`` is a plain attribute (Enum.value is a
-        # slow descriptor), a member's name is always the same str object, and str
-        # hashes are cached, so the run log diffs and looks up lines without bytecode.
-        current = tuple([n.status._value_ for n in self._nodes])
-        changes: Sequence[tuple[str, str, str]] = ()
-        if logging:
-            self.feedback.record(self.tick_count, now, last, current)
-        if current != last:
-            self._last = current
-            why = self._new_failures(last, current, now) if _FAILURE in current else None
-            if logging:
-                self.log.status_diff(self.tick_count, now, self._paths, last, current, why)
-            if self._view_changes:
-                self._remember(last, current)
-                changes = [
-                    (path, old, new)
-                    for path, old, new in zip(self._paths, last, current, strict=True)
-                    if old != new
-                ]
+        changes = self.status.track(now, logging, self._view_changes)
         # Every tick, so a live view can show time passing; views throttle themselves.
         self.view.update(self, changes)
         if logging:
@@ -687,45 +658,7 @@ class Run:
 
     def feedback_message(self, path: str) -> str:
         """The current ``feedback_message`` of the node at ``path`` ("" if none or unknown)."""
-        i = self._index.get(path) if self._nodes else None
-        if i is None:
-            return ""
-        return str(getattr(self._nodes[i], "feedback_message", "") or "")
-
-    def _new_failures(
-        self, last: Sequence[str], current: Sequence[str], now: float
-    ) -> dict[str, str] | None:
-        """Nodes that turned FAILURE this tick, noted with their reason: their feedback
-        message, or for a composite or decorator without one, which child failed and why."""
-        why: dict[str, str] = {}
-        turned = [
-            i
-            for i, (old, new) in enumerate(zip(last, current, strict=True))
-            if new is _FAILURE and old is not _FAILURE
-        ]
-        for i in turned:
-            own = str(getattr(self._nodes[i], "feedback_message", "") or "")
-            # The chain of failures shows the child below each node itself.
-            self.failures.add(self.tick_count, now, self._paths[i], own)
-        # From the deepest node up, so a parent finds its child's reason.
-        for i in sorted(turned, key=lambda i: -_depth(self._nodes[i])):
-            node = self._nodes[i]
-            reason = str(getattr(node, "feedback_message", "") or "")
-            if not reason and node.children:
-                reason = self._child_failure(node, why)
-            why[self._paths[i]] = reason
-        return why or None
-
-    def _child_failure(self, node: py_trees.behaviour.Behaviour, why: dict[str, str]) -> str:
-        """``"'child' failed: reason"`` for the child that failed ``node`` (the last one
-        that did), or what ``node`` did when no child failed (an inverter's success)."""
-        child = next((c for c in reversed(node.children) if c.status == Status.FAILURE), None)
-        if child is None:
-            shown = ", ".join(f"{c.name!r} {c.status.value}" for c in node.children)
-            return f"failed with its children at {shown}"
-        path = self.path_of(child)
-        reason = why.get(path) or str(getattr(child, "feedback_message", "") or "")
-        return f"{child.name!r} failed" + (f": {reason}" if reason else "")
+        return self.status.feedback_message(path)
 
     def _log_blackboard(self, items: list[Any], now: float) -> None:
         writes = self.tick_writes
@@ -848,34 +781,7 @@ class Run:
 
     def _halt_owner(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         behaviour.stop(Status.INVALID)
-        self._note_stopped(behaviour)
-
-    def _note_stopped(self, behaviour: py_trees.behaviour.Behaviour) -> None:
-        # A node halted between ticks must show up as a status change in the log.
-        if not self._nodes:
-            return
-        last = list(self._last)
-        for n in behaviour.iterate():
-            with contextlib.suppress(ValueError):
-                i = self._nodes.index(n)
-                name = n.status.value
-                if last[i] != name:
-                    self.log.status_changes(
-                        self.tick_count, self.clock.now(), [(self._paths[i], last[i], name)]
-                    )
-                    last[i] = name
-        self._remember(self._last, last)
-        self._last = tuple(last)
-
-    def _remember(self, last: Sequence[str], current: Sequence[str]) -> None:
-        shown, halted = self._shown, self._halted
-        for i, (old, new) in enumerate(zip(last, current, strict=True)):
-            if old == new:
-                continue
-            if new != "INVALID":
-                shown[i], halted[i] = new, False
-            elif old == "RUNNING":
-                halted[i] = True
+        self.status.note_stopped(behaviour)
 
     def final_statuses(self) -> dict[Any, tuple[str, bool]]:
         """``{node.id: (status name, halted)}``: each node's last status other than INVALID.
@@ -885,10 +791,7 @@ class Run:
         this run (``"INVALID"`` if it never ran) and whether it was then halted
         from RUNNING. Kept only while the run's view takes updates (not quiet).
         """
-        return {
-            n.id: (shown, halted)
-            for n, shown, halted in zip(self._nodes, self._shown, self._halted, strict=True)
-        }
+        return self.status.final()
 
     def halt_tree(self) -> list[str]:
         """Stop every RUNNING node with INVALID (calling its terminate); return errors raised
@@ -905,7 +808,7 @@ class Run:
         if end.status != "SUCCESS" and self.rig is not None:
             self.rig.stop()
         unsafe = self.halter.settle()
-        if self._nodes:
+        if self.status.nodes:
             self._track(self.clock.now(), self.log.enabled)
         with contextlib.suppress(Exception):
             (self._bt or bt).shutdown()
@@ -1111,14 +1014,6 @@ def lateness_ms(lateness: Sequence[float]) -> dict[str, float]:
         return ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 
     return {"p50": pct(0.50), "p99": pct(0.99), "max": ms[-1], "ticks": float(len(ms))}
-
-
-def _depth(node: py_trees.behaviour.Behaviour) -> int:
-    """How many parents ``node`` has."""
-    depth = 0
-    while node.parent is not None:
-        node, depth = node.parent, depth + 1
-    return depth
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:
