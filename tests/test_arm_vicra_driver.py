@@ -227,6 +227,20 @@ def test_missed_steps_are_undone_by_homing(sim):
     np.testing.assert_allclose(sim.emu.true_joints(), sim.arm.model.home, atol=0.02)
 
 
+def test_a_step_missed_while_homing_does_not_move_where_the_switch_stops_the_axis(sim):
+    sim.until(sim.arm.move_joints([200.0, 0.0, 90.0, 0.0]))
+    handle = sim.arm.home()
+    for _ in range(200):  # well into the drive toward the end stops
+        sim.tick()
+        if sim.emu.joints.moving(sim.emu.time):
+            break
+    assert sim.emu.joints.moving(sim.emu.time)
+    sim.emu.inject("missed_steps", joint=1, amount=2.0)
+    sim.until(handle)
+    assert sim.arm.homed  # M119: the switches closed
+    np.testing.assert_allclose(sim.emu.true_joints(), sim.arm.model.home, atol=0.02)
+
+
 def test_link_cut_fails_the_move_and_interrupts(sim):
     handle = sim.arm.move_joints([0.0, 100.0, 100.0, 0.0])
     sim.tick(3)

@@ -64,6 +64,34 @@ def test_servo_experiment_corrects_a_missed_step_and_reports_beside_the_paper(tm
     assert (out / "servo_histogram.png").stat().st_size > 5000
 
 
+def test_grid_homes_and_measures_again_a_point_where_steps_slipped(tmp_path):
+    # theta1 slips often (seeded: the same slips every run), never reported by the firmware
+    out = tmp_path / "grid"
+    slips = "world.faults={missed_steps: {rate_per_s: 0.2, max_amount: 1.0, joints: [1]}}"
+    code = experiment("--rig", "sim_vicra", "--only", "grid", "--grid", "3", "--out", str(out),
+                      "--set", slips)  # fmt: skip
+    assert code == 0
+    rows = list(csv.DictReader((out / "grid.csv").open()))
+    assert len(rows) == 9 and sum(int(r["redone"]) for r in rows) >= 1
+    assert all(float(r["disagreement_mm"]) < 0.5 for r in rows)
+    # every point kept is where the arm believed it was, as the measuring device says
+    error = [np.hypot(float(r["truth_x"]) - float(r["commanded_x"]),
+                      float(r["truth_y"]) - float(r["commanded_y"])) for r in rows]  # fmt: skip
+    assert max(error) < 0.6
+    assert "homed on its end stops and measured the point again" in (out / "report.md").read_text()
+
+
+def test_grid_fails_where_homing_cannot_undo_a_slip(tmp_path, capsys):
+    # the Dobot V1.0's original firmware has no end stops: its homing is a move
+    slip = "world.faults={missed_steps: {joint: 1, amount: 2}}"
+    code = experiment("--rig", E2H, "--only", "grid", "--grid", "2", "--out", str(tmp_path / "g"),
+                      "--set", slip)  # fmt: skip
+    assert code == 1
+    said = capsys.readouterr().err
+    assert "at pose 1" in said and "as much after the arm homed" in said
+    assert not (tmp_path / "g" / "grid.csv").exists()
+
+
 def test_model_validation_on_vicra_plans_poses_that_touch_nothing(tmp_path):
     # sim_vicra as shipped: a crate within the links' reach, objects on the table
     out = tmp_path / "val"
@@ -92,6 +120,7 @@ def test_report_puts_each_table_beside_the_seeds_figures(tmp_path):
     [
         (["--targets", "0"], "--targets 0: too few"),
         (["--grid", "1"], "--grid 1: too few"),
+        (["--slip-mm", "-1"], "--slip-mm -1: a distance"),
     ],
 )
 def test_bad_options_are_refused_before_anything_moves(tmp_path, argv, message):

@@ -18,7 +18,7 @@ import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
 from armtree.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Action, Look, Move, SkillFailure, State, fmt
+from armtree.plugins.skills.actions import Action, ArmHome, Look, Move, SkillFailure, State, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
 from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
@@ -33,6 +33,8 @@ KEEP_OUT_MM = 80.0
 #: Least height (mm) of a pose's tool above the top of something seen on the table.
 POSE_CLEARANCE_MM = 30.0
 KINDS = ("hand_eye", "correction", "camera_offset", "kinematics")
+#: The progress output of the behaviours that take many steps (a progress bar shows it).
+PROGRESS = Param("progress", "any", None, "", "output: {done, total, what}", io="out")
 
 
 class Observe(Action):
@@ -309,7 +311,16 @@ class VisitPoses(ArmSkill):
     """Visit each of ``poses``: move (the profile's arm correction left out), let the arm
     settle, read the camera for ``look_for`` and ask the measuring device for the tool's
     true position (``measure_tool``); at the end, the true position of the ``touch``
-    marker. Poses the arm refuses are recorded as not reached."""
+    marker. Poses the arm refuses are recorded as not reached.
+
+    With ``slip_mm`` above 0 and a fixed camera, a pose where the camera's measurement
+    of the tool's marker and the joints disagree by more than ``slip_mm`` (x-y) is taken
+    for missed steps the arm cannot report: the arm homes on its own reference and the
+    pose is visited again, ``redo`` times at most. The step fails with the reason when
+    a pose disagrees as much after homing (the arm's homing does not re-reference it,
+    or the camera's pose is off) or still disagrees after ``redo`` homings. Each record
+    says how far they disagreed in the end and how often the pose was redone.
+    """
 
     PARAMS = (
         Param("poses", "any", doc="tool positions (mm)"),
@@ -318,8 +329,10 @@ class VisitPoses(ArmSkill):
         Param("measure_tool", "bool", False, "", "ask the measuring device where the tool is"),
         Param("touch", "str", "", "", "tag role whose marker the measuring device locates at the end", kind="tag_role"),
         Param("frames", "int", 5, "", "frames averaged per pose", minimum=1, maximum=100),
+        Param("slip_mm", "float", 0.0, "mm", "home and redo a pose where the camera and the joints disagree by more (x-y; 0: no check)", minimum=0.0, maximum=100.0),
+        Param("redo", "int", 5, "", "homings and visits again of one pose before the step fails", minimum=1, maximum=20),
         Param("observations", "any", None, "", "output: one mapping per pose", io="out"),
-        Param("progress", "any", None, "", "output: {done, total, what}", io="out"),
+        PROGRESS,
         *ArmSkill.COMMON,
     )  # fmt: skip
     RESOURCES = ("arm",)
@@ -329,6 +342,7 @@ class VisitPoses(ArmSkill):
         rig = self.rig
         poses = [np.asarray(p, dtype=float) for p in (self.param("poses") or [])]
         role, measure = self.param("look_for"), self.param("measure_tool")
+        slip = float(self.param("slip_mm"))
         if self.param("tool_marker"):
             marker = self.workcell.tool_marker
             if marker is None:
@@ -338,36 +352,42 @@ class VisitPoses(ArmSkill):
             role = marker.tag
         if role and (rig.camera is None or rig.tracker is None):
             raise SkillFailure(f"{self.name}: this rig has no camera to look for {role!r} with")
+        if slip and not (self.param("tool_marker") and rig.camera.mount != EYE_IN_HAND):
+            raise SkillFailure(
+                f"{self.name}: slip_mm needs tool_marker and a fixed camera to check the joints with"
+            )
         if (measure or self.param("touch")) and getattr(rig, "reference", None) is None:
             raise SkillFailure(f"{self.name}: this rig has no measuring device (rig.reference)")
         out: list[dict[str, Any]] = []
         for k, pose in enumerate(poses):
-            self.output(
-                "progress",
-                {
-                    "done": k,
-                    "total": len(poses),
-                    "what": f"pose {k + 1}/{len(poses)} at {fmt(pose)}",
-                },
-            )
-            record: dict[str, Any] = {"commanded": _list(pose), "reached": True, "seen": False}
-            try:
-                yield Move(rig, pose, speed=self.speed(), label=f"pose {k + 1}", corrected=False)
-            except SkillFailure as exc:
-                record["reached"], record["why"] = False, str(exc)
-                out.append(record)
-                continue
-            q = np.asarray(rig.arm.joints(), dtype=float)
-            record["joints"] = _list(q)
-            record["tool_pose"] = _list(rig.arm.model.fk(q))
-            if role:
-                obs = yield Observe(rig, self.clock, role, self.param("frames"), self.settle())
-                if obs is not None:
-                    tvec, rvec, camera = obs
-                    record.update(
-                        seen=True, tvec=_list(tvec), rvec=_list(rvec), camera=_list(camera)
+            self.output("progress", {"done": k, "total": len(poses), "what": f"pose {k + 1}/{len(poses)} at {fmt(pose)}"})  # fmt: skip
+            record = yield from self._visit(k, pose, role)
+            redone, last = 0, np.zeros(2)
+            while slip and np.linalg.norm(off := offset(record, rig)) > slip:
+                if redone == self.param("redo"):
+                    raise SkillFailure(
+                        f"{self.name}: at pose {k + 1} ({fmt(pose)}) the camera and the joints "
+                        f"still disagree by {np.linalg.norm(off):.2f} mm after the arm homed "
+                        f"{redone} times, each time by something else: steps keep slipping"
                     )
-            if measure:
+                # the same pose seen again differs by the frames' noise alone (hundredths of
+                # a mm): an offset that homing left as it was is not the arm's count
+                if redone and np.linalg.norm(off - last) <= slip / 4:
+                    raise SkillFailure(
+                        f"{self.name}: at pose {k + 1} ({fmt(pose)}) the camera and the joints "
+                        f"disagree by {np.linalg.norm(off):.2f} mm, as much after the arm homed: "
+                        "its homing does not re-reference it (no end stops), or the camera's "
+                        "pose is off (calibrate hand-eye first, or set slip_mm 0)"
+                    )
+                redone, last = redone + 1, off
+                self.note("rehome", why=f"pose {k + 1}: camera and joints disagree by "
+                          f"{np.linalg.norm(off):.2f} mm (steps missed)")  # fmt: skip
+                yield ArmHome(rig)
+                record = yield from self._visit(k, pose, role)
+            if slip:
+                record["disagreement_mm"] = round(float(np.linalg.norm(offset(record, rig))), 4)
+                record["redone"] = redone
+            if measure and record["reached"]:
                 truth = yield Measure(rig.reference.tool_position)
                 record["truth"] = _list(truth)
             out.append(record)
@@ -383,10 +403,39 @@ class VisitPoses(ArmSkill):
                 "poses": out,
                 "touched": _list(touched),
                 "device": getattr(rig.reference, "description", ""),
+                "slip_mm": slip,
             },
         )
         self.feedback_message = f"{sum(r.get('seen', False) for r in out)} of {len(out)} poses seen"
         return len(out)
+
+    def _visit(self, k: int, pose: np.ndarray, role: str) -> Procedure:
+        """Move to ``pose`` and look for ``role``: the pose's record."""
+        rig = self.rig
+        record: dict[str, Any] = {"commanded": _list(pose), "reached": True, "seen": False}
+        try:
+            yield Move(rig, pose, speed=self.speed(), label=f"pose {k + 1}", corrected=False)
+        except SkillFailure as exc:
+            record["reached"], record["why"] = False, str(exc)
+            return record
+        q = np.asarray(rig.arm.joints(), dtype=float)
+        record["joints"] = _list(q)
+        record["tool_pose"] = _list(rig.arm.model.fk(q))
+        if role:
+            obs = yield Observe(rig, self.clock, role, self.param("frames"), self.settle())
+            if obs is not None:
+                tvec, rvec, camera = obs
+                record.update(seen=True, tvec=_list(tvec), rvec=_list(rvec), camera=_list(camera))
+        return record
+
+
+def offset(record: dict[str, Any], rig: Any) -> np.ndarray:
+    """Where the camera puts the tool less where the joints say it is at one visited pose
+    (mm, x-y); zero where the marker was not seen or the pose not reached (nothing to check)."""
+    if not (record.get("reached") and record.get("seen")):
+        return np.zeros(2)
+    seen = fits.vision_tool_positions([record], rig)[0]
+    return seen[:2] - np.asarray(record["tool_pose"])[:2, 3]
 
 
 class FitCalibration(Skill):

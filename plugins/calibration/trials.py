@@ -23,7 +23,7 @@ from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
 from armtree.plugins.skills.locate import joints_out_of_view, shadow
 
-from .behaviours import Measure, _half_view, _list
+from .behaviours import PROGRESS, Measure, _half_view, _list
 from .occupied import blocker, declared_keep_outs, free, seen_keep_outs
 from .poses import in_view, reachable_mask
 
@@ -150,7 +150,7 @@ class PlaceTarget(ArmSkill):
         Param("tag", "str", "target", doc="tag role of the target marker", kind="tag_role"),
         Param("park", "str", "home", doc="where the arm waits while the target is placed (without a fixed camera's survey)", kind="place"),
         Param("index", "any", None, "", "in/out: the trial's number (0 first)", io="inout"),
-        Param("progress", "any", None, "", "output: {done, total, what}", io="out"),
+        PROGRESS,
         Param("reset", "any", None, "", "output: set to None (the servo's error of the last trial)", io="out"),
         Param("reset_failure", "any", None, "", "output: set to '' (the servo's failure of the last trial)", io="out"),
         *ArmSkill.COMMON,

@@ -59,6 +59,8 @@ STEPS_PER_UNIT = np.array([40.0, 40.0, 400.0])
 KEEPALIVE = 2.0
 #: Homing feed as a fraction of each axis' maximum speed.
 HOMING_SPEED = 0.8
+#: The end stop each axis homes on.
+_SWITCH = {"X": "x_min", "Y": "y_max", "Z": "z_max"}
 
 
 class MarlinEmulator(PtyEmulator):
@@ -344,9 +346,8 @@ class MarlinEmulator(PtyEmulator):
         true = self.joints.true(t)
         goal = true.copy()
         self._homing_axes = axes
-        switch = {"X": "x_min", "Y": "y_max", "Z": "z_max"}
         for axis in axes:
-            idx, position = self.endstops[switch[axis]]
+            idx, position = self.endstops[_SWITCH[axis]]
             goal[idx] = position
         goal[3] = 0.0
         # the steppers drive physically toward the switches: count from where the arm really is
@@ -355,6 +356,11 @@ class MarlinEmulator(PtyEmulator):
         self.joints.move_to(goal, t, HOMING_SPEED)
 
     def _finish_homing(self, t: float) -> None:
+        # Marlin drives an axis until its switch closes, however many steps that takes:
+        # a step missed on the way does not move where the axis stops (the counted move
+        # here stands in for that search, so the slip is taken out at the switch)
+        for axis in self._homing_axes:
+            self.joints.missed[self.endstops[_SWITCH[axis]][0]] = 0.0
         q = self.joints.reported(t)
         self.joints.set(q)
         self._destination = q.copy()
