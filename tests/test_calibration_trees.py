@@ -32,20 +32,54 @@ def test_hand_eye_on_n_poses_finds_the_camera_where_it_really_is(tmp_path, capsy
     assert "hand-eye: pnp: RMS residual" in said and f"wrote {out}" in said
     assert (tmp_path / "cal_hand_eye.png").stat().st_size > 5000
     data = yaml.safe_load(out.read_text())
-    assert data["calibration"]["records"]["hand_eye"]["method"] == "pnp"
-    # the calibrated pose puts a workspace point where the as-built camera sees it
-    profile = armtree.load_profile(E2H, [f"include={out}", CAMERA_ERROR])
-    found = np.array(profile.data["camera"]["extrinsics"])
+    record = data["calibration"]["records"]["hand_eye"]
+    assert record["method"] == "pnp"
+    # no step slipped: the camera looked for it and never found the arm moved
+    assert record["missed_steps"]["checks"] >= 3 and record["missed_steps"]["found"] == 0
+    error, nominal = camera_errors(E2H, out, np.array([170.0, 20.0, -30.0]))
+    assert error < 1.0 < 5.0 < nominal
+
+
+def camera_errors(rig: str, calibration, probe: np.ndarray) -> tuple[float, float]:
+    """How far (mm) the calibrated and the profile's camera poses put ``probe`` from where the
+    as-built camera sees it."""
     from armtree.plugins.sim.as_built import AsBuilt
     from armtree.plugins.sim.camera import camera_extrinsics
 
-    true = AsBuilt((3, -2, 4), (0.4, -0.3, 0.8)).camera(camera_extrinsics(profile.data["camera"]))
-    probe = np.array([170.0, 20.0, -30.0, 1.0])
-    error = np.linalg.norm((found @ np.linalg.inv(true) @ probe)[:3] - probe[:3])
-    nominal = np.linalg.norm(
-        (camera_extrinsics(profile.data["camera"]) @ np.linalg.inv(true) @ probe)[:3] - probe[:3]
+    profile = armtree.load_profile(rig, [f"include={calibration}", CAMERA_ERROR])
+    found = np.array(profile.data["camera"]["extrinsics"])
+    nominal = camera_extrinsics(profile.data["camera"])
+    true = AsBuilt((3, -2, 4), (0.4, -0.3, 0.8)).camera(nominal)
+    point = np.append(probe, 1.0)
+    return tuple(
+        float(np.linalg.norm((pose @ np.linalg.inv(true) @ point)[:3] - probe))
+        for pose in (found, nominal)
     )
-    assert error < 1.0 < 5.0 < nominal
+
+
+def test_hand_eye_homes_and_measures_again_the_poses_after_a_missed_step(tmp_path, capsys):
+    # theta1 slips now and then (seeded: the same slips every run), never reported
+    out = tmp_path / "cal.yaml"
+    slips = "world.faults={missed_steps: {rate_per_s: 0.05, max_amount: 1.0, joints: [1]}}"
+    code = calibrate("hand-eye", "--rig", "sim_vicra", "--poses", "6", "-o", str(out),
+                     "--set", CAMERA_ERROR, "--set", slips)  # fmt: skip
+    assert code == 0
+    record = yaml.safe_load(out.read_text())["calibration"]["records"]["hand_eye"]
+    assert record["missed_steps"]["found"] >= 1 and record["missed_steps"]["redone"] >= 1
+    assert record["residual_rms_mm"] < 0.2  # 0.7 when a slip was kept
+    error, _ = camera_errors("sim_vicra", out, np.array([300.0, 0.0, 60.0]))
+    assert error < 1.0
+
+
+def test_hand_eye_is_refused_when_homing_cannot_undo_a_missed_step(tmp_path, capsys):
+    # the Dobot V1.0's original firmware has no end stops: its homing is a move
+    out = tmp_path / "cal.yaml"
+    slips = "world.faults={missed_steps: {rate_per_s: 0.5, max_amount: 1.0, joints: [1]}}"
+    code = calibrate("hand-eye", "--rig", E2H, "--poses", "8", "-o", str(out), "--set", slips)
+    assert code == 1
+    said = capsys.readouterr().err
+    assert "as much after the arm homed: its homing does not re-reference it" in said
+    assert not out.exists()
 
 
 def test_three_positions_that_do_not_fit_the_workspace_are_refused(tmp_path, capsys):

@@ -18,12 +18,12 @@ import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
 from armtree.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Action, ArmHome, Look, Move, SkillFailure, State, fmt
+from armtree.plugins.skills.actions import Action, Look, Move, SkillFailure, State, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
 from armtree.plugins.skills.base import Procedure, Skill
 from armtree.plugins.skills.eye import eye_of
 
-from . import fits
+from . import fits, slips
 from .occupied import free, seen_keep_outs
 from .poses import in_view, reachable_mask, spread, square_grid, workspace_samples
 
@@ -124,7 +124,7 @@ class PlanPoses(ArmSkill):
         Param("count", "int", 15, "", "poses (spread, joints, views)", minimum=3, maximum=1000),
         Param("grid", "int", 10, "", "points along each side of the grid", minimum=2, maximum=100),
         Param("step_mm", "float", 40.0, "mm", "three_positions: the moves along x, then y", exclusive_minimum=0.0, maximum=1000.0),
-        Param("height_mm", "float", None, "mm", "tool height above the table (default: the profile's clearance)", minimum=-1000.0, maximum=1000.0),
+        Param("height_mm", "float", None, "mm", "tool height above the table; spread: the lowest (default: the profile's clearance)", minimum=-1000.0, maximum=1000.0),
         Param("tag", "str", "", "", "views: the tag role of the still marker", kind="tag_role"),
         Param("seed", "int", 0, "", "random poses", minimum=0, maximum=2**31),
         Param("poses", "any", None, "mm", "output: the tool positions", io="out"),
@@ -184,7 +184,7 @@ class PlanPoses(ArmSkill):
             return list(grid)
         if plan == "three_positions":
             return self._three(usable, height)
-        low = self.workcell.clearance_z_mm
+        low = self.workcell.clearance_z_mm if self.param("height_mm") is None else height
         points = workspace_samples(model, rng, 6000, min_z=low)
         points = points[usable(points)]
         if len(points) < self.param("count"):
@@ -313,13 +313,15 @@ class VisitPoses(ArmSkill):
     true position (``measure_tool``); at the end, the true position of the ``touch``
     marker. Poses the arm refuses are recorded as not reached.
 
-    With ``slip_mm`` above 0 and a fixed camera, a pose where the camera's measurement
-    of the tool's marker and the joints disagree by more than ``slip_mm`` (x-y) is taken
-    for missed steps the arm cannot report: the arm homes on its own reference and the
-    pose is visited again, ``redo`` times at most. The step fails with the reason when
-    a pose disagrees as much after homing (the arm's homing does not re-reference it,
-    or the camera's pose is off) or still disagrees after ``redo`` homings. Each record
-    says how far they disagreed in the end and how often the pose was redone.
+    With ``slip_mm`` above 0 the camera watches for missed steps the arm cannot report
+    (:mod:`.slips`): ``check: joints`` compares, at each pose, the camera's measurement
+    of the tool's marker with where the joints put the tool (a calibrated fixed
+    camera); ``check: reference`` looks at the first pose again every ``check_every``
+    poses, where the camera must see the marker where it saw it then (any camera,
+    calibrated or not). Either way the arm homes on its own reference and measures
+    again what the slip spoiled; the step fails with the reason when homing does not
+    set it right (``redo`` times at most, or homing changes nothing). The records say
+    how often each pose was measured again.
     """
 
     PARAMS = (
@@ -329,8 +331,10 @@ class VisitPoses(ArmSkill):
         Param("measure_tool", "bool", False, "", "ask the measuring device where the tool is"),
         Param("touch", "str", "", "", "tag role whose marker the measuring device locates at the end", kind="tag_role"),
         Param("frames", "int", 5, "", "frames averaged per pose", minimum=1, maximum=100),
-        Param("slip_mm", "float", 0.0, "mm", "home and redo a pose where the camera and the joints disagree by more (x-y; 0: no check)", minimum=0.0, maximum=100.0),
-        Param("redo", "int", 5, "", "homings and visits again of one pose before the step fails", minimum=1, maximum=20),
+        Param("slip_mm", "float", 0.0, "mm", "missed steps: home and measure again where the camera finds the tool moved by more (0: no check)", minimum=0.0, maximum=100.0),
+        Param("check", "str", "joints", doc="joints (each pose against the joints, calibrated fixed camera) or reference (the first pose seen again)", choices=slips.CHECKS),
+        Param("check_every", "int", 5, "", "check reference: poses between two looks at the first pose", minimum=1, maximum=1000),
+        Param("redo", "int", 5, "", "homings to set one slip right before the step fails", minimum=1, maximum=20),
         Param("observations", "any", None, "", "output: one mapping per pose", io="out"),
         PROGRESS,
         *ArmSkill.COMMON,
@@ -341,8 +345,38 @@ class VisitPoses(ArmSkill):
     def procedure(self) -> Procedure:
         rig = self.rig
         poses = [np.asarray(p, dtype=float) for p in (self.param("poses") or [])]
-        role, measure = self.param("look_for"), self.param("measure_tool")
-        slip = float(self.param("slip_mm"))
+        slip, check = float(self.param("slip_mm")), self.param("check")
+        role = self._role(slip, check)
+        watch = slips.SlipWatch(self, role, slip, self.param("redo"))
+        if slip and check == "reference":
+            out = yield from watch.by_reference(poses, self.param("check_every"))
+        else:
+            out = []
+            for k, pose in enumerate(poses):
+                out.append((yield from watch.by_joints(k, pose, len(poses))))
+        touched = None
+        touch = self.param("touch")
+        if touch:
+            ids = rig.tags[touch].ids
+            touched = yield Measure(lambda: rig.reference.marker_position(ids[0]))
+        self.report_progress(len(poses), len(poses), "done")
+        self.output(
+            "observations",
+            {
+                "poses": out,
+                "touched": _list(touched),
+                "device": getattr(rig.reference, "description", ""),
+                "slips": watch.summary(),
+            },
+        )
+        self.feedback_message = f"{sum(r.get('seen', False) for r in out)} of {len(out)} poses seen"
+        return len(out)
+
+    def _role(self, slip: float, check: str) -> str:
+        """The tag role to look for at each pose; SkillFailure when the rig cannot do what
+        the parameters ask."""
+        rig = self.rig
+        role = self.param("look_for")
         if self.param("tool_marker"):
             marker = self.workcell.tool_marker
             if marker is None:
@@ -352,66 +386,27 @@ class VisitPoses(ArmSkill):
             role = marker.tag
         if role and (rig.camera is None or rig.tracker is None):
             raise SkillFailure(f"{self.name}: this rig has no camera to look for {role!r} with")
-        if slip and not (self.param("tool_marker") and rig.camera.mount != EYE_IN_HAND):
+        if slip and not role:
+            raise SkillFailure(f"{self.name}: slip_mm needs a marker to look at (look_for)")
+        fixed_marker = self.param("tool_marker") and rig.camera.mount != EYE_IN_HAND
+        if slip and check == "joints" and not fixed_marker:
             raise SkillFailure(
-                f"{self.name}: slip_mm needs tool_marker and a fixed camera to check the joints with"
+                f"{self.name}: check joints needs tool_marker and a fixed camera; use reference"
             )
-        if (measure or self.param("touch")) and getattr(rig, "reference", None) is None:
+        measures = self.param("measure_tool") or self.param("touch")
+        if measures and getattr(rig, "reference", None) is None:
             raise SkillFailure(f"{self.name}: this rig has no measuring device (rig.reference)")
-        out: list[dict[str, Any]] = []
-        for k, pose in enumerate(poses):
-            self.output("progress", {"done": k, "total": len(poses), "what": f"pose {k + 1}/{len(poses)} at {fmt(pose)}"})  # fmt: skip
-            record = yield from self._visit(k, pose, role)
-            redone, last = 0, np.zeros(2)
-            while slip and np.linalg.norm(off := offset(record, rig)) > slip:
-                if redone == self.param("redo"):
-                    raise SkillFailure(
-                        f"{self.name}: at pose {k + 1} ({fmt(pose)}) the camera and the joints "
-                        f"still disagree by {np.linalg.norm(off):.2f} mm after the arm homed "
-                        f"{redone} times, each time by something else: steps keep slipping"
-                    )
-                # the same pose seen again differs by the frames' noise alone (hundredths of
-                # a mm): an offset that homing left as it was is not the arm's count
-                if redone and np.linalg.norm(off - last) <= slip / 4:
-                    raise SkillFailure(
-                        f"{self.name}: at pose {k + 1} ({fmt(pose)}) the camera and the joints "
-                        f"disagree by {np.linalg.norm(off):.2f} mm, as much after the arm homed: "
-                        "its homing does not re-reference it (no end stops), or the camera's "
-                        "pose is off (calibrate hand-eye first, or set slip_mm 0)"
-                    )
-                redone, last = redone + 1, off
-                self.note("rehome", why=f"pose {k + 1}: camera and joints disagree by "
-                          f"{np.linalg.norm(off):.2f} mm (steps missed)")  # fmt: skip
-                yield ArmHome(rig)
-                record = yield from self._visit(k, pose, role)
-            if slip:
-                record["disagreement_mm"] = round(float(np.linalg.norm(offset(record, rig))), 4)
-                record["redone"] = redone
-            if measure and record["reached"]:
-                truth = yield Measure(rig.reference.tool_position)
-                record["truth"] = _list(truth)
-            out.append(record)
-        touched = None
-        touch = self.param("touch")
-        if touch:
-            ids = rig.tags[touch].ids
-            touched = yield Measure(lambda: rig.reference.marker_position(ids[0]))
-        self.output("progress", {"done": len(poses), "total": len(poses), "what": "done"})
-        self.output(
-            "observations",
-            {
-                "poses": out,
-                "touched": _list(touched),
-                "device": getattr(rig.reference, "description", ""),
-                "slip_mm": slip,
-            },
-        )
-        self.feedback_message = f"{sum(r.get('seen', False) for r in out)} of {len(out)} poses seen"
-        return len(out)
+        return role
 
-    def _visit(self, k: int, pose: np.ndarray, role: str) -> Procedure:
-        """Move to ``pose`` and look for ``role``: the pose's record."""
+    def report_progress(self, done: int, total: int, what: str) -> None:
+        """The progress output: ``done`` of ``total``, doing ``what``."""
+        self.output("progress", {"done": done, "total": total, "what": what})
+
+    def visit(self, k: int, pose: np.ndarray, role: str, total: int, what: str = "") -> Procedure:
+        """Move to pose ``k`` (``pose``, of ``total``) and look for ``role``: the pose's record.
+        ``what`` says what the visit is for on the progress bar (default the pose)."""
         rig = self.rig
+        self.report_progress(k, total, what or f"pose {k + 1}/{total} at {fmt(pose)}")
         record: dict[str, Any] = {"commanded": _list(pose), "reached": True, "seen": False}
         try:
             yield Move(rig, pose, speed=self.speed(), label=f"pose {k + 1}", corrected=False)
@@ -426,16 +421,9 @@ class VisitPoses(ArmSkill):
             if obs is not None:
                 tvec, rvec, camera = obs
                 record.update(seen=True, tvec=_list(tvec), rvec=_list(rvec), camera=_list(camera))
+        if self.param("measure_tool"):
+            record["truth"] = _list((yield Measure(rig.reference.tool_position)))
         return record
-
-
-def offset(record: dict[str, Any], rig: Any) -> np.ndarray:
-    """Where the camera puts the tool less where the joints say it is at one visited pose
-    (mm, x-y); zero where the marker was not seen or the pose not reached (nothing to check)."""
-    if not (record.get("reached") and record.get("seen")):
-        return np.zeros(2)
-    seen = fits.vision_tool_positions([record], rig)[0]
-    return seen[:2] - np.asarray(record["tool_pose"])[:2, 3]
 
 
 class FitCalibration(Skill):

@@ -229,10 +229,11 @@ def grid_tables(observations: dict[str, Any], rig: Any, out: Path) -> dict[str, 
          for c, v, t, n, p in zip(commanded, vision, truth, pnp, poses, strict=True)],
     )  # fmt: skip
     tables: dict[str, Any] = {"points": len(poses), "seen": int(seen.sum())}
-    if observations.get("slip_mm"):
-        redone = [int(p.get("redone", 0)) for p in poses]
-        tables["slips"] = {"slip_mm": observations["slip_mm"], "points": sum(r > 0 for r in redone),
-                           "homings": sum(redone), "unchecked": int((~seen).sum())}  # fmt: skip
+    watch = observations.get("slips")
+    if watch:
+        redone = sum(int(p.get("redone", 0)) > 0 for p in poses)
+        tables["slips"] = {"slip_mm": watch["slip_mm"], "points": redone, "found": watch["found"],
+                           "homings": watch["homings"], "unchecked": int((~seen).sum())}  # fmt: skip
     series = {}
     if seen.sum() >= 4:
         # the marker's range as PnP solved it, kept for comparison (the paper's measurement)
@@ -378,10 +379,12 @@ def _slips_line(slips: dict[str, Any] | None) -> str:
     if not slips:
         return ("Missed steps were not checked for (`--slip-mm 0`): a step the arm missed "
                 "stays in the commanded positions.")  # fmt: skip
+    n = slips["points"]
     return (f"Missed steps: at each point the camera's measurement of the tool's marker was "
-            f"compared with where the joints put the tool; at {slips['points']} points they "
-            f"disagreed by more than {slips['slip_mm']:g} mm, and the arm homed on its end stops and "
-            f"measured the point again ({slips['homings']} homings). The marker was not seen at "
+            f"compared with where the joints put the tool; they disagreed by more than "
+            f"{slips['slip_mm']:g} mm {slips['found']} times, at {n} point{'' if n == 1 else 's'}: each "
+            f"time the arm homed on its end stops and measured the point again ({slips['homings']} "
+            "homings). The marker was not seen at "
             f"{slips['unchecked']} points, which were not checked. Each point's disagreement and "
             "homings are in grid.csv (`disagreement_mm`, `redone`).")  # fmt: skip
 

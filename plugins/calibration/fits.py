@@ -42,7 +42,7 @@ def fit(
         raise Refused("no observations: visit_poses measured nothing")
     try:
         if kind == "hand_eye":
-            return hand_eye(poses, rig, methods)
+            return _with_slips(hand_eye(poses, rig, methods), observations.get("slips"))
         if kind == "correction":
             return correction(poses, rig, folds)
         if kind == "camera_offset":
@@ -50,6 +50,24 @@ def fit(
         return kinematics(poses, rig, folds)
     except DegenerateData as exc:
         raise Refused(str(exc)) from None
+
+
+def _with_slips(result: dict[str, Any], slips: dict[str, Any] | None) -> dict[str, Any]:
+    """``result`` saying what the watch for missed steps found while the poses were visited."""
+    if not slips:
+        return result
+    result["summary"] += (
+        f"; missed steps: in {slips['checks']} looks the camera found the arm moved "
+        f"{_times(slips['found'])}; it homed {_times(slips['homings'])} and measured "
+        f"{slips['redone']} poses again"
+    )
+    keys = ("checks", "found", "homings", "redone")
+    result["record"][1]["missed_steps"] = {k: slips[k] for k in keys}
+    return result
+
+
+def _times(n: int) -> str:
+    return "once" if n == 1 else f"{n} times"
 
 
 def folds_of(n: int, k: int, seed: int = 0) -> list[np.ndarray]:
