@@ -42,14 +42,16 @@ def fit(
         raise Refused("no observations: visit_poses measured nothing")
     try:
         if kind == "hand_eye":
-            return _with_slips(hand_eye(poses, rig, methods), observations.get("slips"))
-        if kind == "correction":
-            return correction(poses, rig, folds)
-        if kind == "camera_offset":
-            return camera_offset(poses, observations.get("touched"), rig)
-        return kinematics(poses, rig, folds)
+            result = hand_eye(poses, rig, methods)
+        elif kind == "correction":
+            result = correction(poses, rig, folds)
+        elif kind == "camera_offset":
+            result = camera_offset(poses, observations.get("touched"), rig)
+        else:
+            result = kinematics(poses, rig, folds)
     except DegenerateData as exc:
         raise Refused(str(exc)) from None
+    return _with_slips(result, observations.get("slips"))
 
 
 def _with_slips(result: dict[str, Any], slips: dict[str, Any] | None) -> dict[str, Any]:
@@ -295,13 +297,9 @@ def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Any) -> dict[s
                 "held_out_after_mm": round(float(np.mean(after)), 3),
             },
         ),  # fmt: skip
-        "plot": {
-            "title": "camera offset from touch tests (seed 004, eq. 17)",
-            "bars": {
-                "profile's offset": np.round(before, 3).tolist(),
-                "held out": np.round(after, 3).tolist(),
-            },
-        },  # fmt: skip
+        "plot": _held_out_plot(
+            "camera offset from touch tests (seed 004, eq. 17)", "profile's offset", before, after
+        ),
     }
 
 
@@ -373,14 +371,17 @@ def kinematics(poses: list[dict[str, Any]], rig: Any, folds: int) -> dict[str, A
                 "held_out_after_mm": [round(a.mean(), 3), round(a.std(ddof=1), 3)],
             },
         ),  # fmt: skip
-        "plot": {
-            "title": "kinematic calibration (seed 004, model validation)",
-            "bars": {
-                "profile's model": np.round(b, 3).tolist(),
-                "held out": np.round(a, 3).tolist(),
-            },
-        },  # fmt: skip
+        "plot": _held_out_plot(
+            "kinematic calibration (seed 004, model validation)", "profile's model", b, a
+        ),
     }
+
+
+def _held_out_plot(title: str, profile: str, before: np.ndarray, after: np.ndarray) -> dict:
+    """What the residual plot draws for a cross-validated fit: the held-out errors (mm) with
+    the profile's values (``profile`` names them) and with the fit."""
+    bars = {profile: np.round(before, 3).tolist(), "held out": np.round(after, 3).tolist()}
+    return {"title": title, "bars": bars}
 
 
 # -------------------------------------------------------------------- writing

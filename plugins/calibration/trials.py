@@ -29,9 +29,28 @@ from .poses import in_view, reachable_mask
 
 #: Fraction of the half image a target and the tool's marker over it may use.
 TARGET_MARGIN = 0.6
+#: How far a target stays from the markers seen on the table (each on top of an object).
+KEEP_OUT = Param("keep_out_mm", "float", 80.0, "mm", "least distance from a target's centre to a marker seen on the table", minimum=0.0, maximum=1000.0)  # fmt: skip
 
 
-class PlanTargets(ArmSkill):
+class TargetSkill(ArmSkill):
+    """A behaviour of experiment 2 that holds the arm and keeps targets off what the camera
+    sees on the table."""
+
+    RESOURCES = ("arm",)
+    NEEDS = ("arm",)
+
+    def keep_outs(self, sightings: Any) -> list[Any]:
+        """The keep-out discs of the markers in ``sightings``, ``keep_out_mm`` round each; the
+        target's own marker (``tag``) and the tool's are not obstacles."""
+        skip = {self.param("tag")}
+        marker = self.workcell.tool_marker
+        if marker is not None:
+            skip.add(marker.tag)
+        return seen_keep_outs(sightings, skip, float(self.param("keep_out_mm")))
+
+
+class PlanTargets(TargetSkill):
     """Random table points (mm) over which the tool can hover where the camera sees it, clear
     of what stands on the table.
 
@@ -47,15 +66,13 @@ class PlanTargets(ArmSkill):
         Param("hover_mm", "float", 40.0, "mm", "tool height above a target", minimum=0.0, maximum=1000.0),
         Param("margin_mm", "float", 15.0, "mm", "room kept around a target within the workspace", minimum=0.0, maximum=200.0),
         Param("tag", "str", "target", "", "tag role of the target marker (not an obstacle)", kind="tag_role"),
-        Param("keep_out_mm", "float", 80.0, "mm", "least distance from a target's centre to a marker seen on the table", minimum=0.0, maximum=1000.0),
+        KEEP_OUT,
         Param("spare", "int", 10, "", "further points drawn for targets found occupied when placed", minimum=0, maximum=1000),
         Param("seed", "int", 0, "", "random targets", minimum=0, maximum=2**31),
         Param("targets", "any", None, "mm", "output: table points", io="out"),
         Param("spares", "any", None, "mm", "output: the spare table points", io="out"),
         *ArmSkill.COMMON,
     )  # fmt: skip
-    RESOURCES = ("arm",)
-    NEEDS = ("arm",)
 
     def procedure(self) -> Procedure:
         rig = self.rig
@@ -121,12 +138,8 @@ class PlanTargets(ArmSkill):
             if away is not None:
                 yield Move(rig, joints=away, speed=self.speed(), label="out of the camera's way")
         sightings = yield Look(rig, self.clock, frames=3, settle=self.settle(), average=True)
-        skip = {self.param("tag")}
-        marker = self.workcell.tool_marker
-        if marker is not None:
-            skip.add(marker.tag)
         radius = float(self.param("keep_out_mm"))
-        keep = seen_keep_outs(sightings, skip, radius)
+        keep = self.keep_outs(sightings)
         ok = free(points, keep)
         hidden = shadow(self)
         for k in range(0, len(hidden), 256):
@@ -138,7 +151,7 @@ class PlanTargets(ArmSkill):
         return ok
 
 
-class PlaceTarget(ArmSkill):
+class PlaceTarget(TargetSkill):
     """Have the next target placed (the measuring device: a person, or the simulation), with the
     arm waiting out of the camera's way: with a fixed camera and a survey, where its links do not
     hide the target (:func:`~armtree.plugins.skills.locate.joints_out_of_view`), else at ``park``."""
@@ -146,7 +159,7 @@ class PlaceTarget(ArmSkill):
     PARAMS = (
         Param("targets", "any", None, "mm", "in/out: plan_targets' targets (one found occupied is replaced by a spare)", io="inout"),
         Param("spares", "any", None, "mm", "in/out: plan_targets' spares", io="inout"),
-        Param("keep_out_mm", "float", 80.0, "mm", "least distance from the target to a marker seen on the table", minimum=0.0, maximum=1000.0),
+        KEEP_OUT,
         Param("tag", "str", "target", doc="tag role of the target marker", kind="tag_role"),
         Param("park", "str", "home", doc="where the arm waits while the target is placed (without a fixed camera's survey)", kind="place"),
         Param("index", "any", None, "", "in/out: the trial's number (0 first)", io="inout"),
@@ -155,8 +168,6 @@ class PlaceTarget(ArmSkill):
         Param("reset_failure", "any", None, "", "output: set to '' (the servo's failure of the last trial)", io="out"),
         *ArmSkill.COMMON,
     )  # fmt: skip
-    RESOURCES = ("arm",)
-    NEEDS = ("arm",)
 
     def procedure(self) -> Procedure:
         rig = self.rig
@@ -197,11 +208,7 @@ class PlaceTarget(ArmSkill):
         """``targets`` with target ``index`` replaced by the first spare clear of what the camera
         sees now, when something stands on it (a Duckybot parked there since); unchanged else."""
         sightings = yield Look(self.rig, self.clock, frames=3, settle=self.settle(), average=True)
-        skip = {self.param("tag")}
-        marker = self.workcell.tool_marker
-        if marker is not None:
-            skip.add(marker.tag)
-        keep = seen_keep_outs(sightings, skip, float(self.param("keep_out_mm")))
+        keep = self.keep_outs(sightings)
         if free(np.asarray(targets[index], dtype=float), keep)[0]:
             return targets
         spares = list(self.param("spares") or [])
