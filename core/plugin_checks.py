@@ -258,7 +258,7 @@ LIFECYCLE: tuple[tuple[str, tuple[Any, ...], dict[str, Any], str], ...] = (
 def _check_behaviour(factory: Any, report: _Reporter, params_ok: bool) -> None:
     from .builtin_behaviours import COMPOSITE, DECORATOR
     from .constructor_params import declared_params, name_argument, takes_signature_params
-    from .tree_loader import node_kind
+    from .node_builder import node_kind
 
     if not isinstance(factory, type):
         return  # an adapter (NodeType) or a function: only what it builds can tell
@@ -415,7 +415,7 @@ def _defaults(component: Any) -> dict[str, Any]:
 
 def _check_construction(component: Any, report: _Reporter) -> None:
     from .builtin_behaviours import LEAF
-    from .tree_loader import construct, node_kind
+    from .node_builder import construct, node_kind
 
     factory = component.factory
     if node_kind(factory) != LEAF or any(p.required for p in component.params):

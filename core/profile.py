@@ -49,7 +49,7 @@ from .resolve import available, resolve
 from .rig import TagSpec
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
-from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file
+from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
 
 #: Profile section -> component kind in the plugin registry.
 COMPONENT_SECTIONS: dict[str, str] = {
@@ -136,7 +136,7 @@ def parse_override(text: str) -> Override:
             file="--set",
         )
     try:
-        value = _plain(load_yaml(raw, "--set")) if raw.strip() else ""
+        value = plain(load_yaml(raw, "--set")) if raw.strip() else ""
     except ConfigError as exc:
         where = f" (character {exc.column} of the value)" if exc.column else ""
         raise ConfigError(
@@ -421,7 +421,7 @@ def _finish(
     profile = Profile(
         name=str(name),
         source=source,
-        data=_plain(data),
+        data=plain(data),
         marks=_flatten_marks(data),
         plugins=[p for p, _ in plugins],
         manager=manager,
@@ -1011,12 +1011,4 @@ def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
         )
         items.item_marks = [marks.get(f"{prefix}.{i}") for i in range(len(data))]
         return items
-    return data
-
-
-def _plain(data: Any) -> Any:
-    if isinstance(data, dict):
-        return {k: _plain(v) for k, v in data.items()}
-    if isinstance(data, list):
-        return [_plain(v) for v in data]
     return data

@@ -15,11 +15,12 @@ from typing import Any
 from .builtin_behaviours import COMPOSITE, DECORATOR
 from .calibration import calibration_schema
 from .constructor_params import declared_params
+from .node_builder import node_kind
 from .outcomes import BUILTIN_PREDICATES, Predicate
 from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
-from .tree_loader import SUBTREE_KEYS, node_kind
+from .subtree_include import SUBTREE_KEYS
 from .watchdog import MAX_TICK_S
 from .workcell import workcell_schema
 

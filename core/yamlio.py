@@ -111,6 +111,15 @@ class MarkedList(list):
         return self.mark
 
 
+def plain(value: Any) -> Any:
+    """``value`` with every mapping and list (marked or not) copied as a plain dict or list."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain(v) for v in value]
+    return value
+
+
 def error_at(message: str, mark: Mark | None, file: str | None = None) -> ConfigError:
     """A :class:`ConfigError` positioned at ``mark`` (or just naming ``file``).
 

@@ -1,0 +1,97 @@
+"""What one tree load shares among its collaborators: where it is in the include chain
+(:class:`LoadContext`), the positioned errors it collects (:class:`LoadErrors`) and the
+files it has parsed (:class:`TreeFiles`). See :mod:`armtree.tree_loader`."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigError, Mark, shown
+from .plugin_manager import did_you_mean
+from .yamlio import MarkedDict, error_at, load_yaml_file
+
+
+@dataclass
+class LoadContext:
+    """Where the loader is: the file, its parameters and the include chain."""
+
+    file: Path
+    params: dict[str, Any] = field(default_factory=dict)
+    stack: tuple[Path, ...] = ()
+    included_from: Mark | None = None
+    #: Blackboard namespace of this subtree instance ("" for the shared one).
+    namespace: str = ""
+
+
+class LoadErrors:
+    """Every problem one load finds, each with its file, line and column.
+
+    :meth:`error` places a message at a mark in the context's file (naming the
+    include that brought the file in); :meth:`fail` gives them all as one
+    :class:`ConfigError`.
+    """
+
+    def __init__(self) -> None:
+        self.found: list[ConfigError] = []
+
+    def __len__(self) -> int:
+        return len(self.found)
+
+    def error(self, message: str, mark: Mark | None, ctx: LoadContext | None = None) -> None:
+        """Record ``message`` at ``mark``, in ``ctx``'s file when the mark names none."""
+        if ctx is not None and ctx.included_from is not None:
+            message = f"{message} (included from {ctx.included_from})"
+        self.found.append(error_at(message, mark, str(ctx.file) if ctx else None))
+
+    def unknown_keys(
+        self, mapping: MarkedDict, known: Sequence[str], what: str, ctx: LoadContext
+    ) -> bool:
+        """Record ``what KEY`` (with did-you-mean) at each key of ``mapping`` not in ``known``;
+        True when there is none."""
+        unknown = [key for key in mapping if key not in known]
+        for key in unknown:
+            self.error(
+                f"{what} {shown(key)}{did_you_mean(str(key), known)}", mapping.key_mark(key), ctx
+            )
+        return not unknown
+
+    def extend(self, errors: Iterable[ConfigError]) -> None:
+        """Record errors already positioned (a profile's, a plugin's, a parser's)."""
+        self.found.extend(errors)
+
+    def fail(self, files: Iterable[Path]) -> ConfigError:
+        """One error listing all, ordered by file (in the order ``files`` gives), line and column."""
+        order = {str(path): i for i, path in enumerate(files)}
+        errors = sorted(
+            self.found,
+            key=lambda e: (order.get(e.file or "", len(order)), e.line or 0, e.column or 0),
+        )
+        # A subtree included twice reports the same problem at the same place once.
+        errors = list({(e.file, e.line, e.column, e.message): e for e in errors}.values())
+        first = errors[0]
+        return ConfigError(first.message, first.file, first.line, first.column, errors)
+
+
+class TreeFiles:
+    """The tree files of one load, each parsed once, in the order they were first read."""
+
+    def __init__(self, errors: LoadErrors) -> None:
+        self._errors = errors
+        self._parsed: dict[Path, Any] = {}
+
+    def parse(self, path: Path) -> Any:
+        """The file's YAML; None (its error recorded once) when it does not parse."""
+        if path not in self._parsed:
+            try:
+                self._parsed[path] = load_yaml_file(path)
+            except ConfigError as exc:
+                self._errors.extend(exc.errors)
+                self._parsed[path] = None
+        return self._parsed[path]
+
+    def order(self) -> list[Path]:
+        """The files read so far, first read first."""
+        return list(self._parsed)
