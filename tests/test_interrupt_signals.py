@@ -27,6 +27,11 @@ ISOLATE = [
     for arg in ("-p", f"no:{ep.name}")
 ]
 
+#: Wall seconds a process may take to exit once told to: a bound against a hang, not a
+#: measure of speed (a loaded machine takes seconds to tear a Python process down); how
+#: fast the halt is, is asserted in ticks, from the run log.
+EXIT_S = 30.0
+
 SPIN = """\
 tree: spin
 tick_hz: 20
@@ -114,20 +119,23 @@ def spin(tmp_path):
 def test_a_signal_halts_a_real_run_and_exits_130_with_the_log_flushed(spin, sig, clock):
     proc = Proc(["spin.yaml", "--record", "rec", clock], spin)
     proc.wait_for("Root/Wait: INVALID -> RUNNING")
-    start = time.monotonic()
     proc.p.send_signal(sig)
-    code, err = proc.finish(timeout=2.0)
-    assert time.monotonic() - start < 2.0
+    code, err = proc.finish(timeout=EXIT_S)
     assert code == 130, err
     name = sig.name
     assert f"interrupted by {name}" in err and "Root/Wait" in err
     log = read_log(spin / "rec" / "run.jsonl")
-    assert log[-1]["kind"] == "result" and log[-1]["status"] == "INTERRUPTED"
-    assert log[-1]["running"] == ["Root/Wait"]
-    assert any(r.get("event") == "interrupt" and r["reason"] == name for r in log)
-    assert any(
-        r["kind"] == "status" and r["node"] == "Root/Wait" and r["to"] == "INVALID" for r in log
-    )
+    result = log[-1]
+    assert result["kind"] == "result" and result["status"] == "INTERRUPTED"
+    assert result["running"] == ["Root/Wait"]
+    (seen,) = [r for r in log if r.get("event") == "interrupt"]
+    assert seen["reason"] == name
+    # Halted within the tick that saw the signal: no tick after it, and every node that
+    # ran was stopped (INVALID) in that same tick.
+    assert result["ticks"] == seen["tick"]
+    halted = [r for r in log if r["kind"] == "status" and r["to"] == "INVALID"]
+    assert {r["node"] for r in halted} == {"Root", "Root/Ready", "Root/Wait"}
+    assert {r["tick"] for r in halted} == {seen["tick"]}
 
 
 def test_a_second_sigint_during_a_hanging_halt_forces_exit(spin):
@@ -137,10 +145,9 @@ def test_a_second_sigint_during_a_hanging_halt_forces_exit(spin):
     proc.wait_for("Stuck: INVALID -> RUNNING")
     proc.p.send_signal(signal.SIGINT)
     proc.wait_for("interrupted: SIGINT")
-    start = time.monotonic()
     proc.p.send_signal(signal.SIGINT)
-    code, err = proc.finish(timeout=2.0)
-    assert time.monotonic() - start < 2.0
+    # The halt never returns, so only the forced exit can end the process.
+    code, err = proc.finish(timeout=EXIT_S)
     assert code == 130 and "forced exit" in err
     log = read_log(spin / "rec" / "run.jsonl")
     assert log[-1]["event"] == "forced_exit"
@@ -152,7 +159,7 @@ def test_the_stop_key_in_a_terminal_halts_the_run(spin):
         proc = Proc(["spin.yaml", "--record", "rec", "--realtime"], spin, stdin=slave)
         proc.wait_for("Root/Wait: INVALID -> RUNNING")
         os.write(master, b"q")
-        code, err = proc.finish(timeout=5.0)
+        code, err = proc.finish(timeout=EXIT_S)
     finally:
         os.close(slave)
         os.close(master)
@@ -173,7 +180,7 @@ def test_a_forced_exit_gives_the_terminal_back(spin):
         proc.p.send_signal(signal.SIGINT)
         proc.wait_for("interrupted: SIGINT")
         proc.p.send_signal(signal.SIGINT)
-        code, _ = proc.finish(timeout=2.0)
+        code, _ = proc.finish(timeout=EXIT_S)
         assert code == 130
         assert termios.tcgetattr(slave) == before
     finally:

@@ -196,9 +196,7 @@ def test_a_sweep_on_a_profile_without_a_survey_is_refused_at_load(tmp_path):
     assert any(m.startswith("2:3: sweep needs workcell.survey") for m in messages), messages
 
 
-def test_clean_up_needs_the_survey_only_when_it_sweeps_and_check_says_so_at_load(
-    tmp_path, capsys
-):
+def test_clean_up_needs_the_survey_only_when_it_sweeps_and_check_says_so_at_load(tmp_path, capsys):
     from armtree import cli
 
     profile = tmp_path / "rig.yaml"
