@@ -1,8 +1,9 @@
 """One node's parameters checked against what its behaviour declares (``PARAMS`` or its
 constructor's signature, through the plugins' factories): unknown ones with
 did-you-mean, types and ranges, ``"{key}"`` blackboard bindings noted as reads and
-writes, required ones given, defaults filled in, and values resolved against the rig
-when a profile is known (see :mod:`armtree.tree_checks`)."""
+writes, required ones given, defaults filled in; when a profile is known, the values
+resolved against the rig and the behaviour's needs (``NEEDS``, ``RESOURCES``, its
+workcell) checked on it (see :mod:`armtree.tree_checks`)."""
 
 from __future__ import annotations
 
