@@ -5,9 +5,11 @@ source tree (``--base``, e.g. an export of main, and ``--new``, default this
 checkout), alternating which goes first from rig to rig. Every run is a forked
 child of a process that has already imported armtree, as in ``armtree sweep``;
 it reports the run's simulated seconds, its ``wall_seconds`` and its CPU
-seconds (``time.process_time``, the arm driver's thread included). Per rig it
-prints the medians and simulated time over wall and over CPU time (x faster
-than real time), and whether each seed's ``run.jsonl`` (clock and path fields
+seconds (``time.process_time``, the arm driver's thread included) and its
+thread switches per tick (voluntary context switches of all its threads: each
+is a thread that went to sleep waiting for another, a count the machine's load
+hardly moves). Per rig it prints the medians and simulated time over wall and
+over CPU time (x faster than real time), and whether each seed's ``run.jsonl`` (clock and path fields
 left out), ``score.json`` (the same) and every rendered frame are the same on both trees.
 
 Usage::
@@ -25,6 +27,7 @@ import argparse
 import hashlib
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -93,6 +96,7 @@ def child(args: argparse.Namespace) -> None:
                 manager = make_plugin_manager((), ())
                 tree = load_tree(str(tree_path), rig=args.rig, manager=manager)
                 cpu0 = time.process_time()
+                switches0 = resource.getrusage(resource.RUSAGE_SELF).ru_nvcsw
                 result = run(
                     tree,
                     seed=seed,
@@ -103,6 +107,7 @@ def child(args: argparse.Namespace) -> None:
                     stop_key=False,
                 )
                 cpu = time.process_time() - cpu0
+                switches = resource.getrusage(resource.RUSAGE_SELF).ru_nvcsw - switches0
                 log = next(Path(runs).rglob("run.jsonl"))
                 score = log.with_name("score.json")
                 same = {
@@ -119,6 +124,7 @@ def child(args: argparse.Namespace) -> None:
                 "sim": result.seconds,
                 "wall": result.wall_seconds,
                 "cpu": cpu,
+                "switches_per_tick": switches / max(1, result.ticks),
                 "digest": digest,
             }
             os.write(write, json.dumps(line).encode())
@@ -174,9 +180,11 @@ def main() -> None:
             sim = statistics.median(x["sim"] for x in r)
             wall = statistics.median(x["wall"] for x in r)
             cpu = statistics.median(x["cpu"] for x in r)
+            switches = statistics.median(x["switches_per_tick"] for x in r)
             print(
                 f"{rig} {name}: median {sim:.1f} s simulated, {wall:.2f} s wall "
-                f"({sim / wall:.1f}x), {cpu:.2f} s CPU ({sim / cpu:.1f}x)"
+                f"({sim / wall:.1f}x), {cpu:.2f} s CPU ({sim / cpu:.1f}x), "
+                f"{switches:.2f} thread switches per tick"
             )
         same = sum(
             a["digest"] == b["digest"] for a, b in zip(runs["base"], runs["new"], strict=True)

@@ -79,17 +79,23 @@ class StepBarrier:
 
     def wrote(self, n: int) -> None:
         """Driver side: ``n`` bytes were written to the port (call right after the write)."""
+        # No wake-up: the emulator waits only for what the driver handled, and reads
+        # what it wrote once it has caught up.
         with self._cond:
             self._written += n
-            self._cond.notify_all()
 
     def handled(self, n_read: int, time_handled: float) -> None:
         """Driver side: ``n_read`` more bytes were read and fully handled (replies
         written), and every action due at ``time_handled`` has been taken."""
         with self._cond:
+            progress = n_read > 0 or time_handled > self._driver_time
             self._consumed += n_read
             self._driver_time = max(self._driver_time, time_handled)
-            self._cond.notify_all()
+            # Wake the emulator only when it may have caught up: a part of a reply, or a
+            # read that timed out with nothing new, would only send it back to sleep,
+            # at the cost of a thread switch each way.
+            if progress and self._consumed >= self._sent:
+                self._cond.notify_all()
 
     # -- emulator side -----------------------------------------------------
 
