@@ -1,5 +1,8 @@
 """Pose smoothing per marker id (seed 004, appendix D) and tracker preprocessing."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -22,6 +25,22 @@ def test_first_measurement_is_taken_as_is_then_alpha_blends():
     assert np.allclose(f.update(1, [10, 0, 100]).tvec, [2, 0, 100])
     assert np.allclose(f.update(1, [10, 0, 100]).tvec, [3.6, 0, 100])
     assert f.get(1).samples == 3
+
+
+def test_a_filter_of_positions_alone_does_not_load_scipy_rotations():
+    # SciPy's rotations cost a third of a second to import: the Track skill filters
+    # positions only and must not pay for them in the middle of a run.
+    code = (
+        "import sys\n"
+        "from armtree.perception.filters import PoseFilter\n"
+        "f = PoseFilter()\n"
+        "f.update(1, [0, 0, 100])\n"
+        "print(f.update(1, [10, 0, 100]).tvec.tolist(), 'scipy.spatial' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.stdout.split() == ["[2.0,", "0.0,", "100.0]", "False"], done.stderr
 
 
 def test_markers_are_filtered_independently_and_reset_when_lost():

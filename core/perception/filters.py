@@ -80,9 +80,13 @@ class PoseFilter:
         the estimate as it is; later ones move it by ``alpha`` of the difference.
         """
         t = np.asarray(tvec, dtype=float).reshape(3)
-        from scipy.spatial.transform import Rotation  # loaded with the first pose filtered
+        q_new = None
+        if rvec is not None:
+            # SciPy's rotations take a third of a second to import: a filter of positions
+            # alone (the Track skill's) never loads them.
+            from scipy.spatial.transform import Rotation
 
-        q_new = None if rvec is None else Rotation.from_rotvec(np.reshape(rvec, 3)).as_quat()
+            q_new = Rotation.from_rotvec(np.reshape(rvec, 3)).as_quat()
         old = self._poses.get(marker_id)
         if old is None:
             self._quats.pop(marker_id, None)
@@ -142,6 +146,8 @@ class PoseFilter:
 
 
 def _rotvec(q: np.ndarray | None) -> np.ndarray | None:
+    if q is None:
+        return None
     from scipy.spatial.transform import Rotation
 
-    return None if q is None else Rotation.from_quat(q).as_rotvec()
+    return Rotation.from_quat(q).as_rotvec()
