@@ -393,6 +393,11 @@ class VisitPoses(ArmSkill):
             raise SkillFailure(
                 f"{self.name}: check joints needs tool_marker and a fixed camera; use reference"
             )
+        if slip and not (fixed_marker or rig.camera.mount == EYE_IN_HAND):
+            raise SkillFailure(
+                f"{self.name}: a fixed camera looking at a still marker cannot see the arm slip: "
+                "look at the tool's marker (tool_marker) or set slip_mm 0"
+            )
         measures = self.param("measure_tool") or self.param("touch")
         if measures and getattr(rig, "reference", None) is None:
             raise SkillFailure(f"{self.name}: this rig has no measuring device (rig.reference)")
@@ -402,11 +407,16 @@ class VisitPoses(ArmSkill):
         """The progress output: ``done`` of ``total``, doing ``what``."""
         self.output("progress", {"done": done, "total": total, "what": what})
 
-    def visit(self, k: int, pose: np.ndarray, role: str, total: int, what: str = "") -> Procedure:
+    def visit(
+        self, k: int, pose: np.ndarray, role: str, total: int, what: str = "", done: int = -1
+    ) -> Procedure:
         """Move to pose ``k`` (``pose``, of ``total``) and look for ``role``: the pose's record.
-        ``what`` says what the visit is for on the progress bar (default the pose)."""
+        ``what`` and ``done`` say what the visit is for and how many poses are done on the
+        progress bar (default: pose ``k``, ``k`` done)."""
         rig = self.rig
-        self.report_progress(k, total, what or f"pose {k + 1}/{total} at {fmt(pose)}")
+        self.report_progress(
+            k if done < 0 else done, total, what or f"pose {k + 1}/{total} at {fmt(pose)}"
+        )
         record: dict[str, Any] = {"commanded": _list(pose), "reached": True, "seen": False}
         try:
             yield Move(rig, pose, speed=self.speed(), label=f"pose {k + 1}", corrected=False)

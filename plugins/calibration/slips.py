@@ -65,6 +65,8 @@ class SlipWatch:
         #: Looks at the camera for a slip; those that found the arm moved; homings; visits
         #: of poses made again because a slip may have spoiled them.
         self.checks = self.found = self.homings = self.redone = 0
+        #: Poses measured and kept so far (for the progress bar); the pose looked at again.
+        self.done = self.check_index = 0
 
     def summary(self) -> dict[str, Any] | None:
         """What the watch did, for the observations (None when it checked nothing)."""
@@ -123,7 +125,8 @@ class SlipWatch:
         self.mode = "reference"
         if not poses:
             return []
-        check = poses[self._central(poses)]
+        self.check_index = self._central(poses)
+        check = poses[self.check_index]
         reference = yield from self._reference(check, len(poses))
         out: list[dict[str, Any]] = []
         start, redone = 0, 0
@@ -138,7 +141,7 @@ class SlipWatch:
                 for r in records:
                     r["redone"] = redone
                 out += records
-                start, redone = run.stop, 0
+                start, redone, self.done = run.stop, 0, run.stop
                 continue
             self.found += 1
             if redone == self.redo:
@@ -163,7 +166,9 @@ class SlipWatch:
 
     def _look(self, pose: np.ndarray, total: int) -> Procedure:
         """Visit the pose looked at again (the reference) and look: its record, the marker seen."""
-        record = yield from self.skill.visit(0, pose, self.role, total, "look for missed steps")
+        record = yield from self.skill.visit(
+            self.check_index, pose, self.role, total, "look for missed steps", self.done
+        )
         if not record.get("seen"):
             why = record.get("why") or "the camera did not see the marker"
             raise self._fail(f"the check pose ({fmt(pose)}), where missed steps are looked for: "
