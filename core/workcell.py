@@ -82,6 +82,8 @@ FIELDS: tuple[Field, ...] = (
         30.0,
     ),
 )
+#: Most radii a ring survey may list (one leg of a sweep each).
+MAX_RADII = 8
 #: Keys of a ring survey: [lo, hi] base angles, the step between looks.
 RING_KEYS = ("radius_mm", "range_deg", "step_deg")
 #: Keys of a rectangle survey: x and y ranges on the table, the grid step.
@@ -93,7 +95,9 @@ class Survey:
     """The region of the table the camera should survey, as the profile wrote it.
 
     ``ring``: points at ``radius_mm`` from the base axis, ``range_deg`` = [lo, hi]
-    base angles ``step_deg`` apart (seed 004, appendix B). ``rectangle``: a grid
+    base angles ``step_deg`` apart (seed 004, appendix B); with several radii
+    (``radii_mm``) each angle is looked at from each radius, so a band wider than
+    one image is covered in every leg. ``rectangle``: a grid
     ``step_mm`` apart over ``x_mm`` x ``y_mm``. ``viewpoints``: explicit table
     points ``[x, y]`` (on the table top) or ``[x, y, z]``.
     """
@@ -106,6 +110,9 @@ class Survey:
     y_mm: tuple[float, float] = (0.0, 0.0)
     step_mm: float = 40.0
     points: tuple[tuple[float, ...], ...] = ()
+    #: A ring's radii, all looked at from every angle (``radius_mm`` written as a list);
+    #: one radius when written as a number.
+    radii_mm: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -184,6 +191,11 @@ def _pair(value: Any, bound: float = MAX_MM) -> bool:
         and all(_number(v, bound) for v in value)
         and value[0] <= value[1]
     )
+
+
+def _radii(value: Any) -> bool:
+    values = value if isinstance(value, list) else [value]
+    return 1 <= len(values) <= MAX_RADII and all(_number(v) and v > 0 for v in values)
 
 
 def check_workcell(data: MarkedDict, errors: list[ConfigError]) -> None:
@@ -285,7 +297,10 @@ def _check_survey(value: Any, where: Any, errors: list[ConfigError]) -> None:
                 )
             )
     checks: dict[str, tuple[Callable[[Any], bool], str]] = {
-        "radius_mm": (lambda v: _number(v) and v > 0, f"a radius > 0 and <= {MAX_MM:g} (mm)"),
+        "radius_mm": (
+            _radii,
+            f"a radius > 0 and <= {MAX_MM:g} (mm), or a list of 1 to {MAX_RADII} such radii",
+        ),
         "range_deg": (
             lambda v: _pair(v, 360.0),
             "[lo, hi] base angles within +/-360 (deg), lo <= hi",
@@ -493,9 +508,12 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
         if shape == "viewpoints":
             survey = Survey("viewpoints", points=tuple(tuple(float(v) for v in p) for p in body))
         elif shape == "ring":
+            given = body["radius_mm"]
+            radii = tuple(float(r) for r in (given if isinstance(given, list) else [given]))
             survey = Survey(
                 "ring",
-                radius_mm=float(body["radius_mm"]),
+                radius_mm=radii[0],
+                radii_mm=radii,
                 range_deg=tuple(float(v) for v in body.get("range_deg", (-100.0, 100.0))),  # type: ignore[arg-type]
                 step_deg=float(body.get("step_deg", 5.0)),
             )
@@ -556,9 +574,16 @@ def workcell_schema() -> dict[str, Any]:
         "type": "object",
         "properties": {
             "radius_mm": {
-                "type": "number",
-                "exclusiveMinimum": 0,
-                "description": "ring radius (mm)",
+                "oneOf": [
+                    {"type": "number", "exclusiveMinimum": 0},
+                    {
+                        "type": "array",
+                        "items": {"type": "number", "exclusiveMinimum": 0},
+                        "minItems": 1,
+                        "maxItems": MAX_RADII,
+                    },
+                ],
+                "description": "ring radius (mm), or a list of radii all looked at from every angle",
             },
             "range_deg": {
                 **pair,

@@ -79,7 +79,8 @@ def test_every_mistake_is_reported_at_its_line_and_column(tmp_path):
         "5:15: workcell.table_z_mm: expected a number (mm) within +/-5000, got 'low'",
         "6:3: workcell: unknown key 'clearnce_z_mm'; did you mean 'clearance_z_mm'?",
         "7:19: workcell.look_height_mm: expected a number > 0 mm, got -5",
-        "8:30: workcell.survey.ring.radius_mm: expected a radius > 0 and <= 5000 (mm), got 0",
+        "8:30: workcell.survey.ring.radius_mm: expected a radius > 0 and <= 5000 (mm), "
+        "or a list of 1 to 8 such radii, got 0",
         "8:44: workcell.survey.ring.range_deg: expected [lo, hi] base angles within +/-360 (deg), "
         "lo <= hi, got [100, -100]",
         "9:10: workcell.sort: 'ducky' is not a tag role (tags: trash)",
@@ -103,6 +104,9 @@ def test_a_survey_is_exactly_one_shape(tmp_path):
         ("survey.ring.range_deg=[-1e300, 1e300]", "base angles within +/-360 (deg)"),
         ("survey.rectangle={x_mm: [0, 4000], y_mm: [0, 4000], step_mm: 1}", "a grid of"),
         ("clearance_z_mm=1e300", "expected a number (mm) within +/-5000"),
+        ("survey.ring.radius_mm=[]", "or a list of 1 to 8 such radii"),
+        ("survey.ring.radius_mm=[200, -5]", "or a list of 1 to 8 such radii"),
+        ("survey.ring.radius_mm=[1, 2, 3, 4, 5, 6, 7, 8, 9]", "or a list of 1 to 8 such radii"),
     ],
 )
 def test_values_that_would_sweep_without_bound_fail_naming_the_option(option, message):
@@ -119,6 +123,25 @@ def test_a_ring_survey_sweeps_from_the_tool_s_heading_on_the_table():
     headings = [round(float(np.degrees(np.arctan2(p[1], p[0]))), 6) for p in points]
     assert headings == [0, 10, 20, 15, 5, -5, -15, -20]
     assert all(np.isclose(np.hypot(p[0], p[1]), 100.0) and p[2] == -35.0 for p in points)
+
+
+def test_a_ring_of_two_radii_looks_from_each_at_every_angle_out_and_back_in():
+    ring = Survey(
+        "ring", radius_mm=90.0, range_deg=(0.0, 20.0), step_deg=10.0, radii_mm=(90.0, 110.0)
+    )
+    points = survey_points(ring, -35.0, np.array([50.0, 0.0, 0.0]), sweeps=1)
+    looks = [
+        (round(float(np.degrees(np.arctan2(p[1], p[0])))), round(float(np.hypot(p[0], p[1]))))
+        for p in points
+    ]
+    assert looks == [(0, 90), (0, 110), (10, 110), (10, 90), (20, 90), (20, 110)]
+
+
+def test_a_profile_s_radius_list_becomes_the_ring_s_radii():
+    cell = workcell_of(
+        armtree.load_profile("sim_dobot", ["workcell.survey.ring.radius_mm=[170, 195]"])
+    )
+    assert cell.survey.radii_mm == (170.0, 195.0) and cell.survey.radius_mm == 170.0
 
 
 def test_a_rectangle_is_covered_row_by_row_and_retraced():

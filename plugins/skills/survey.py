@@ -15,29 +15,37 @@ import numpy as np
 from armtree.workcell import Survey
 
 
-def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
-    """Base angles (degrees) of a back-and-forth sweep from ``start`` within [lo, hi].
+def sweep_legs(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[list[float]]:
+    """Base angles (degrees) of a back-and-forth sweep from ``start`` within [lo, hi], leg by leg.
 
     First towards ``hi`` then back to ``lo`` and so on, ``sweeps`` legs in all
-    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees). Every
-    other leg begins with half a step, so its poses fall between those of the leg
-    before: a marker that no pose of one leg shows whole (cut by the image's edge)
-    is seen from new poses on the way back, not from the same ones again.
+    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees); the first
+    leg begins with ``start`` itself. Every other leg begins with half a step, so
+    its poses fall between those of the leg before: a marker that no pose of one
+    leg shows whole (cut by the image's edge) is seen from new poses on the way
+    back, not from the same ones again.
     """
     if step <= 0 or hi < lo:
         raise ValueError("a sweep needs step > 0 and range lo <= hi")
     angle = min(max(start, lo), hi)
-    out = [angle]
+    legs: list[list[float]] = []
     direction = 1.0
     for leg in range(max(1, sweeps)):
+        out = [angle] if leg == 0 else []
         end = hi if direction > 0 else lo
         first = 0.5 * step if leg % 2 else step
         while (end - angle) * direction > 1e-9:
             angle = angle + direction * min(first, abs(end - angle))
             first = step
             out.append(angle)
+        legs.append(out)
         direction = -direction
-    return out
+    return legs
+
+
+def sweep_angles(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[float]:
+    """The angles of :func:`sweep_legs`, one list (degrees)."""
+    return [a for leg in sweep_legs(start, lo, hi, step, sweeps) for a in leg]
 
 
 def grid_points(survey: Survey) -> list[tuple[float, float]]:
@@ -57,7 +65,8 @@ def survey_points(
 ) -> list[np.ndarray]:
     """The table points (mm, base frame) to look at, ``sweeps`` legs, starting near ``here``.
 
-    A ring starts at the base angle of ``here`` (the tool's position); a
+    A ring starts at the base angle of ``here`` (the tool's position) and looks at
+    each of its radii at every angle (outwards at one, inwards at the next); a
     rectangle's or the viewpoints' legs start at the point nearest ``here`` and
     go on in order, each later leg retracing the one before (a single viewpoint is
     looked at once per leg).
@@ -65,12 +74,17 @@ def survey_points(
     if survey.shape == "ring":
         lo, hi = survey.range_deg
         start = math.degrees(math.atan2(here[1], here[0]))
-        angles = sweep_angles(start, lo, hi, survey.step_deg, sweeps)
-        r = survey.radius_mm
-        return [
-            np.array([r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), table_z])
-            for a in angles
-        ]
+        radii = list(survey.radii_mm or (survey.radius_mm,))
+        points = []
+        for a in sweep_angles(start, lo, hi, survey.step_deg, sweeps):
+            for r in radii:
+                points.append(
+                    np.array(
+                        [r * math.cos(math.radians(a)), r * math.sin(math.radians(a)), table_z]
+                    )
+                )
+            radii.reverse()  # out and back in at the next angle: the shortest way
+        return points
     if survey.shape == "rectangle":
         flat = [np.array([x, y, table_z]) for x, y in grid_points(survey)]
     else:
@@ -85,4 +99,4 @@ def survey_points(
     return out
 
 
-__all__ = ["grid_points", "survey_points", "sweep_angles"]
+__all__ = ["grid_points", "survey_points", "sweep_angles", "sweep_legs"]
