@@ -17,6 +17,10 @@ Usage::
     git archive main | tar -x -C /tmp/base
     python benchmarks/sim_speed_ab.py --base /tmp/base --rigs sim_dobot sim_dh --seeds 1-4
 
+With ``--interleave`` each seed runs on both trees back to back (one child process
+each), and the medians of the per-seed ratios are printed too: on a machine whose
+load comes and goes they say more than the medians of each tree's runs.
+
 A source tree is swapped in by pointing this venv's editable install of armtree
 at it, so it must be installed with ``pip install -e`` (the project's own setup).
 """
@@ -137,6 +141,24 @@ def child(args: argparse.Namespace) -> None:
         print(data.decode(), flush=True)
 
 
+def _child_runs(src: str, rig: str, seeds: str, tree: str) -> list[dict]:
+    """Run ``seeds`` of ``rig`` on source tree ``src`` in a child process; one dict per seed."""
+    cmd = [
+        sys.executable,
+        __file__,
+        "--source",
+        src,
+        "--rig",
+        rig,
+        "--seeds",
+        seeds,
+        "--tree",
+        tree,
+    ]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    return [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--base", help="source tree to compare against (required)")
@@ -148,6 +170,11 @@ def main() -> None:
     )
     parser.add_argument("--seeds", default="1-4")
     parser.add_argument("--tree", default="load_ducky.yaml")
+    parser.add_argument(
+        "--interleave",
+        action="store_true",
+        help="run each seed on both trees back to back (for a machine whose load varies)",
+    )
     parser.add_argument("--source", help=argparse.SUPPRESS)
     parser.add_argument("--rig", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -157,24 +184,17 @@ def main() -> None:
     if not args.base:
         parser.error("--base SOURCE_TREE is required")
     print(f"load average {os.getloadavg()[0]:.1f}")
+    trees = [("base", args.base), ("new", args.new)]
     for i, rig in enumerate(args.rigs):
-        trees = [("base", args.base), ("new", args.new)]
-        runs = {}
-        for name, src in trees if i % 2 == 0 else trees[::-1]:
-            cmd = [
-                sys.executable,
-                __file__,
-                "--source",
-                src,
-                "--rig",
-                rig,
-                "--seeds",
-                args.seeds,
-                "--tree",
-                args.tree,
-            ]
-            out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-            runs[name] = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+        runs: dict[str, list[dict]] = {"base": [], "new": []}
+        if args.interleave:
+            # Each seed on both trees back to back: a load that comes and goes hits both.
+            for k, seed in enumerate(_seeds(args.seeds)):
+                for name, src in trees if (i + k) % 2 == 0 else trees[::-1]:
+                    runs[name] += _child_runs(src, rig, str(seed), args.tree)
+        else:
+            for name, src in trees if i % 2 == 0 else trees[::-1]:
+                runs[name] = _child_runs(src, rig, args.seeds, args.tree)
         for name in ("base", "new"):
             r = runs[name]
             sim = statistics.median(x["sim"] for x in r)
@@ -190,6 +210,13 @@ def main() -> None:
             a["digest"] == b["digest"] for a, b in zip(runs["base"], runs["new"], strict=True)
         )
         print(f"{rig}: {same} of {len(runs['base'])} seeds run alike (log, score, frames)")
+        if args.interleave:
+            pairs = list(zip(runs["base"], runs["new"], strict=True))
+            wall = statistics.median(a["wall"] / b["wall"] for a, b in pairs)
+            cpu = statistics.median(a["cpu"] / b["cpu"] for a, b in pairs)
+            print(
+                f"{rig}: new runs {wall:.2f}x as fast by wall, {cpu:.2f}x by CPU (median of seeds)"
+            )
     print(f"load average {os.getloadavg()[0]:.1f}")
 
 
