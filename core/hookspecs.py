@@ -121,7 +121,8 @@ def armtree_predicates() -> dict[str, Any]:
         :class:`armtree.outcomes.Judgement` on the ground truth at the end of a
         run (once per object, or once with ``obj=None``). Plugin data for it
         travels in ``WorldTruth.extra``. The built-in keys (``on``, ``in``,
-        ``at``, ``held``, ``collisions``, ``missed_steps``) cannot be taken.
+        ``at``, ``held``, ``collisions``, ``missed_steps``, ``parked``,
+        ``tool_within_mm``) cannot be taken.
     """
 
 

@@ -1,4 +1,4 @@
-"""The simulation's own ``expect:`` predicates: ``parked`` and ``tool_within_mm``."""
+"""The ``expect:`` predicates ``parked`` and ``tool_within_mm``, judged on what the sim's world hands them."""
 
 from __future__ import annotations
 
@@ -8,11 +8,10 @@ from sim_fakes import run_world
 
 from armtree import ConfigError, load_tree
 from armtree.outcomes import BUILTIN_PREDICATES, WorldObject, WorldTruth, judge
-from armtree.plugin_manager import get_plugin_manager
-from armtree.plugins.sim.predicates import SIM_PREDICATES
+from armtree.plugin_manager import PluginManager
 from armtree.plugins.sim.truth import world_truth
 
-PREDICATES = {**BUILTIN_PREDICATES, **SIM_PREDICATES}
+PREDICATES = BUILTIN_PREDICATES
 
 
 def truth(phase: str = "parked", tool=(160.0, 92.0, 15.0)) -> WorldTruth:
@@ -99,9 +98,14 @@ def test_the_world_reports_its_duckybots_tool_and_markers(make_world):
     assert world_truth(world, {}).extra["duckybots"]["bot"]["phase"] == "parked"
 
 
-def test_the_sim_plugin_registers_them():
-    found = get_plugin_manager().registry.instances("predicate")
-    assert {"parked", "tool_within_mm"} <= set(found)
+def test_they_are_armtree_s_own_so_trees_declaring_them_load_without_the_sim():
+    # a hardware profile with the sim plugin blocked: nothing judges them, but the tree loads
+    manager = PluginManager(blocked=("sim",), autoload=True)
+    manager.load_entry_points()
+    assert not manager.pm.has_plugin("sim")
+    for name in ("track.yaml", "touch_tag.yaml"):
+        tree = load_tree(name, rig="dobot_v1.yaml", overrides=["tag=duckybot"], manager=manager)
+        assert {e.predicate for e in tree.expect} & {"parked", "tool_within_mm"}
 
 
 def test_track_and_touch_tag_declare_them():

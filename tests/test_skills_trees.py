@@ -29,7 +29,6 @@ from test_skills_fakes import (
 import armtree
 from armtree.clock import VirtualClock
 from armtree.plugin_manager import PluginManager
-from armtree.plugins.sim.predicates import SIM_PREDICATES
 from armtree.resolve import available
 from armtree.rig_builder import build_rig
 from armtree.runtime import run
@@ -106,16 +105,7 @@ def manager() -> PluginManager:
     m = PluginManager(blocked=(*hardware, "planners", "sim"), autoload=True)
     m.load_entry_points()
     m.register(FakeHardware(), "skills_fakes")
-    m.register(SimPredicates(), "sim_predicates")  # so trees declaring them load
     return m
-
-
-class SimPredicates:
-    """The simulation's ``expect:`` predicates without its world (the fakes judge nothing)."""
-
-    @armtree.hookimpl
-    def armtree_predicates(self):
-        return dict(SIM_PREDICATES)
 
 
 def write_profile(tmp_path: Path, markers: list[list[float]]) -> Path:

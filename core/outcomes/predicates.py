@@ -1,7 +1,7 @@
 """The predicates of ``expect:``: each judges one kind of claim about the world.
 
 An entry names one predicate by its key (``on``, ``in``, ``at``, ``held``,
-``collisions``, ``missed_steps``, or one a plugin registers through
+``collisions``, ``missed_steps``, ``parked``, ``tool_within_mm``, or one a plugin registers through
 ``armtree_predicates``) and, for predicates about objects, what it is about:
 ``object: NAME_OR_ROLE`` (at least one such body must pass) or
 ``objects: NAME_OR_ROLE`` (every such body must pass; a list of names works too).
@@ -14,10 +14,11 @@ takes no object. Millimetres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from .truth import WorldObject, WorldTruth
+from .truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
 
 if TYPE_CHECKING:
     from .expect import Expectation
@@ -240,6 +241,82 @@ class MissedSteps(AtMost):
     SHOW = "joint {joint} by {amount:.2f} at t={time:.2f} s"
 
 
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class Parked(Predicate):
+    """``parked: true``: a Duckybot has stopped at a parking pose of its route and waits
+    there; any other body is at rest (neither held nor falling). ``false``: the opposite."""
+
+    VALUE = {"type": "boolean", "description": "the Duckybot waits at a parking pose"}
+
+    def check(self, entry: Any, world: WorldTruth) -> list[tuple[str, str]]:
+        if not isinstance(entry.value, bool):
+            return [("parked", f"expected true or false, got {entry.value!r}")]
+        return []
+
+    def describe(self, entry: Any) -> str:
+        return "parked" if entry.value else "not parked"
+
+    def judge(self, entry: Any, obj: WorldObject | None, world: WorldTruth) -> Judgement:
+        assert obj is not None
+        bot = (world.extra.get(DUCKYBOTS) or {}).get(obj.name)
+        if bot is None:
+            rest = "held" if obj.held else ("at rest" if obj.on is not None else "falling")
+            passed = (rest == "at rest") == bool(entry.value)
+            return Judgement(passed, rest, f"{obj.name} {rest}")
+        phase = str(bot["phase"])
+        x, y, heading = bot["pose"]
+        passed = (phase == "parked") == bool(entry.value)
+        return Judgement(
+            passed, phase, f"{obj.name} {phase} at [{x:.0f}, {y:.0f}] mm, {heading:.0f} deg"
+        )
+
+
+class ToolWithin(Predicate):
+    """``tool_within_mm: N`` (``above_mm: H``, default 0): the tool centre ends within N mm
+    of the point H mm above the object's marker centre."""
+
+    VALUE = {"type": "number", "exclusiveMinimum": 0, "description": "the farthest allowed (mm)"}
+    OPTIONS = {
+        "above_mm": {
+            # a tree's {param} is substituted before the entry is read
+            "anyOf": [{"type": "number"}, {"type": "string", "pattern": r"^\{[A-Za-z_]\w*\}$"}],
+            "description": "height over the marker (mm)",
+        }
+    }
+    DEFAULTS = {"above_mm": 0.0}
+
+    def check(self, entry: Any, world: WorldTruth) -> list[tuple[str, str]]:
+        out = []
+        if not _finite(entry.value) or entry.value <= 0:
+            out.append(("tool_within_mm", f"expected a distance in mm > 0, got {entry.value!r}"))
+        if not _finite(entry.options.get("above_mm")):
+            out.append(("above_mm", f"expected a height in mm, got {entry.options['above_mm']!r}"))
+        return out
+
+    def describe(self, entry: Any) -> str:
+        above = float(entry.options["above_mm"])
+        where = f"{above:g} mm above its marker" if above else "its marker"
+        return f"tool within {entry.value:g} mm of {where}"
+
+    def judge(self, entry: Any, obj: WorldObject | None, world: WorldTruth) -> Judgement:
+        assert obj is not None
+        tool = world.extra.get(TOOL)
+        marker = (world.extra.get(MARKERS) or {}).get(obj.name)
+        if tool is None or marker is None:
+            what = "no tool" if tool is None else f"{obj.name} carries no marker"
+            return Judgement(False, None, what)
+        goal = (marker[0], marker[1], marker[2] + float(entry.options["above_mm"]))
+        distance = math.dist(tool, goal)
+        return Judgement(
+            distance <= float(entry.value),
+            round(distance, 2),
+            f"the tool {distance:.1f} mm from [{goal[0]:.0f}, {goal[1]:.0f}, {goal[2]:.0f}] mm",
+        )
+
+
 #: The vocabulary armtree itself provides; plugins add theirs through armtree_predicates.
 BUILTIN_PREDICATES: dict[str, Predicate] = {
     "on": On(),
@@ -248,4 +325,6 @@ BUILTIN_PREDICATES: dict[str, Predicate] = {
     "held": Held(),
     "collisions": Collisions(),
     "missed_steps": MissedSteps(),
+    "parked": Parked(),
+    "tool_within_mm": ToolWithin(),
 }

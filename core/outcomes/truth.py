@@ -43,6 +43,12 @@ class WorldObject:
         return math.hypot(self.position[0] - point[0], self.position[1] - point[1])
 
 
+#: ``WorldTruth.extra`` keys a ground-truth plugin fills for ``parked`` and
+#: ``tool_within_mm``: each Duckybot's ``phase`` and ``pose`` [x, y, heading] by name,
+#: the tool centre, and each marked body's marker centre by name (mm, degrees).
+DUCKYBOTS, TOOL, MARKERS = "duckybots", "tool_mm", "markers"
+
+
 @dataclass
 class WorldTruth:
     """A world's bodies, places and what happened in it.
@@ -53,7 +59,9 @@ class WorldTruth:
     lists hold one mapping per collision (``link``, ``other``, ``depth_mm``,
     ``time``), missed step and drop. ``complete`` is False for an inventory made
     from names only (a real rig), where a name cannot be checked for its kind.
-    ``extra`` is free for plugins' own predicates.
+    ``extra`` holds what the built-in ``parked`` and ``tool_within_mm`` read
+    (:data:`DUCKYBOTS`, :data:`TOOL`, :data:`MARKERS`; without them those judge
+    "not known") and is free for plugins' own predicates.
     """
 
     objects: dict[str, WorldObject] = field(default_factory=dict)

@@ -10,8 +10,8 @@ and adds a one-line score to the run summary (``result.details``).
 (collisions, drops, missed steps: ``run.report_event``) and ends the run on a
 collision under ``halt_on_collision`` (``run.fail``); ``armtree_ground_truth``
 and ``armtree_world_inventory`` give the ``expect:`` predicates the world at the
-end of a run and the nominal world while a tree loads; ``armtree_predicates`` adds
-the predicates only the simulated world can judge (``parked``, ``tool_within_mm``).
+end of a run and the nominal world while a tree loads (with what ``parked`` and
+``tool_within_mm`` read: the Duckybots' phases, the tool and the marker centres).
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
 ``armtree_profile_sections`` registers the ``world:`` section, whose check parses
 the world while the profile loads, so ``armtree check`` reports what building
@@ -30,7 +30,6 @@ from armtree.profile_sections import ProfileSection
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
-from .predicates import SIM_PREDICATES
 from .recording import Recorder, write_score
 from .scene import SceneSpec, body_error, parse_scene
 from .truth import scene_truth, world_truth
@@ -325,13 +324,6 @@ def armtree_ground_truth(run: Any) -> Any:
         return None
     stepper._world.settle()
     return world_truth(stepper._world, run.rig.profile)
-
-
-@armtree.hookimpl
-def armtree_predicates() -> dict[str, Any]:
-    """``parked`` (a Duckybot waits at a parking pose) and ``tool_within_mm`` (the tool
-    ends near an object's marker), judged on the simulated world."""
-    return dict(SIM_PREDICATES)
 
 
 @armtree.hookimpl

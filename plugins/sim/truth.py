@@ -14,9 +14,9 @@ from collections.abc import Iterable
 from typing import Any
 
 from armtree.outcomes import WorldObject, WorldTruth
+from armtree.outcomes.truth import DUCKYBOTS, MARKERS, TOOL
 from armtree.profile import profile_section
 
-from .predicates import DUCKYBOTS, MARKERS, TOOL
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World
 
@@ -74,7 +74,7 @@ def scene_truth(scene: SceneSpec, profile: Any) -> WorldTruth:
 def world_truth(world: World, profile: Any) -> WorldTruth:
     """The world's ground truth now: every body, what holds it, collisions, slips and drops;
     in ``extra`` the Duckybots' phases and poses, the tool centre and the marker centres
-    (for :mod:`.predicates`)."""
+    (for the built-in ``parked`` and ``tool_within_mm``)."""
     tags = _tag_roles(profile)
     with world.lock:
         objects = {}
