@@ -332,3 +332,44 @@ def test_a_driver_bug_becomes_a_hardware_fault_not_a_hang():
     finally:
         drv.close()
         emu.close()
+
+
+class _DrainInterrupted:
+    """A port whose drain a signal interrupts ``times`` times, then fails with ``final``."""
+
+    def __init__(self, times: int, final: int | None = None) -> None:
+        self.times, self.final, self.flushes = times, final, 0
+
+    def write(self, data):
+        return len(data)
+
+    def flush(self):
+        import errno
+        import termios
+
+        self.flushes += 1
+        if self.flushes <= self.times:
+            raise termios.error(errno.EINTR, "Interrupted system call")
+        if self.final is not None:
+            raise termios.error(self.final, "Input/output error")
+
+
+def test_a_signal_interrupting_the_drain_is_retried_not_taken_for_a_lost_link():
+    # Ctrl-C landing on the driver's thread while it drains must end the run as an
+    # interrupt (130), not a lost link (exit 3)
+    clock = VirtualClock()
+    emu, drv = _pair(clock)
+    try:
+        drv.connect()
+        port = _DrainInterrupted(times=2)
+        real, drv._ser = drv._ser, port
+        assert drv.write(b"x") is True
+        assert port.flushes == 3 and drv.fault is None
+        port = _DrainInterrupted(times=0, final=5)  # EIO: the device is gone
+        drv._ser = port
+        assert drv.write(b"x") is False
+        assert drv.fault is not None and "link lost while writing" in str(drv.fault)
+        drv._ser = real
+    finally:
+        drv.close()
+        emu.close()

@@ -105,6 +105,36 @@ def _not_a_tty(port: str) -> str | None:
     return None
 
 
+#: How often a flush interrupted by a signal is tried again before the link counts as lost.
+FLUSH_TRIES = 5
+
+try:
+    import termios
+
+    _DRAIN_ERRORS: tuple[type[BaseException], ...] = (termios.error,)
+except ImportError:  # Windows: pyserial's flush does not drain through termios
+    _DRAIN_ERRORS = ()
+
+
+def _flush(ser: serial.Serial) -> None:
+    """Wait until ``ser`` has sent what was written.
+
+    pyserial's POSIX flush is ``termios.tcdrain``, which a signal (Ctrl-C landing on
+    the driver's thread) interrupts with ``termios.error``, not an ``OSError``, and
+    which Python does not retry; the run then ended as a lost link (exit 3) instead
+    of an interrupt (130). An interrupted drain is tried again; any other
+    ``termios.error`` is raised as the ``OSError`` it is.
+    """
+    for attempt in range(FLUSH_TRIES):
+        try:
+            ser.flush()
+            return
+        except _DRAIN_ERRORS as exc:
+            code = exc.args[0] if exc.args and isinstance(exc.args[0], int) else errno.EIO
+            if code != errno.EINTR or attempt == FLUSH_TRIES - 1:
+                raise OSError(code, os.strerror(code)) from exc
+
+
 class SerialArmDriver(ArmDriver):
     """A serial arm driver with its I/O thread; see the module docstring for the contract.
 
@@ -199,7 +229,7 @@ class SerialArmDriver(ArmDriver):
         with self._write_lock:
             try:
                 n = ser.write(data)
-                ser.flush()
+                _flush(ser)
             except (serial.SerialException, OSError) as exc:
                 self.lose_link(f"link lost while writing: {exc}")
                 return False
