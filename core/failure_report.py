@@ -41,8 +41,9 @@ class End(Exception):
 class FailureReport:
     """What went wrong in one run: the records, the end message, the failed node.
 
-    Each method that describes a cause writes its run-log record at the given
-    tick (on ``clock``'s time) and returns the :class:`End`. It fills in
+    Each method that describes a cause returns the :class:`End` and writes the
+    cause's run-log record at the given tick, on ``clock``'s time (a tree that
+    failed has none: its status records tell it). It fills in
     :attr:`failed_node`, :attr:`traceback` and :attr:`running` for the result;
     a node that raised is handed to ``halter`` to be halted even when not
     RUNNING. :attr:`log` is the run's log, replaced by the run when it opens one.
