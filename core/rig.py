@@ -287,6 +287,9 @@ class Planner(ABC):
     """Finds a collision-free joint path for the rig's arm (:attr:`model`)."""
 
     model: KinematicModel
+    #: Told ``report(event, message, **data)`` what the run log should record (a start
+    #: stepped out of a shallow contact); the run connects it, None records nothing.
+    report: Callable[..., None] | None = None
 
     @abstractmethod
     def plan(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:

@@ -136,6 +136,15 @@ class Trajectory:
         out = self._eval(seg, tau, 2)
         return out.reshape(np.shape(t) + (out.shape[-1],))
 
+    def then(self, other: Trajectory) -> Trajectory:
+        """This trajectory followed by ``other`` (which starts where this one ends, at rest)."""
+        if other.duration <= 0.0:
+            return self
+        if self.duration <= 0.0:
+            return other
+        times = np.concatenate([self.times, self.duration + other.times[1:]])
+        return Trajectory(times, [*self.coeffs, *other.coeffs])
+
     def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Times ``(K,)`` every ``dt`` s (the end included) and the positions ``(K, n)`` there."""
         if not dt > 0:
@@ -244,12 +253,15 @@ def validate_trajectory(
     resolution: float = 1.0,
     min_singular: float | None = None,
     speed_tolerance: float = 1e-6,
+    start_contact_mm: float = 0.0,
 ) -> PathReport:
     """Check a timed trajectory: limits, joint speeds, collisions, singularity margin.
 
     Samples in time so that no joint moves more than ``resolution`` (deg / mm)
     between samples, then checks each sample in order (seed 002, validatePath).
-    Speeds above a joint's ``max_speed`` are reported as ``too_fast``.
+    Speeds above a joint's ``max_speed`` are reported as ``too_fast``. With
+    ``start_contact_mm`` > 0 the trajectory may begin by leaving a contact at most
+    that deep (mm) (:func:`~armtree.motion.validation.validate_samples`).
     """
     model = checker.model
     pv, _ = _peaks(traj)
@@ -268,4 +280,4 @@ def validate_trajectory(
     peak = max(float(speed.max()), 1e-9)
     dt = max(resolution / peak, 1e-4)
     times, q = traj.sample(dt)
-    return validate_samples(checker, q, min_singular, times)
+    return validate_samples(checker, q, min_singular, times, start_contact_mm)

@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import PlanningError
 from .collision import CollisionChecker
 from .kinematics import KinematicModel
+from .start_contact import leaving_run
 
 
 def smallest_singular_value(model: KinematicModel, q: np.ndarray) -> np.ndarray:
@@ -96,12 +97,16 @@ def validate_samples(
     samples: np.ndarray,
     min_singular: float | None = None,
     times: np.ndarray | None = None,
+    start_contact_mm: float = 0.0,
 ) -> PathReport:
     """Check configurations ``(N, n)`` along a path, in order, all in one batch.
 
     Reports the first sample that is non-finite, outside the limits, colliding,
     or (with ``min_singular``) whose Jacobian's smallest singular value is below
-    it (seed 002, validatePath). ``times`` (s) only label the message.
+    it (seed 002, validatePath). ``times`` (s) only label the message. With
+    ``start_contact_mm`` > 0 the first sample is where the arm is, and a path may
+    begin in a contact at most that deep (mm) if it only leaves it
+    (:func:`~armtree.motion.start_contact.leaving_run`).
     """
     model = checker.model
     q = np.asarray(samples, dtype=float).reshape(-1, model.dof)
@@ -124,6 +129,11 @@ def validate_samples(
             f"path leaves the limits{where(i)}: " + "; ".join(limit_violations(model, q[i])),
         )
     hit = np.asarray(checker.collides(q)).reshape(-1)
+    if hit[:1].any() and start_contact_mm > 0:
+        run = leaving_run(checker, q, start_contact_mm)
+        if run is not None:
+            hit = hit.copy()
+            hit[:run] = False
     if hit.any():
         i = int(np.argmax(hit))
         return PathReport(

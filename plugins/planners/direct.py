@@ -17,6 +17,7 @@ from armtree.errors import ConfigError
 from armtree.motion.collision import CollisionChecker
 from armtree.motion.kinematics import KinematicModel
 from armtree.motion.scene import Scene
+from armtree.motion.start_contact import StartContactRecovery
 from armtree.motion.validation import check_config, validate_samples
 from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
@@ -40,10 +41,17 @@ class DirectPlanner(Planner):
         self.resolution = float(resolution)
         self.min_singular = min_singular
         self.workspace = ArmWorkspace(self.model)
+        self.start_contact = StartContactRecovery(checker)
 
     def plan(self, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
-        """``[start, goal]`` ``(2, n)`` deg / mm, or PlanningError naming why not."""
-        start = check_config(self.checker, start, "start")
+        """``[start, goal]`` ``(2, n)`` deg / mm, or PlanningError naming why not.
+
+        A start in a shallow collision gets ``[start, free, goal]``: a short move
+        out of the contact first (:class:`~armtree.motion.start_contact.StartContactRecovery`).
+        """
+        start, escape = self.start_contact.check(start)
+        if escape is not None:
+            return self.start_contact.follow(self, escape, goal)
         goal = check_config(self.checker, goal, "goal", self.min_singular)
         # The start is where the arm already is: only the samples after it must keep the margin.
         samples = sample_segment(start, goal, self.resolution)[1:]

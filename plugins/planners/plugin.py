@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
+from armtree.rig import Planner
 
 from .direct import direct_factory
 from .prm import prm_factory
@@ -21,3 +22,25 @@ def armtree_planners() -> dict[str, Any]:
 def armtree_commands() -> dict[str, Any]:
     """``armtree workspace``."""
     return {"workspace": WorkspaceCommand()}
+
+
+@armtree.hookimpl
+def armtree_run_started(run: Any) -> None:
+    """Connect the rig's planner to the run log (:attr:`armtree.rig.Planner.report`).
+
+    A planner asked again and again from the same believed start (every inverse
+    kinematics solution, every scan pose) reports stepping out of its contact once.
+    """
+    planner = getattr(getattr(run, "rig", None), "planner", None)
+    report_event = getattr(run, "report_event", None)
+    if not isinstance(planner, Planner) or report_event is None:
+        return
+    last: list[Any] = [None]
+
+    def report(event: str, message: str, **data: Any) -> None:
+        key = (event, repr(data.get("start")))
+        if key != last[0]:
+            last[0] = key
+            report_event(event, message, **data)
+
+    planner.report = report

@@ -30,6 +30,7 @@ import platformdirs
 from armtree.errors import ConfigError, PlanningError
 from armtree.motion.collision import CollisionChecker
 from armtree.motion.kinematics import KinematicModel
+from armtree.motion.start_contact import StartContactRecovery
 from armtree.motion.validation import check_config
 from armtree.motion.workspace import ArmWorkspace
 from armtree.params import Param
@@ -196,6 +197,7 @@ class PRMPlanner(Planner):
         #: True when the roadmap in use came from the disk cache.
         self.loaded_from_cache = False
         self.workspace = ArmWorkspace(self.model)
+        self.start_contact = StartContactRecovery(checker)
 
     # -- the roadmap -----------------------------------------------------------
 
@@ -289,9 +291,13 @@ class PRMPlanner(Planner):
         """Waypoints ``(N, n)`` from ``start`` to ``goal`` (deg / mm) through the roadmap.
 
         Raises PlanningError with reason ``not_finite``, ``outside_limits``,
-        ``start_in_collision``, ``goal_in_collision`` or ``disconnected``.
+        ``start_in_collision``, ``goal_in_collision`` or ``disconnected``. A start in a
+        shallow collision first steps out of it
+        (:class:`~armtree.motion.start_contact.StartContactRecovery`).
         """
-        start = check_config(self.checker, start, "start")
+        start, escape = self.start_contact.check(start)
+        if escape is not None:
+            return self.start_contact.follow(self, escape, goal)
         goal = check_config(self.checker, goal, "goal")
         if (
             np.allclose(start, goal)

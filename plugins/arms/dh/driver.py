@@ -31,6 +31,7 @@ import numpy as np
 from armtree.errors import HardwareFault, PlanningError, Unreachable
 from armtree.motion.collision import CollisionChecker
 from armtree.motion.scene import Scene
+from armtree.motion.start_contact import START_CONTACT_MM
 from armtree.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
@@ -381,13 +382,28 @@ class SSC32Driver(SerialArmDriver):
         """The validated trajectory through joint configurations ``path`` ``(N, n)``.
 
         Raises :class:`PlanningError` (reason ``outside_limits``, ``too_fast``,
-        ``collision``, ...) saying where along it the path fails.
+        ``collision``, ...) saying where along it the path fails. A path from a
+        start believed in a shallow contact is taken when its first move only
+        leaves the contact (:func:`~armtree.motion.start_contact.leaving_run`);
+        the arm then comes to rest at the end of that move.
         """
         scale = float(min(max(speed, 0.01), 1.0))
         vmax = np.array([j.max_speed for j in self.model.joints]) * scale
         amax = np.array([j.max_accel for j in self.model.joints]) * scale
         trajectory = plan_trajectory(path, self.trajectory_kind, max_speed=vmax, max_accel=amax)
-        validate_trajectory(trajectory, self.checker).raise_if_bad()
+        report = validate_trajectory(trajectory, self.checker)
+        if not report.ok and report.reason == "collision" and report.index == 0 and len(path) > 1:
+            # Believed in contact (a slipped step): come to rest where the first move leaves
+            # the contact (a straight move then), and go on from there.
+            first, rest = (
+                plan_trajectory(p, self.trajectory_kind, max_speed=vmax, max_accel=amax)
+                for p in (path[:2], path[1:])
+            )
+            trajectory = first.then(rest)
+            report = validate_trajectory(
+                trajectory, self.checker, start_contact_mm=START_CONTACT_MM
+            )
+        report.raise_if_bad()
         return trajectory
 
     def _checked_goal(self, q: np.ndarray) -> tuple[np.ndarray, dict[int, int]]:
