@@ -124,9 +124,9 @@ def test_the_dh_driver_follows_a_path_out_of_a_contact_and_refuses_one_deeper(mo
         assert deeper.status is MotionStatus.FAILED
         assert isinstance(deeper.error, PlanningError) and deeper.error.reason == "collision"
         goal = lifted(model, model.home, 40.0)
-        path = DirectPlanner(checker).plan(model.home, goal)
+        path = DirectPlanner(checker).plan(sim.arm.joints(), goal)  # the joints' reading
         assert len(path) == 3
-        handle = sim.until(sim.arm.follow_path(path[1:]))
+        handle = sim.until(sim.arm.follow_path(path))  # its first waypoint is where the arm is
         assert handle.status is MotionStatus.DONE
         np.testing.assert_allclose(sim.emu.true_joints(), goal, atol=0.1)
         # it came to rest where it left the contact: one stop at the escape, then on

@@ -395,9 +395,12 @@ class SSC32Driver(SerialArmDriver):
         if not report.ok and report.reason == "collision" and report.index == 0 and len(path) > 1:
             # Believed in contact (a slipped step): come to rest where the first move leaves
             # the contact (a straight move then), and go on from there.
+            path = np.asarray(path, dtype=float)
+            moved = np.any(np.abs(path[1:] - path[0]) > 1e-12, axis=1)
+            k = 1 + int(np.argmax(moved))
             first, rest = (
                 plan_trajectory(p, self.trajectory_kind, max_speed=vmax, max_accel=amax)
-                for p in (path[:2], path[1:])
+                for p in (path[: k + 1], path[k:])
             )
             trajectory = first.then(rest)
             report = validate_trajectory(
