@@ -232,6 +232,17 @@ class JointState:
         self._rest = np.asarray(q, dtype=float).copy()
         self._move = None
 
+    def rereference(self, believed: np.ndarray, t: float) -> None:
+        """The firmware's belief becomes ``believed`` (at rest) at ``t``; the world position stays.
+
+        A board that re-reads its pose from sensors (accelerometers at boot) does
+        this: the offsets of missed steps become whatever the new belief is off by.
+        """
+        true = self.true(t)
+        self._rest = np.asarray(believed, dtype=float).copy()
+        self._move = None
+        self.missed = true - self._rest
+
     def miss_steps(self, joint: int, amount: float) -> None:
         """The world position of ``joint`` slips by ``amount`` (deg / mm) unknown to the firmware."""
         self.missed[joint] += amount

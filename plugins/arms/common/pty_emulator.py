@@ -16,6 +16,16 @@ reads the answers and handles them, until both sides are quiet. Only then is
 the tick ``now`` announced to the driver, and the settling is repeated. On a wall clock (``armtree emulate``,
 ``--realtime``) a service thread steps the emulator every few milliseconds and
 the barrier is never used.
+
+Packet mode: the master side runs in the pty's packet mode (``TIOCPKT``), so
+every read starts with a status byte: 0 (``TIOCPKT_DATA``) before data the
+host wrote, or control flags alone. A pty carries no DTR line, but pyserial's
+``open()`` flushes the port's input, which packet mode reports as
+``TIOCPKT_FLUSHREAD``; the base strips the status byte (:func:`parse_packet`)
+and tells the firmware through :meth:`PtyEmulator.on_port_opened`, so a board
+that resets when its port is opened (an Arduino through DTR) can do so. Every
+flush counts as an open: no driver calls ``reset_input_buffer()`` after
+opening the port.
 """
 
 from __future__ import annotations
@@ -25,6 +35,8 @@ import contextlib
 import fcntl
 import os
 import select
+import struct
+import termios
 import threading
 import time
 import tty
@@ -41,6 +53,27 @@ from .motion import JointState
 
 #: Faults :meth:`PtyEmulator.inject` understands.
 FAULTS = ("corrupt", "drop", "cut", "missed_steps")
+
+#: Packet-mode status byte before data, and the control flag of a flushed input queue
+#: (Linux and the BSDs define these values; ``termios`` may lack the names).
+TIOCPKT_DATA = getattr(termios, "TIOCPKT_DATA", 0x00)
+TIOCPKT_FLUSHREAD = getattr(termios, "TIOCPKT_FLUSHREAD", 0x01)
+_TIOCPKT = getattr(termios, "TIOCPKT", None)
+
+
+def parse_packet(chunk: bytes) -> tuple[int, bytes]:
+    """One read of a packet-mode pty master as ``(control flags, data)``.
+
+    A read is either data (status byte ``TIOCPKT_DATA`` followed by the bytes)
+    or a control report (the flags byte alone, no data); an empty read is
+    ``(0, b"")``.
+    """
+    if not chunk:
+        return 0, b""
+    status = chunk[0]
+    if status == TIOCPKT_DATA:
+        return 0, bytes(chunk[1:])
+    return status, b""
 
 
 class PtyEmulator(FirmwareEmulator):
@@ -82,6 +115,9 @@ class PtyEmulator(FirmwareEmulator):
         self._lock = threading.RLock()
         self._master: int | None = None
         self._slave: int | None = None
+        self._packet = False
+        #: Opens of the port seen (input flushes in packet mode).
+        self.port_opens = 0
         self._silent = False
         self._corrupt_rate = 0.0
         self._corrupt_count = 0
@@ -106,6 +142,12 @@ class PtyEmulator(FirmwareEmulator):
     def on_start(self) -> None:  # noqa: B027 - firmware with nothing to do at power-up
         """Power-up: called once the pty is open, before the first step."""
 
+    def on_port_opened(self, t: float) -> None:  # noqa: B027 - boards that ignore the open
+        """A host opened the port (its input was flushed), seen at time ``t`` (s).
+
+        The default does nothing; a board that resets on open (DTR) reboots here.
+        """
+
     # ------------------------------------------------------------------ FirmwareEmulator
 
     @property
@@ -122,6 +164,7 @@ class PtyEmulator(FirmwareEmulator):
             tty.setraw(slave)
             flags = fcntl.fcntl(master, fcntl.F_GETFL)
             fcntl.fcntl(master, fcntl.F_SETFL, flags | os.O_NONBLOCK)
+            self._packet = _packet_mode(master)
             # Holding the slave open keeps the master readable while no driver has the
             # port open (a driver may close and reopen it, as after a USB reset).
             self._master, self._slave = master, slave
@@ -263,20 +306,32 @@ class PtyEmulator(FirmwareEmulator):
             out.append(byte)
         return bytes(out)
 
-    def _read_available(self) -> bytes:
+    def _read_available(self) -> bytes | None:
+        """Data the host wrote (``b""`` after a control report), or None when nothing is there."""
         if self._master is None:
-            return b""
+            return None
         try:
-            return os.read(self._master, 4096)
+            chunk = os.read(self._master, 4096)
         except (BlockingIOError, OSError):
-            return b""
+            return None
+        if not chunk:
+            return None
+        if not self._packet:
+            return chunk
+        control, data = parse_packet(chunk)
+        if control & TIOCPKT_FLUSHREAD:
+            self.port_opens += 1
+            self.on_port_opened(self._time)
+        return data
 
     def _pump_input(self, complete: bool) -> None:
         """Read and handle what the host wrote; with ``complete``, wait for every byte it wrote."""
         deadline = time.monotonic() + self.barrier.timeout
         while True:
             data = self._read_available()
-            if data:
+            if data is not None:
+                if not data:
+                    continue  # a control report: data may follow at once
                 self.barrier.received(len(data))
                 if not self._silent:
                     self._record("rx", data)
@@ -316,3 +371,14 @@ class PtyEmulator(FirmwareEmulator):
             if self._stop.is_set():
                 return
             self.step(self.clock.now())
+
+
+def _packet_mode(master: int) -> bool:
+    """Put pty master ``master`` in packet mode; False where the platform has none."""
+    if _TIOCPKT is None:
+        return False
+    try:
+        fcntl.ioctl(master, _TIOCPKT, struct.pack("i", 1))
+    except OSError:
+        return False
+    return True

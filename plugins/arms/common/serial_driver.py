@@ -181,6 +181,7 @@ class SerialArmDriver(ArmDriver):
         self._state_lock = threading.RLock()
         self._fault: HardwareFault | None = None
         self._connected = False
+        self._reopening = False
         self._seen = bytearray()
         self._now = -math.inf
         self._last_alive = -math.inf
@@ -256,7 +257,7 @@ class SerialArmDriver(ArmDriver):
             self.barrier.detach()
         # The run hears of the fault before any behaviour sees its motion fail, so the
         # run ends as a hardware fault (exit 3), not as the tree's failure.
-        if self._connected:
+        if self._connected or self._reopening:
             self.interrupt(f"link lost on {self.device}", fault)
         for handle in handles:
             handle.update(MotionStatus.FAILED, error=fault)
@@ -342,10 +343,14 @@ class SerialArmDriver(ArmDriver):
             super().request_stop()
 
     def ensure_connected(self) -> HardwareFault | None:
-        """Connect on first use; return the fault that prevents it, if any."""
+        """Connect on first use; return the fault that prevents it, if any.
+
+        While the port is being reopened (:meth:`reopen`) nothing is connected:
+        commands wait for the arm to answer.
+        """
         if self._fault is not None:
             return self._fault
-        if not self._connected:
+        if not self._connected and not self._reopening:
             try:
                 self.connect()
             except HardwareFault as exc:
@@ -364,18 +369,7 @@ class SerialArmDriver(ArmDriver):
             if self._fault is not None:
                 raise self._fault
             return
-        self._fault = None
-        self._seen.clear()
-        self._last_alive = -math.inf
-        self._ser = open_serial_port(self.device, self.baud)
-        self._running.set()
-        if self.barrier is not None:
-            self.barrier.attach(wake=self._wake)
-        self.on_open()
-        self._thread = threading.Thread(
-            target=self._loop, name=f"serial {self.device}", daemon=True
-        )
-        self._thread.start()
+        self.open_link()
         deadline = time.monotonic() + self.connect_timeout
         while not self.handshake_done() and self._fault is None:
             if time.monotonic() > deadline:
@@ -399,8 +393,59 @@ class SerialArmDriver(ArmDriver):
         self._fault = fault
         raise fault
 
+    def open_link(self) -> None:
+        """Open the port and start the I/O thread, without waiting for the handshake.
+
+        :meth:`connect` waits for :meth:`handshake_done` after it; a driver that
+        reopens its port while the run goes on (a board reset) waits tick by
+        tick instead. Raises :class:`HardwareFault` naming the port when it
+        cannot be opened.
+        """
+        self._fault = None
+        self._seen.clear()
+        self._last_alive = -math.inf
+        self._ser = open_serial_port(self.device, self.baud)
+        self._running.set()
+        if self.barrier is not None:
+            self.barrier.attach(wake=self._wake)
+        self.on_open()
+        self._thread = threading.Thread(
+            target=self._loop, name=f"serial {self.device}", daemon=True
+        )
+        self._thread.start()
+
+    def reopen(self) -> None:
+        """Close the port and open it again at once, without waiting for the arm.
+
+        A board that resets when its port is opened (an Arduino) reboots. Until
+        :meth:`reopened` is True the link is not connected but not lost either:
+        commands wait, and the caller bounds the wait. Raises
+        :class:`HardwareFault` naming the port when it cannot be opened again.
+        """
+        self.close()
+        self._reopening = True
+        try:
+            self.open_link()
+        except HardwareFault as exc:
+            self._reopening = False
+            self._fault = exc
+            raise
+
+    def reopened(self) -> bool:
+        """After :meth:`reopen`: True (and connected again) once the handshake is done."""
+        if self._reopening and self._fault is None and self.handshake_done():
+            self._reopening = False
+            self._connected = True
+        return self._connected and self._fault is None
+
+    @property
+    def reopening(self) -> bool:
+        """True between :meth:`reopen` and the arm's answer (or a fault)."""
+        return self._reopening and self._fault is None
+
     def close(self) -> None:
         """Stop the I/O thread and release the port. Safe to call twice."""
+        self._reopening = False
         self._running.clear()
         if self.barrier is not None:
             self.barrier.detach()

@@ -9,6 +9,11 @@ RPI report's safeguards (seed 004, "Serial Interface") hold: targets are
 checked before a byte is sent; a command is sent only once the move before
 it is complete, judged from the arm's reported angles; and a duplicate of the
 last command is not re-sent (a suction change alone goes as a jog frame).
+
+:meth:`DobotV1Driver.home` re-references the arm the only way the stock V1.0
+can: it moves the base to 0 and resets the board by reopening the port (see
+:mod:`.homing`); the driver's :meth:`DobotV1Driver.step` carries it forward
+once per tick.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from armtree.rig import MotionHandle, MotionStatus, ToolState
 from ..common import SerialArmDriver
 from ..common.plausibility import StatusGuard
 from . import codec
+from .homing import BoardResetHoming, Phase, home_pose
 
 #: Largest magnitude a believable Cartesian field of a status frame has (mm, degrees).
 _FIELD_LIMIT = 10_000.0
@@ -80,16 +86,24 @@ class DobotV1Driver(SerialArmDriver):
         self.guard = StatusGuard(self.model, frame_bytes=codec.FRAME_LEN)
         #: Commands written, for figures and tests.
         self.commands_written = 0
+        self._homing: BoardResetHoming | None = None
+        self._referenced = True
 
     # ------------------------------------------------------------------ I/O thread
 
     def on_open(self) -> None:
-        """A fresh parser and state for a new connection."""
+        """A fresh parser and state for a new connection (the board resets when opened)."""
         with self._lock:
             self._parser.reset()
             self._queue.clear()
+            self._inflight.clear()
+            self._tool_waits = []
             self._status = None
+            self._previous = None
             self._wrote_since_status = False
+            self._last_target = None
+            self._speed = 1.0
+            self.remember_sent(None)
             self.guard.reset()
 
     def handshake_done(self) -> bool:
@@ -340,6 +354,52 @@ class DobotV1Driver(SerialArmDriver):
             self._send_if_free()
         return handle
 
+    def home(self) -> MotionHandle:
+        """Re-reference the arm: the model's home pose with the base at 0, a board reset, the pose again.
+
+        DONE once the reset board, its rear-arm and forearm angles read from its
+        accelerometers, has moved to the home pose (see :mod:`.homing`); the
+        reset takes about 2 s. With the suction on, the reset would switch it
+        off and drop what it holds: the arm only moves to the home pose and
+        :attr:`homed` is False until a homing resets the board. Refused while a
+        reset is under way.
+        """
+        target = home_pose(self.model.home)
+        homing = self._homing
+        if homing is not None and homing.phase is Phase.BOOT:
+            return self.refused(
+                "home", HardwareFault("the board is still booting from its reset", self.device)
+            )
+        reset = not self._suction
+        move = self.move_joints(target)
+        if move.status is MotionStatus.FAILED:
+            return self.refused("home", move.error or Unreachable("home pose refused"))
+        if reset:
+            handle = MotionHandle("home: base to 0, then reset the board", target)
+        else:
+            handle = MotionHandle(
+                "home pose only: the suction is on and a reset would drop what it holds",
+                target,
+            )
+        handle.update(MotionStatus.RUNNING, 0.0)
+        self._referenced = reset
+        self._homing = BoardResetHoming(self, handle, move, target, reset=reset)
+        return handle
+
+    @property
+    def homed(self) -> bool:
+        """False after a :meth:`home` that could not reset the board (the suction was on)."""
+        return self._referenced
+
+    def step(self, now: float) -> None:
+        """Once per tick on the run's thread: carry a homing forward (nothing otherwise)."""
+        homing = self._homing
+        if homing is None:
+            return
+        homing.step(now)
+        if homing.phase is Phase.OVER:
+            self._homing = None
+
     def stop(self) -> None:
         """Drop queued commands, mark motions STOPPED and send a jog stop (axis 0) at once.
 
@@ -359,3 +419,6 @@ class DobotV1Driver(SerialArmDriver):
         for handle in self.active_handles():
             if handle.description.startswith("move"):
                 handle.update(MotionStatus.STOPPED)
+        homing = self._homing
+        if homing is not None:
+            homing.stop()

@@ -8,6 +8,16 @@ documented quirk that a command arriving before the
 next status frame was sent is dropped (Dobot protocol; the official client
 writes one command per status frame).
 
+Opening the port resets the board (the Arduino's DTR reset, Dobot protocol,
+serial settings): after the first open, which finds the board booted at
+power-up, every open reboots it (:meth:`DobotV1Emulator.reboot`). Queued moves
+and the tool's state are lost, no status frame comes for ``boot_time``
+seconds, and the firmware's believed rear-arm and forearm angles are read
+again from the accelerometers (the V1.0's only pose sensors, open-dobot:
+11-bit X readings, ``asin((raw - 1024) / 493.56)``), so missed steps of those
+joints are undone up to the reading's quantisation; the base has no sensor
+and is believed to be at 0.
+
 :class:`OpenDobotEmulator` (in :mod:`.opendobot_emulator`) is the replacement firmware.
 """
 
@@ -26,11 +36,47 @@ from armtree.rig import ToolState
 from ..common import PtyEmulator
 from ..common.motion import LineMove
 from . import codec
+from . import opendobot as od
 from .kinematics import DobotV1Model
 
 #: Mechanical joint ranges of the V1.0 (seed 004, "Hardware"); the firmware clamps to these.
 HARDWARE_LOWER = np.array([-135.0, -5.0, -10.0])
 HARDWARE_UPPER = np.array([135.0, 85.0, 95.0])
+#: Seconds from a reset (the port opened) to the first status frame: the Arduino's boot,
+#: which drivers wait out (about 2 s, Dobot protocol, serial settings).
+BOOT_TIME = 2.0
+#: Power-up values of the firmware's motion settings (speed ratio, JUMP height mm,
+#: MOVL speed mm/s and acceleration mm/s^2).
+DEFAULT_SPEED_RATIO = 1.0
+DEFAULT_JUMP_HEIGHT = 20.0
+DEFAULT_LINEAR_SPEED = 100.0
+DEFAULT_LINEAR_ACCEL = 400.0
+
+
+def accelerometer_pose(q: np.ndarray) -> np.ndarray:
+    """The pose the firmware believes at boot for true joints ``q`` (degrees).
+
+    Rear arm and forearm from their accelerometers' 11-bit X readings as the
+    FPGA board converts them (open-dobot: ``asin((raw - 1024) / 493.56)``, the
+    rear arm ``90 deg - that``), so quantised to one count; the base, which has
+    no sensor, is 0. The X channel alone cannot tell the rear arm's sign.
+    """
+    rear = math.radians(float(q[1]))
+    fore = math.radians(float(q[2]))
+    rear_raw = _counts(math.cos(rear))
+    fore_raw = _counts(math.sin(fore))
+    return np.array(
+        [
+            0.0,
+            90.0 - math.degrees(od.accel_to_radians(rear_raw)),
+            math.degrees(od.accel_to_radians(fore_raw)),
+        ]
+    )
+
+
+def _counts(sine: float) -> int:
+    """The 11-bit reading (0..2047) of an accelerometer whose X axis sees ``sine`` g."""
+    return int(np.clip(round(od.ACCEL_ZERO + od.ACCEL_SCALE * sine), 0, 2047))
 
 
 @dataclass
@@ -49,7 +95,8 @@ class DobotV1Emulator(PtyEmulator):
 
     ``status_period`` (s) is the status stream's period (50 ms assumed: the
     firmware's is unconfirmed, the 2015 prototype used 60 ms); ``fifo_depth``
-    the number of queued moves it keeps (unconfirmed; extra moves are dropped).
+    the number of queued moves it keeps (unconfirmed; extra moves are dropped);
+    ``boot_time`` (s) how long a reset keeps it silent (see the module docstring).
     Angles are degrees, positions mm.
     """
 
@@ -62,22 +109,20 @@ class DobotV1Emulator(PtyEmulator):
         q0: np.ndarray | None = None,
         status_period: float = 0.05,
         fifo_depth: int = 4,
+        boot_time: float = BOOT_TIME,
     ) -> None:
         super().__init__(model, clock, seed=seed, q0=q0)
         self.status_period = status_period
         self.fifo_depth = fifo_depth
+        self.boot_time = boot_time
+        #: Resets since power-up (opens of the port after the first).
+        self.reboots = 0
         #: Commands dropped because they came faster than one per status frame.
         self.dropped = 0
         #: Commands refused (unreachable state-3 targets, unknown states).
         self.refused = 0
-        self.suction = False
-        self.gripper = 0.0
-        self.r_head = 0.0
-        self.speed_ratio = 1.0
-        self.jump_height = 20.0
-        #: Linear (MOVL) maxima, mm/s and mm/s^2 (state 9 sub-mode 1, F7 and F8).
-        self.linear_speed = 100.0
-        self.linear_accel = 400.0
+        self._power_up_settings()
+        self._booted_at = -math.inf
         self._fifo: collections.deque[_Segment] = collections.deque()
         self._busy_until = -math.inf
         self._next_status = math.inf
@@ -89,6 +134,42 @@ class DobotV1Emulator(PtyEmulator):
     def on_start(self) -> None:
         """Power-up: the first status frame goes out at once (Dobot protocol, status frame)."""
         self._next_status = self.time
+
+    def on_port_opened(self, t: float) -> None:
+        """The port was opened: the first open finds the board booted, later ones reset it."""
+        if self.port_opens > 1:
+            self.reboot(t)
+
+    def reboot(self, t: float) -> None:
+        """Reset the board at ``t`` (s): silent for :attr:`boot_time`, then the pose re-read.
+
+        The steppers stop where they are, queued moves, suction, gripper and
+        motion settings are lost, and the believed joints become
+        :func:`accelerometer_pose` of the true ones (the base's belief 0, its
+        true angle unchanged). Status frames resume at ``t + boot_time``.
+        """
+        self.reboots += 1
+        self._fifo.clear()
+        self._busy_until = -math.inf
+        self.joints.rereference(accelerometer_pose(self.joints.true(t)), t)
+        self.joints.max_speed[:] = [j.max_speed for j in self.model.joints]
+        self.joints.max_accel[:] = [j.max_accel for j in self.model.joints]
+        self._power_up_settings()
+        self._parser.reset()
+        self._accepted_since_status = False
+        self._booted_at = t + self.boot_time
+        self._next_status = self._booted_at
+
+    def _power_up_settings(self) -> None:
+        """Tool and motion settings as the board boots with them."""
+        self.suction = False
+        self.gripper = 0.0
+        self.r_head = 0.0
+        self.speed_ratio = DEFAULT_SPEED_RATIO
+        self.jump_height = DEFAULT_JUMP_HEIGHT
+        #: Linear (MOVL) maxima, mm/s and mm/s^2 (state 9 sub-mode 1, F7 and F8).
+        self.linear_speed = DEFAULT_LINEAR_SPEED
+        self.linear_accel = DEFAULT_LINEAR_ACCEL
 
     def tool(self) -> ToolState:
         """Suction pump and gripper as the firmware drives them."""
@@ -118,7 +199,12 @@ class DobotV1Emulator(PtyEmulator):
             self._next_status = ts + self.status_period
 
     def on_bytes(self, data: bytes, t: float) -> None:
-        """Handle host frames; one command per status interval is accepted."""
+        """Handle host frames; one command per status interval is accepted.
+
+        Bytes that arrive while the board boots are lost.
+        """
+        if t < self._booted_at:
+            return
         for frame in self._parser.feed(data):
             if self._accepted_since_status:
                 self.dropped += 1

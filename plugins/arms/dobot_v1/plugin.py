@@ -95,7 +95,10 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
         from .opendobot_driver import OpenDobotDriver
 
         return OpenDobotDriver(model, port, board=config.get("board", "fpga"), **common)
-    return DobotV1Driver(model, port, **common)
+    driver = DobotV1Driver(model, port, **common)
+    # after the emulator's step: its homing acts on what the board sent this tick
+    context.steppers.append(driver.step)
+    return driver
 
 
 dobot_v1_factory.PARAMS = (
