@@ -438,11 +438,6 @@ class SerialArmDriver(ArmDriver):
             self._connected = True
         return self._connected and self._fault is None
 
-    @property
-    def reopening(self) -> bool:
-        """True between :meth:`reopen` and the arm's answer (or a fault)."""
-        return self._reopening and self._fault is None
-
     def close(self) -> None:
         """Stop the I/O thread and release the port. Safe to call twice."""
         self._reopening = False

@@ -370,6 +370,8 @@ class DobotV1Driver(SerialArmDriver):
             return self.refused(
                 "home", HardwareFault("the board is still booting from its reset", self.device)
             )
+        if homing is not None:
+            homing.stop()  # a homing asked for again starts over
         reset = not self._suction
         move = self.move_joints(target)
         if move.status is MotionStatus.FAILED:
