@@ -383,7 +383,7 @@ def _slips_line(slips: dict[str, Any] | None) -> str:
     return (f"Missed steps: at each point the camera's measurement of the tool's marker was "
             f"compared with where the joints put the tool; they disagreed by more than "
             f"{slips['slip_mm']:g} mm {slips['found']} times, at {n} point{'' if n == 1 else 's'}: each "
-            f"time the arm homed on its end stops and measured the point again ({slips['homings']} "
+            f"time the arm homed on its own reference and measured the point again ({slips['homings']} "
             "homings). The marker was not seen at "
             f"{slips['unchecked']} points, which were not checked. Each point's disagreement and "
             "homings are in grid.csv (`disagreement_mm`, `redone`).")  # fmt: skip
