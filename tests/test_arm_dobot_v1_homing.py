@@ -7,6 +7,7 @@ and opened again, which the emulator sees as pyserial's input flush.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -142,3 +143,32 @@ def test_slips_that_left_the_arm_beyond_its_limits_are_undone_by_the_second_move
     assert home(sim).status is MotionStatus.DONE
     np.testing.assert_allclose(sim.arm.joints(), [0.0, 10.0, 50.0], atol=1e-4)
     check_joint_target(sim.arm.model, sim.emu.true_joints())  # truly back within the limits
+
+
+def test_homing_on_the_wall_clock_as_on_hardware():
+    """The emulator served on its own thread behind a device path, the driver stepped by hand."""
+    from armtree.clock import WallClock
+    from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_emulator, dobot_v1_factory
+    from armtree.rig import RigContext
+
+    emu = dobot_v1_emulator({}, WallClock())
+    emu.boot_time = 0.3  # the real 2 s boot would only make the test slower
+    path = emu.start()
+    context = RigContext(profile=None, clock=WallClock())
+    arm = dobot_v1_factory({"port": path}, context)
+    try:
+        arm.connect()
+        emu.inject("missed_steps", joint=2, amount=1.5)
+        handle = arm.home()
+        deadline = time.monotonic() + 20.0
+        while not handle.done and time.monotonic() < deadline:
+            for step in context.steppers:  # the runtime's tick
+                step(context.clock.now())
+            time.sleep(0.02)
+        assert handle.status is MotionStatus.DONE, handle
+        assert emu.reboots == 1 and arm.connected
+        at_reset = np.array([0.0, 10.0, 51.5])
+        assert abs(emu.true_joints()[2] - 50.0) <= half_count_deg(at_reset)[1] + 1e-3
+    finally:
+        arm.close()
+        emu.close()

@@ -490,8 +490,13 @@ class Gripping(ArmSkill):
                 # a grip that missed may have missed because steps were lost: the next
                 # try starts from joints the arm's own reference has set right
                 self.note("rehome", why="the grip failed")
+                home = ArmHome(self.rig)
                 with contextlib.suppress(SkillFailure):
-                    yield ArmHome(self.rig)
+                    yield home
+                if home.handle is not None:  # what the arm's homing did, in its words
+                    self.note(
+                        "rehomed", how=home.handle.description, status=home.handle.status.value
+                    )
             raise
         self.output("pose", as_list(target))
         return target
