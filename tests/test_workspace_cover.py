@@ -45,9 +45,8 @@ def test_property_arithmetic_encloses_point_values(a, b, c, d, f1, f2):
     assert _encloses(x**2, X**2) and _encloses(x**3, X**3)
     assert _encloses(3.0 - x * 2.0, 3.0 - X * 2.0)
     if not y.contains(0.0):
-        with np.errstate(
-            over="ignore"
-        ):  # the point values may overflow to inf, as the interval does
+        # the point values may overflow to inf, as the interval's bounds do
+        with np.errstate(over="ignore"):
             quotients = X / Y
         assert _encloses(x / y, quotients)
     elif not x.contains(0.0):
