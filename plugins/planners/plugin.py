@@ -35,12 +35,13 @@ def armtree_run_started(run: Any) -> None:
     report_event = getattr(run, "report_event", None)
     if not isinstance(planner, Planner) or report_event is None:
         return
-    last: list[Any] = [None]
+    last: tuple[str, str] | None = None
 
     def report(event: str, message: str, **data: Any) -> None:
+        nonlocal last
         key = (event, repr(data.get("start")))
-        if key != last[0]:
-            last[0] = key
+        if key != last:
+            last = key
             report_event(event, message, **data)
 
     planner.report = report
