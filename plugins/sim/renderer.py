@@ -7,9 +7,11 @@ subdivided so they bend as a real lens bends them. Markers are perspective
 warps of the marker image onto their distorted corners, into their small
 bounding box only. The table (a texture lit by the lamp) is one remap per
 camera pose, through a map computed on a coarse grid and interpolated, and
-is cached, so a still camera costs little more than its markers. Sensor noise
-comes from a seeded bank of noise images; motion blur follows the camera's
-and the objects' image motion during the exposure.
+is cached, so a still camera costs little more than its markers; what each
+solid paints is recorded, so one that has not moved under a still camera is
+painted again without its arithmetic. Sensor noise comes from a seeded bank of
+noise images; motion blur follows the camera's and the objects' image motion
+during the exposure.
 
 Units: mm and the robot base frame for the scene; pixels for the image.
 """
@@ -228,12 +230,15 @@ class Renderer:
         self._lens_blurred: np.ndarray | None = None
         self._bg: np.ndarray | None = None
         self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
+        self._strokes_camera: bytes | None = None
+        self._strokes: dict[tuple, _Strokes | None] = {}
         if self.noise > 0:
             for _ in range(6):
                 n = rng.normal(0, self.noise, (camera.height + 16, camera.width + 16, 3))
-                n = np.clip(np.round(n), -255, 255).astype(np.int16)
+                # A uint8 result rounds half to even and saturates: clip(round(+-n), 0, 255)
+                # in one pass each.
                 self._noise_bank.append(
-                    (np.clip(n, 0, 255).astype(np.uint8), np.clip(-n, 0, 255).astype(np.uint8))
+                    (cv2.add(n, 0.0, dtype=cv2.CV_8U), cv2.subtract(0.0, n, dtype=cv2.CV_8U))
                 )
         tex_to_world = np.array(
             [[1 / TEXTURE_PPM, 0, table.x[0]], [0, 1 / TEXTURE_PPM, table.y[0]], [0, 0, 1]]
@@ -283,13 +288,23 @@ class Renderer:
         cam_pos = cam_pose[:3, 3]
         if self.shadows:
             self._draw_shadows(img, drawables, r_cw, t_cw)
-        visible = [
-            d
-            for d in drawables
-            if self.camera.sees(r_cw @ d.pose[:3, 3] + t_cw, 0.5 * float(np.linalg.norm(d.size)))
-        ]
-        for d in self._order(visible, cam_pos):
-            self._draw(img, d, r_cw, t_cw, cam_pos)
+        # What a drawable paints depends only on it and the camera pose: one that has not
+        # moved since the last frame, under a camera that has not moved, paints it again.
+        cam_key = cam_pose.tobytes()
+        known = self._strokes if cam_key == self._strokes_camera else {}
+        strokes: dict[tuple, _Strokes | None] = {}
+        visible = []
+        for d in drawables:
+            key = _drawable_key(d)
+            if key not in strokes:
+                strokes[key] = (
+                    known[key] if key in known else self._strokes_of(d, r_cw, t_cw, cam_pos)
+                )
+            if strokes[key] is not None:
+                visible.append((d, strokes[key]))
+        self._strokes_camera, self._strokes = cam_key, strokes
+        for _, seen in self._order(visible):
+            seen.paint(img)
         return img
 
     def project(self, cam_pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -346,16 +361,26 @@ class Renderer:
 
     # -- solids -------------------------------------------------------------------
 
-    def _order(self, drawables: list[Drawable], cam_pos: np.ndarray) -> list[Drawable]:
-        depth = {d.name: float(np.linalg.norm(d.pose[:3, 3] - cam_pos)) for d in drawables}
+    def _strokes_of(
+        self, d: Drawable, r_cw: np.ndarray, t_cw: np.ndarray, cam_pos: np.ndarray
+    ) -> _Strokes | None:
+        """What ``d`` paints seen from this camera pose; None when it is out of view."""
+        if not self.camera.sees(r_cw @ d.pose[:3, 3] + t_cw, 0.5 * float(np.linalg.norm(d.size))):
+            return None
+        strokes = _Strokes(float(np.linalg.norm(d.pose[:3, 3] - cam_pos)))
+        self._draw(strokes, d, r_cw, t_cw, cam_pos)
+        return strokes
+
+    def _order(self, visible: list[tuple[Drawable, _Strokes]]) -> list[tuple[Drawable, _Strokes]]:
+        depth = {d.name: seen.depth for d, seen in visible}
         key = {}
-        for d in drawables:
+        for d, _ in visible:
             k = depth[d.name]
             if d.container in depth:
                 # Inside a bin: drawn just after it, whatever the distances say.
                 k = min(k, depth[d.container] - 1e-3)
             key[d.name] = k
-        return sorted(drawables, key=lambda d: -key[d.name])
+        return sorted(visible, key=lambda v: -key[v[0].name])
 
     def _pixels(
         self, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray, subdivide: bool = True
@@ -380,16 +405,21 @@ class Renderer:
         return uv
 
     def _fill(
-        self, img: np.ndarray, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray, color
+        self, strokes: _Strokes, pts: np.ndarray, r_cw: np.ndarray, t_cw: np.ndarray, color
     ) -> np.ndarray | None:
         """Fill a convex world polygon; returns its pixels or None if not in front."""
         uv = self._pixels(pts, r_cw, t_cw)
         if uv is not None:
-            cv2.fillPoly(img, [np.round(uv * _SCALE).astype(np.int32)], color, cv2.LINE_AA, _SHIFT)
+            strokes.polygon(np.round(uv * _SCALE).astype(np.int32), color)
         return uv
 
     def _draw(
-        self, img: np.ndarray, d: Drawable, r_cw: np.ndarray, t_cw: np.ndarray, cam_pos: np.ndarray
+        self,
+        strokes: _Strokes,
+        d: Drawable,
+        r_cw: np.ndarray,
+        t_cw: np.ndarray,
+        cam_pos: np.ndarray,
     ) -> None:
         if d.shape == "link" and _contains(d, cam_pos):
             return  # the camera sits inside its own mount: it sees out of it, not its inside
@@ -421,36 +451,36 @@ class Renderer:
             face = list(mesh.faces[i])
             pts = world[face]
             if d.shape == "bin" and normals[i, 2] > 0.9:
-                self._draw_bin_top(img, d, pts, r_cw, t_cw, color)
+                self._draw_bin_top(strokes, d, pts, r_cw, t_cw, color)
                 continue
             uv = None if uv_all is None else uv_all[face]
             if uv is None or (
                 self.camera.distorted and (uv.max(axis=0) - uv.min(axis=0)).max() > SUBDIVIDE_PX
             ):
-                uv = self._fill(img, pts, r_cw, t_cw, color)
+                uv = self._fill(strokes, pts, r_cw, t_cw, color)
             else:
-                cv2.fillPoly(img, [fixed_all[face]], color, cv2.LINE_AA, _SHIFT)
+                strokes.polygon(fixed_all[face], color)
             if uv is not None:
                 bbox.append(uv)
         if d.marker is not None and d.marker_pose is not None:
             top_normal = d.marker_pose[:3, 2]
             if top_normal @ (cam_pos - d.marker_pose[:3, 3]) > 0:
-                self._draw_marker(img, d, r_cw, t_cw)
+                self._draw_marker(strokes, d, r_cw, t_cw)
         if d.velocity is not None and bbox:
-            self._object_blur(img, d, np.vstack(bbox), r_cw, t_cw)
+            self._object_blur(strokes, d, np.vstack(bbox), r_cw, t_cw)
 
-    def _draw_bin_top(self, img, d: Drawable, pts, r_cw, t_cw, color) -> None:
+    def _draw_bin_top(self, strokes: _Strokes, d: Drawable, pts, r_cw, t_cw, color) -> None:
         """A bin seen from above: its rim, then its dark inside down to the floor."""
-        self._fill(img, pts, r_cw, t_cw, color)
+        self._fill(strokes, pts, r_cw, t_cw, color)
         w = d.wall
         sx, sy, sz = d.size
         inner = UNIT_BOX[4:] * [sx - 2 * w, sy - 2 * w, sz]
         rim = inner @ d.pose[:3, :3].T + d.pose[:3, 3]
         floor = rim - d.pose[:3, 2] * (sz - w)
-        self._fill(img, rim, r_cw, t_cw, tuple(0.45 * c for c in color))
-        self._fill(img, floor, r_cw, t_cw, tuple(0.6 * c for c in color))
+        self._fill(strokes, rim, r_cw, t_cw, tuple(0.45 * c for c in color))
+        self._fill(strokes, floor, r_cw, t_cw, tuple(0.6 * c for c in color))
 
-    def _draw_marker(self, img: np.ndarray, d: Drawable, r_cw, t_cw) -> None:
+    def _draw_marker(self, strokes: _Strokes, d: Drawable, r_cw, t_cw) -> None:
         marker = d.marker
         assert marker is not None and d.marker_pose is not None
         s = marker.size_mm / 2
@@ -463,14 +493,12 @@ class Renderer:
         both = np.vstack([square * q, square * s]) @ rot.T + centre
         pc = both @ r_cw.T + t_cw
         if np.any(pc[:, 2] <= NEAR):
-            self._fill(img, both[:4], r_cw, t_cw, white)
+            self._fill(strokes, both[:4], r_cw, t_cw, white)
             return
         uv_both = self.camera.pixels(pc)
-        cv2.fillPoly(
-            img, [np.round(uv_both[:4] * _SCALE).astype(np.int32)], white, cv2.LINE_AA, _SHIFT
-        )
+        strokes.polygon(np.round(uv_both[:4] * _SCALE).astype(np.int32), white)
         uv = uv_both[4:]
-        ih, iw = img.shape[:2]
+        ih, iw = self.camera.height, self.camera.width
         x0, y0 = np.floor(uv.min(axis=0)).astype(int) - 1
         x1, y1 = np.ceil(uv.max(axis=0)).astype(int) + 2
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, iw), min(y1, ih)
@@ -492,7 +520,7 @@ class Renderer:
             borderValue=0,
         )
         lit = cv2.cvtColor(cv2.convertScaleAbs(patch, alpha=light), cv2.COLOR_GRAY2BGR)
-        cv2.copyTo(lit, patch, img[y0:y1, x0:x1])
+        strokes.paste(x0, y0, lit, patch)
 
     # -- shadows ------------------------------------------------------------------
 
@@ -574,7 +602,7 @@ class Renderer:
         streak = -moved * min(1.0, self.exposure / max(frame_dt, 1e-6))
         return streak if float(np.hypot(*streak)) >= 1.0 else None
 
-    def _object_blur(self, canvas, d: Drawable, bbox, r_cw, t_cw) -> None:
+    def _object_blur(self, strokes: _Strokes, d: Drawable, bbox, r_cw, t_cw) -> None:
         assert d.velocity is not None
         centre = d.pose[:3, 3]
         ahead = centre + d.velocity * self.exposure
@@ -586,12 +614,12 @@ class Renderer:
         if np.hypot(*streak) < 1.0:
             return
         pad = int(np.ceil(np.abs(streak).max())) + 2
-        ch, cw = canvas.shape[:2]
+        ch, cw = self.camera.height, self.camera.width
         x0, y0 = np.maximum(np.floor(bbox.min(axis=0)).astype(int) - pad, 0)
         x1, y1 = np.ceil(bbox.max(axis=0)).astype(int) + pad
         x1, y1 = min(x1, cw), min(y1, ch)
         if x1 > x0 and y1 > y0:
-            canvas[y0:y1, x0:x1] = _streak(canvas[y0:y1, x0:x1], streak)
+            strokes.blur(x0, y0, x1, y1, streak)
 
     def _add_noise(self, img: np.ndarray, frame_index: int) -> np.ndarray:
         rng = np.random.default_rng([self.seed, 11, frame_index])
@@ -600,6 +628,62 @@ class Renderer:
         h, w = img.shape[:2]
         img = cv2.add(img, pos[dy : dy + h, dx : dx + w])
         return cv2.subtract(img, neg[dy : dy + h, dx : dx + w])
+
+
+class _Strokes:
+    """What one drawable paints seen from one camera pose, recorded to be painted again.
+
+    ``depth`` is the distance (mm) from the camera to the drawable's centre, for
+    painter's order.
+    """
+
+    def __init__(self, depth: float) -> None:
+        self.depth = depth
+        self._ops: list[tuple] = []
+
+    def polygon(self, fixed: np.ndarray, color: tuple) -> None:
+        """Fill a polygon of fixed-point pixels (``_SHIFT`` fraction bits), anti-aliased."""
+        self._ops.append((_fill_polygon, fixed, color))
+
+    def paste(self, x0: int, y0: int, patch: np.ndarray, mask: np.ndarray) -> None:
+        """Copy ``patch`` where ``mask`` is not 0, its top left corner at pixel (x0, y0)."""
+        self._ops.append((_paste, x0, y0, patch, mask))
+
+    def blur(self, x0: int, y0: int, x1: int, y1: int, streak: np.ndarray) -> None:
+        """Streak what is painted so far in pixels x0..x1, y0..y1 (exclusive) along ``streak``."""
+        self._ops.append((_blur_box, x0, y0, x1, y1, streak))
+
+    def paint(self, img: np.ndarray) -> None:
+        """Paint the recorded strokes on ``img``, in the order they were recorded."""
+        for op, *args in self._ops:
+            op(img, *args)
+
+
+def _fill_polygon(img: np.ndarray, fixed: np.ndarray, color: tuple) -> None:
+    cv2.fillPoly(img, [fixed], color, cv2.LINE_AA, _SHIFT)
+
+
+def _paste(img: np.ndarray, x0: int, y0: int, patch: np.ndarray, mask: np.ndarray) -> None:
+    h, w = mask.shape[:2]
+    cv2.copyTo(patch, mask, img[y0 : y0 + h, x0 : x0 + w])
+
+
+def _blur_box(img: np.ndarray, x0: int, y0: int, x1: int, y1: int, streak: np.ndarray) -> None:
+    img[y0:y1, x0:x1] = _streak(img[y0:y1, x0:x1], streak)
+
+
+def _drawable_key(d: Drawable) -> tuple:
+    """Everything about ``d`` that what it paints depends on, exactly (not rounded)."""
+    return (
+        d.shape,
+        d.pose.tobytes(),
+        np.asarray(d.size, dtype=float).tobytes(),
+        tuple(d.color),
+        d.marker,
+        None if d.marker_pose is None else d.marker_pose.tobytes(),
+        d.wall,
+        None if d.velocity is None else np.asarray(d.velocity, dtype=float).tobytes(),
+    )
 
 
 @functools.lru_cache(maxsize=32)
