@@ -230,8 +230,11 @@ class Renderer:
         self._lens_blurred: np.ndarray | None = None
         self._bg: np.ndarray | None = None
         self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
-        self._strokes_camera: bytes | None = None
+        # What the last frame drew from camera pose ``_memo_camera``: each solid's strokes
+        # and each shadow's outline, to be reused while neither it nor the camera moves.
+        self._memo_camera: bytes | None = None
         self._strokes: dict[tuple, _Strokes | None] = {}
+        self._shadow_outlines: dict[tuple, np.ndarray | None] = {}
         if self.noise > 0:
             for _ in range(6):
                 n = rng.normal(0, self.noise, (camera.height + 16, camera.width + 16, 3))
@@ -286,23 +289,23 @@ class Renderer:
         t_cw = -r_cw @ cam_pose[:3, 3]
         img = self._background(r_cw, t_cw).copy()
         cam_pos = cam_pose[:3, 3]
+        cam_key = cam_pose.tobytes()
+        if cam_key != self._memo_camera:
+            self._memo_camera, self._strokes, self._shadow_outlines = cam_key, {}, {}
         if self.shadows:
             self._draw_shadows(img, drawables, r_cw, t_cw)
         # What a drawable paints depends only on it and the camera pose: one that has not
         # moved since the last frame, under a camera that has not moved, paints it again.
-        cam_key = cam_pose.tobytes()
-        known = self._strokes if cam_key == self._strokes_camera else {}
-        strokes: dict[tuple, _Strokes | None] = {}
+        known, self._strokes = self._strokes, {}
         visible = []
         for d in drawables:
             key = _drawable_key(d)
-            if key not in strokes:
-                strokes[key] = (
+            if key not in self._strokes:
+                self._strokes[key] = (
                     known[key] if key in known else self._strokes_of(d, r_cw, t_cw, cam_pos)
                 )
-            if strokes[key] is not None:
-                visible.append((d, strokes[key]))
-        self._strokes_camera, self._strokes = cam_key, strokes
+            if self._strokes[key] is not None:
+                visible.append((d, self._strokes[key]))
         for _, seen in self._order(visible):
             seen.paint(img)
         return img
@@ -546,16 +549,16 @@ class Renderer:
         radii = np.max(np.linalg.norm(ground - centres[:, None], axis=2), axis=1)
         cc = np.column_stack([centres, np.full(len(centres), h)]) @ r_cw.T + t_cw
         polys = []
+        # An outline depends only on these numbers and the camera pose: reuse last frame's.
+        known, self._shadow_outlines = self._shadow_outlines, {}
         for g, c, r in zip(ground, cc, radii, strict=True):
-            if not self.camera.sees(c, float(r)):
-                continue
-            hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
-            # Shadow edges are soft: no need to bend them through the lens.
-            uv = self._pixels(
-                np.column_stack([hull, np.full(len(hull), h)]), r_cw, t_cw, subdivide=False
-            )
-            if uv is not None:
-                polys.append(uv)
+            key = (g.tobytes(), c.tobytes(), float(r))
+            if key not in self._shadow_outlines:
+                self._shadow_outlines[key] = (
+                    known[key] if key in known else self._shadow_outline(g, c, float(r), r_cw, t_cw)
+                )
+            if self._shadow_outlines[key] is not None:
+                polys.append(self._shadow_outlines[key])
         if not polys:
             return
         ih, iw = img.shape[:2]
@@ -576,6 +579,22 @@ class Renderer:
         # The lamp's direct light is blocked: what is left is the ambient share (plus some bounce).
         dark = cv2.convertScaleAbs(roi, alpha=min(1.0, self.light.ambient + 0.1))
         cv2.copyTo(dark, mask, roi)
+
+    def _shadow_outline(
+        self, ground: np.ndarray, centre: np.ndarray, radius: float, r_cw, t_cw
+    ) -> np.ndarray | None:
+        """Pixels of the outline of a shadow with corners ``ground`` (x, y mm on the table),
+        centre ``centre`` (camera frame) and radius ``radius`` (mm); None when out of view."""
+        if not self.camera.sees(centre, radius):
+            return None
+        hull = cv2.convexHull(ground.astype(np.float32)).reshape(-1, 2)
+        # Shadow edges are soft: no need to bend them through the lens.
+        return self._pixels(
+            np.column_stack([hull, np.full(len(hull), self.table.height)]),
+            r_cw,
+            t_cw,
+            subdivide=False,
+        )
 
     # -- blur and noise -------------------------------------------------------------
 
