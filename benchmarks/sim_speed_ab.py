@@ -20,6 +20,8 @@ Usage::
 With ``--interleave`` each seed runs on both trees back to back (one child process
 each), and the medians of the per-seed ratios are printed too: on a machine whose
 load comes and goes they say more than the medians of each tree's runs.
+``--set KEY=VALUE`` (repeatable) gives every run a profile override, e.g. the
+fault sweeps' dropped frames and missed steps.
 
 A source tree is swapped in by pointing this venv's editable install of armtree
 at it, so it must be installed with ``pip install -e`` (the project's own setup).
@@ -98,7 +100,7 @@ def child(args: argparse.Namespace) -> None:
             os.close(read)
             with tempfile.TemporaryDirectory() as runs:
                 manager = make_plugin_manager((), ())
-                tree = load_tree(str(tree_path), rig=args.rig, manager=manager)
+                tree = load_tree(str(tree_path), rig=args.rig, overrides=args.set, manager=manager)
                 cpu0 = time.process_time()
                 switches0 = resource.getrusage(resource.RUSAGE_SELF).ru_nvcsw
                 result = run(
@@ -141,7 +143,7 @@ def child(args: argparse.Namespace) -> None:
         print(data.decode(), flush=True)
 
 
-def _child_runs(src: str, rig: str, seeds: str, tree: str) -> list[dict]:
+def _child_runs(src: str, rig: str, seeds: str, tree: str, overrides: list[str] = ()) -> list[dict]:
     """Run ``seeds`` of ``rig`` on source tree ``src`` in a child process; one dict per seed."""
     cmd = [
         sys.executable,
@@ -155,6 +157,8 @@ def _child_runs(src: str, rig: str, seeds: str, tree: str) -> list[dict]:
         "--tree",
         tree,
     ]
+    for override in overrides:
+        cmd += ["--set", override]
     out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     return [json.loads(line) for line in out.splitlines() if line.startswith("{")]
 
@@ -170,6 +174,13 @@ def main() -> None:
     )
     parser.add_argument("--seeds", default="1-4")
     parser.add_argument("--tree", default="load_ducky.yaml")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="profile override for every run (repeatable), e.g. faults",
+    )
     parser.add_argument(
         "--interleave",
         action="store_true",
@@ -191,10 +202,10 @@ def main() -> None:
             # Each seed on both trees back to back: a load that comes and goes hits both.
             for k, seed in enumerate(_seeds(args.seeds)):
                 for name, src in trees if (i + k) % 2 == 0 else trees[::-1]:
-                    runs[name] += _child_runs(src, rig, str(seed), args.tree)
+                    runs[name] += _child_runs(src, rig, str(seed), args.tree, args.set)
         else:
             for name, src in trees if i % 2 == 0 else trees[::-1]:
-                runs[name] = _child_runs(src, rig, args.seeds, args.tree)
+                runs[name] = _child_runs(src, rig, args.seeds, args.tree, args.set)
         for name in ("base", "new"):
             r = runs[name]
             sim = statistics.median(x["sim"] for x in r)
