@@ -229,12 +229,13 @@ class Renderer:
         self._clean: np.ndarray | None = None
         self._lens_blurred: np.ndarray | None = None
         self._bg: np.ndarray | None = None
+        self._bg_shaded: np.ndarray | None = None
         self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
         # What the last frame drew from camera pose ``_memo_camera``: each solid's strokes
         # and each shadow's outline, to be reused while neither it nor the camera moves.
         self._memo_camera: bytes | None = None
         self._strokes: dict[tuple, _Strokes | None] = {}
-        self._shadow_outlines: dict[tuple, np.ndarray | None] = {}
+        self._shadow_outlines: dict[tuple, tuple[np.ndarray, np.ndarray] | None] = {}
         if self.noise > 0:
             for _ in range(6):
                 n = rng.normal(0, self.noise, (camera.height + 16, camera.width + 16, 3))
@@ -359,7 +360,7 @@ class Renderer:
             borderValue=FLOOR,
         )
         bg = cv2.resize(small, (cam.width, cam.height), interpolation=cv2.INTER_LINEAR)
-        self._bg_key, self._bg = key, bg
+        self._bg_key, self._bg, self._bg_shaded = key, bg, None
         return bg
 
     # -- solids -------------------------------------------------------------------
@@ -528,7 +529,10 @@ class Renderer:
     # -- shadows ------------------------------------------------------------------
 
     def _draw_shadows(self, img: np.ndarray, drawables: list[Drawable], r_cw, t_cw) -> None:
-        """Shadows cast on the table by the point lamp (seed 004 notes moving shadows)."""
+        """Shadows cast on the table by the point lamp (seed 004 notes moving shadows).
+
+        ``img`` is still the bare table (the background) when they are drawn.
+        """
         lamp = np.asarray(self.light.position, dtype=float)
         h = self.table.height
         casters = [d for d in drawables if d.shadow and d.shape != "spot"]
@@ -562,39 +566,40 @@ class Renderer:
         if not polys:
             return
         ih, iw = img.shape[:2]
-        allpts = np.vstack(polys)
+        allpts = np.vstack([uv for uv, _ in polys])
         x0, y0 = np.maximum(np.floor(allpts.min(axis=0)).astype(int), 0)
         x1, y1 = np.minimum(np.ceil(allpts.max(axis=0)).astype(int) + 1, [iw, ih])
         if x1 <= x0 or y1 <= y0:
             return
         mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.fillPoly(
-            mask,
-            [np.round((p - [x0, y0]) * _SCALE).astype(np.int32) for p in polys],
-            255,
-            cv2.LINE_8,
-            _SHIFT,
-        )
-        roi = img[y0:y1, x0:x1]
-        # The lamp's direct light is blocked: what is left is the ambient share (plus some bounce).
-        dark = cv2.convertScaleAbs(roi, alpha=min(1.0, self.light.ambient + 0.1))
-        cv2.copyTo(dark, mask, roi)
+        # The offset is in the points' fixed-point units; x0 and y0 are whole pixels, so this
+        # is the same as rounding the pixels less (x0, y0).
+        offset = (-int(x0) * _SCALE, -int(y0) * _SCALE)
+        cv2.fillPoly(mask, [fixed for _, fixed in polys], 255, cv2.LINE_8, _SHIFT, offset)
+        if self._bg_shaded is None:
+            # The lamp's direct light is blocked: what is left is the ambient share (plus some
+            # bounce). Shadows fall on the bare table, so it is darkened once per camera pose.
+            alpha = min(1.0, self.light.ambient + 0.1)
+            self._bg_shaded = cv2.convertScaleAbs(self._bg, alpha=alpha)
+        cv2.copyTo(self._bg_shaded[y0:y1, x0:x1], mask, img[y0:y1, x0:x1])
 
     def _shadow_outline(
         self, ground: np.ndarray, centre: np.ndarray, radius: float, r_cw, t_cw
-    ) -> np.ndarray | None:
-        """Pixels of the outline of a shadow with corners ``ground`` (x, y mm on the table),
-        centre ``centre`` (camera frame) and radius ``radius`` (mm); None when out of view."""
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Pixels and fixed-point pixels of the outline of a shadow with corners ``ground``
+        (x, y mm on the table), centre ``centre`` (camera frame) and radius ``radius`` (mm);
+        None when out of view."""
         if not self.camera.sees(centre, radius):
             return None
         hull = cv2.convexHull(ground.astype(np.float32)).reshape(-1, 2)
         # Shadow edges are soft: no need to bend them through the lens.
-        return self._pixels(
+        uv = self._pixels(
             np.column_stack([hull, np.full(len(hull), self.table.height)]),
             r_cw,
             t_cw,
             subdivide=False,
         )
+        return None if uv is None else (uv, np.round(uv * _SCALE).astype(np.int32))
 
     # -- blur and noise -------------------------------------------------------------
 
