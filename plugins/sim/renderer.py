@@ -168,9 +168,9 @@ def table_texture(table: TableSpec, light: LightSpec, rng: np.random.Generator) 
     """The table top as a BGR image (1 px per mm), lit by the lamp: wood, plain or checker."""
     w = max(2, int(round((table.x[1] - table.x[0]) * TEXTURE_PPM)))
     h = max(2, int(round((table.y[1] - table.y[0]) * TEXTURE_PPM)))
-    xs = np.linspace(table.x[0], table.x[1], w, dtype=np.float32)
-    ys = np.linspace(table.y[0], table.y[1], h, dtype=np.float32)
-    gx, gy = np.meshgrid(xs, ys)
+    # A row of x and a column of y: broadcast, they give the numbers a full grid of each would.
+    gx = np.linspace(table.x[0], table.x[1], w, dtype=np.float32)[None, :]
+    gy = np.linspace(table.y[0], table.y[1], h, dtype=np.float32)[:, None]
     if table.texture == "wood":
         wobble = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 25) * 60
         grain = 0.5 + 0.5 * np.sin((gy + wobble) * 0.35 + 2.0 * np.sin(gx * 0.01))
@@ -181,9 +181,9 @@ def table_texture(table: TableSpec, light: LightSpec, rng: np.random.Generator) 
         img = np.where(cells > 0, 200.0, 150.0) * np.ones(3, dtype=np.float32)
     else:
         img = np.full((h, w, 3), 185.0, dtype=np.float32)
-    img = img + rng.normal(0, 4, (h, w, 1)).astype(np.float32)
+    img += rng.normal(0, 4, (h, w, 1)).astype(np.float32)
     img *= light_level(light, gx, gy, table.height)[..., None]
-    return np.clip(img, 0, 255).astype(np.uint8)
+    return np.clip(img, 0, 255, out=img).astype(np.uint8)
 
 
 def light_level(light: LightSpec, x: np.ndarray, y: np.ndarray, z: float) -> np.ndarray:
