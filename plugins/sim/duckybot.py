@@ -258,8 +258,9 @@ class Duckybot:
             return
         v_d, w_d = self._reference_step(dt)
         v, w = lyapunov_control(self.state, self.reference, v_d, w_d, p.kp, p.ktheta)
-        v = float(np.clip(v, -p.max_speed, p.max_speed))
-        w = float(np.clip(w, -p.max_turn, p.max_turn))
+        # min and max of plain floats clip as np.clip does, at a fraction of its cost per call
+        v = float(min(max(v, -p.max_speed), p.max_speed))
+        w = float(min(max(w, -p.max_turn), p.max_turn))
         if p.noise > 0 and (abs(v) > 1e-6 or abs(w) > 1e-6):
             # Wheel slip: the robot does not execute its command exactly; the control corrects it.
             n_v, n_w = self._rng.standard_normal(2)
