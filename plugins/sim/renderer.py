@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -164,15 +165,31 @@ class CameraModel:
         return rays / np.linalg.norm(rays, axis=1, keepdims=True)
 
 
-def table_texture(table: TableSpec, light: LightSpec, rng: np.random.Generator) -> np.ndarray:
-    """The table top as a BGR image (1 px per mm), lit by the lamp: wood, plain or checker."""
+def texture_noise(
+    table: TableSpec, rng: np.random.Generator
+) -> tuple[np.ndarray | None, np.ndarray]:
+    """The random numbers of the table's texture, drawn from ``rng``: the wood's grain
+    (None for the other textures) and the speckle, both one per texture pixel."""
     w = max(2, int(round((table.x[1] - table.x[0]) * TEXTURE_PPM)))
     h = max(2, int(round((table.y[1] - table.y[0]) * TEXTURE_PPM)))
+    grain = rng.standard_normal((h, w)) if table.texture == "wood" else None
+    return grain, rng.normal(0, 4, (h, w, 1))
+
+
+def table_texture(
+    table: TableSpec, light: LightSpec, noise: tuple[np.ndarray | None, np.ndarray]
+) -> np.ndarray:
+    """The table top as a BGR image (1 px per mm), lit by the lamp: wood, plain or checker.
+
+    ``noise`` is the texture's random numbers, from :func:`texture_noise`.
+    """
+    grain_noise, speckle = noise
+    h, w = speckle.shape[:2]
     # A row of x and a column of y: broadcast, they give the numbers a full grid of each would.
     gx = np.linspace(table.x[0], table.x[1], w, dtype=np.float32)[None, :]
     gy = np.linspace(table.y[0], table.y[1], h, dtype=np.float32)[:, None]
-    if table.texture == "wood":
-        wobble = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 25) * 60
+    if grain_noise is not None:
+        wobble = cv2.GaussianBlur(grain_noise.astype(np.float32), (0, 0), 25) * 60
         grain = 0.5 + 0.5 * np.sin((gy + wobble) * 0.35 + 2.0 * np.sin(gx * 0.01))
         base = np.array([100, 150, 190], dtype=np.float32)
         img = base * (0.85 + 0.15 * grain[..., None])
@@ -181,7 +198,7 @@ def table_texture(table: TableSpec, light: LightSpec, rng: np.random.Generator) 
         img = np.where(cells > 0, 200.0, 150.0) * np.ones(3, dtype=np.float32)
     else:
         img = np.full((h, w, 3), 185.0, dtype=np.float32)
-    img += rng.normal(0, 4, (h, w, 1)).astype(np.float32)
+    img += speckle.astype(np.float32)
     img *= light_level(light, gx, gy, table.height)[..., None]
     return np.clip(img, 0, 255, out=img).astype(np.uint8)
 
@@ -219,10 +236,17 @@ class Renderer:
         self.shadows = shadows
         self.seed = int(seed)
         rng = np.random.default_rng([self.seed, 7])
-        self.texture = table_texture(table, light, rng)
-        self.texture_small = cv2.resize(
-            self.texture, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA
-        )
+        texture = texture_noise(table, rng)
+        # The noise bank draws on from the same generator, which the texture is done with: it
+        # is drawn while the texture is shaded, both releasing the GIL, on a second core if idle.
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            bank = pool.submit(
+                _noise_bank, rng, (camera.height + 16, camera.width + 16, 3), self.noise
+            )
+            self.texture = table_texture(table, light, texture)
+            self.texture_small = cv2.resize(
+                self.texture, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA
+            )
         self.atlas = MarkerAtlas()
         self._bg_key: bytes | None = None
         self._clean_key: bytes | None = None
@@ -230,20 +254,12 @@ class Renderer:
         self._lens_blurred: np.ndarray | None = None
         self._bg: np.ndarray | None = None
         self._bg_shaded: np.ndarray | None = None
-        self._noise_bank: list[tuple[np.ndarray, np.ndarray]] = []
+        self._noise_bank = bank.result()
         # What the last frame drew from camera pose ``_memo_camera``: each solid's strokes
         # and each shadow's outline, to be reused while neither it nor the camera moves.
         self._memo_camera: bytes | None = None
         self._strokes: dict[tuple, _Strokes | None] = {}
         self._shadow_outlines: dict[tuple, tuple[np.ndarray, np.ndarray] | None] = {}
-        if self.noise > 0:
-            for _ in range(6):
-                n = rng.normal(0, self.noise, (camera.height + 16, camera.width + 16, 3))
-                # A uint8 result rounds half to even and saturates: clip(round(+-n), 0, 255)
-                # in one pass each.
-                self._noise_bank.append(
-                    (cv2.add(n, 0.0, dtype=cv2.CV_8U), cv2.subtract(0.0, n, dtype=cv2.CV_8U))
-                )
         tex_to_world = np.array(
             [[1 / TEXTURE_PPM, 0, table.x[0]], [0, 1 / TEXTURE_PPM, table.y[0]], [0, 0, 1]]
         )
@@ -708,6 +724,19 @@ def _drawable_key(d: Drawable) -> tuple:
         d.wall,
         None if d.velocity is None else np.asarray(d.velocity, dtype=float).tobytes(),
     )
+
+
+def _noise_bank(
+    rng: np.random.Generator, shape: tuple[int, ...], sigma: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Six images of sensor noise (``sigma`` grey levels), each as its positive and negative
+    parts rounded to uint8; none when ``sigma`` is 0."""
+    bank = []
+    for _ in range(6 if sigma > 0 else 0):
+        n = rng.normal(0, sigma, shape)
+        # A uint8 result rounds half to even and saturates: clip(round(+-n), 0, 255) in one pass.
+        bank.append((cv2.add(n, 0.0, dtype=cv2.CV_8U), cv2.subtract(0.0, n, dtype=cv2.CV_8U)))
+    return bank
 
 
 @functools.lru_cache(maxsize=32)
