@@ -336,6 +336,10 @@ class PtyEmulator(FirmwareEmulator):
                 if not self._silent:
                     self._record("rx", data)
                     self.on_bytes(data, self._time)
+                if complete and self.barrier.attached and self.barrier.missing() == 0:
+                    # Every byte the caught-up driver wrote is in: a read for more would
+                    # only find the port empty.
+                    return
                 continue
             if not complete or self.barrier.missing() == 0 or time.monotonic() > deadline:
                 return

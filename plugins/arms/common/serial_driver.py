@@ -494,8 +494,14 @@ class SerialArmDriver(ArmDriver):
             if ser is None:
                 return
             try:
-                waiting = ser.in_waiting
-                data = ser.read(waiting or 1)
+                # Block for the first byte, then take what else came with it: a reply arrives
+                # in one burst and is handled in one turn, and between telling the emulator
+                # it may go on and sleeping this thread makes no other system call.
+                data = ser.read(1)
+                if data:
+                    waiting = ser.in_waiting
+                    if waiting:
+                        data += ser.read(waiting)
             except (serial.SerialException, OSError, TypeError) as exc:
                 if self._running.is_set():
                     self.lose_link(f"link lost: {exc}")
