@@ -51,6 +51,11 @@ class StatusGuard:
         self.lower = np.asarray(model.lower, dtype=float) - LIMIT_MARGIN
         self.upper = np.asarray(model.upper, dtype=float) + LIMIT_MARGIN
         self.max_speed = np.array([j.max_speed for j in model.joints], dtype=float)
+        self._lower, self._upper, self._top = (
+            self.lower.tolist(),
+            self.upper.tolist(),
+            self.max_speed.tolist(),
+        )
         self.names = [j.name for j in model.joints]
         #: Bytes of one frame, to count skipped bytes as frames (0: do not count them).
         self.frame_bytes = frame_bytes
@@ -133,27 +138,28 @@ class StatusGuard:
     def _reason(self, q: np.ndarray, now: float) -> str | None:
         if q.shape != self.lower.shape:
             return f"{q.size} joint values for a {self.lower.size}-joint arm"
-        if not np.all(np.isfinite(q)):
+        # Plain floats: for the few joints of one reading, numpy's per-call cost is most of it.
+        values = q.tolist()
+        if not all(map(math.isfinite, values)):
             return f"a joint reading is not a finite number ({_fmt(q)})"
-        outside = (q < self.lower) | (q > self.upper)
-        if outside.any():
-            k = int(np.argmax(outside))
-            return (
-                f"{self.names[k]} = {q[k]:.4g} is outside its limits "
-                f"[{self.lower[k] + LIMIT_MARGIN:g}, {self.upper[k] - LIMIT_MARGIN:g}] "
-                f"by more than {LIMIT_MARGIN:g}"
-            )
+        for k, (v, lo, hi) in enumerate(zip(values, self._lower, self._upper, strict=True)):
+            if v < lo or v > hi:
+                return (
+                    f"{self.names[k]} = {q[k]:.4g} is outside its limits "
+                    f"[{self.lower[k] + LIMIT_MARGIN:g}, {self.upper[k] - LIMIT_MARGIN:g}] "
+                    f"by more than {LIMIT_MARGIN:g}"
+                )
         if self._last is not None:
             dt = max(0.0, now - self._last_t) if math.isfinite(self._last_t) else math.inf
-            allowed = self.max_speed * SPEED_SLACK * dt + JUMP_SLACK
-            jump = np.abs(q - self._last)
-            too_fast = jump > allowed
-            if too_fast.any():
-                k = int(np.argmax(too_fast))
-                return (
-                    f"{self.names[k]} jumped {jump[k]:.4g} in {dt:.3g} s, faster than the "
-                    f"arm moves ({self.max_speed[k]:g}/s)"
-                )
+            for k, (v, last, top) in enumerate(
+                zip(values, self._last.tolist(), self._top, strict=True)
+            ):
+                jump = abs(v - last)
+                if jump > top * SPEED_SLACK * dt + JUMP_SLACK:
+                    return (
+                        f"{self.names[k]} jumped {jump:.4g} in {dt:.3g} s, faster than the "
+                        f"arm moves ({self.max_speed[k]:g}/s)"
+                    )
         return None
 
 

@@ -65,6 +65,9 @@ class SSC32Emulator(PtyEmulator):
         self._p1 = self._p0.copy()
         self._t0 = np.zeros(CHANNELS)
         self._t1 = np.zeros(CHANNELS)
+        #: The newest ``(t, pulses)`` worked out: a tick asks for the same instant's pulses
+        #: several times (a query, the world's joints, the gripper).
+        self._pulses_at: tuple[float, np.ndarray] | None = None
         self._outputs: dict[int, bool] = {}
         self._buf = bytearray()
         # The servo maps as arrays: one numpy expression turns every pulse into its joint.
@@ -75,11 +78,16 @@ class SSC32Emulator(PtyEmulator):
     # ------------------------------------------------------------------ pulses in time
 
     def pulses(self, t: float) -> np.ndarray:
-        """Every channel's pulse width at ``t`` (microseconds)."""
+        """Every channel's pulse width at ``t`` (microseconds; read-only)."""
+        if self._pulses_at is not None and self._pulses_at[0] == t:
+            return self._pulses_at[1]
         span = np.maximum(self._t1 - self._t0, 1e-12)
         s = np.minimum(np.maximum((t - self._t0) / span, 0.0), 1.0)
         s = np.where(self._t1 <= self._t0, 1.0, s)
-        return self._p0 + (self._p1 - self._p0) * s
+        pulses = self._p0 + (self._p1 - self._p0) * s
+        pulses.flags.writeable = False
+        self._pulses_at = (t, pulses)
+        return pulses
 
     def _angles(self, t: float) -> np.ndarray:
         # ServoMap.angle for every joint at once.
@@ -128,6 +136,7 @@ class SSC32Emulator(PtyEmulator):
 
     def _freeze(self, channels, t: float) -> None:
         now = self.pulses(t)
+        self._pulses_at = None
         for ch in channels:
             self._p0[ch] = self._p1[ch] = now[ch]
             self._t0[ch] = self._t1[ch] = t
@@ -135,11 +144,12 @@ class SSC32Emulator(PtyEmulator):
     def _command(self, line: str, t: float) -> None:
         req = S.parse_request(line)
         compact = line.upper().replace(" ", "")
-        for ch in range(CHANNELS):
-            if f"#{ch}H" in compact:
-                self._outputs[ch] = True
-            elif f"#{ch}L" in compact:
-                self._outputs[ch] = False
+        if "H" in compact or "L" in compact:  # most lines (moves, queries) set no output
+            for ch in range(CHANNELS):
+                if f"#{ch}H" in compact:
+                    self._outputs[ch] = True
+                elif f"#{ch}L" in compact:
+                    self._outputs[ch] = False
         if req.stops:
             self._freeze([c for c in req.stops if 0 <= c < CHANNELS], t)
         if req.moves:
@@ -158,7 +168,8 @@ class SSC32Emulator(PtyEmulator):
             self.send(bytes(out))
 
     def _group_move(self, req: S.Request, t: float) -> None:
-        now = self.pulses(t)
+        now = self.pulses(t).copy()
+        self._pulses_at = None
         # a commanded servo starts from where it really is: its slip is taken up by the move
         for j, m in enumerate(self.servos):
             if m.channel in req.moves and self.joints.missed[j]:

@@ -260,15 +260,6 @@ class DHModel(KinematicModel):
         t = self.tool_offset
         return p + R[:, 0] * t[0] + R[:, 1] * t[1] + R[:, 2] * t[2]
 
-    @staticmethod
-    def _pack(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-        n = R.shape[-1]
-        out = np.zeros((n, 4, 4))
-        out[:, :3, :3] = np.moveaxis(R, -1, 0)
-        out[:, :3, 3] = p.T
-        out[:, 3, 3] = 1.0
-        return out
-
     def _flat(self, q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
         q = np.asarray(q, dtype=float)
         if q.shape[-1] != self.dof:
@@ -301,13 +292,17 @@ class DHModel(KinematicModel):
         """Base frame, every joint frame and the tool frame: ``(..., n + 2, 4, 4)``, mm."""
         flat, lead = self._flat(q)
         rots, origins = self._chain(flat, keep=True)
-        n = flat.shape[0]
-        base = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
-        base[:, :3, 3] = self.base
-        frames = [base] + [self._pack(R, p) for R, p in zip(rots, origins, strict=True)]
-        tool = self._pack(rots[-1], self._tool(rots[-1], origins[-1]))
-        frames.append(tool)
-        return np.stack(frames, axis=1).reshape(*lead, self.dof + 2, 4, 4)
+        # Every frame is written straight into one array: the world asks for one pose a tick.
+        out = np.zeros((flat.shape[0], self.dof + 2, 4, 4))
+        out[:, :, 3, 3] = 1.0
+        out[:, 0, :3, :3] = np.eye(3)
+        out[:, 0, :3, 3] = self.base
+        for k, (R, p) in enumerate(zip(rots, origins, strict=True), start=1):
+            out[:, k, :3, :3] = np.moveaxis(R, -1, 0)
+            out[:, k, :3, 3] = p.T
+        out[:, -1, :3, :3] = out[:, -2, :3, :3]
+        out[:, -1, :3, 3] = self._tool(rots[-1], origins[-1]).T
+        return out.reshape(*lead, self.dof + 2, 4, 4)
 
     def _axes(
         self, rots: list[np.ndarray], origins: list[np.ndarray]

@@ -94,17 +94,17 @@ class MagicianModel(KinematicModel):
         reach_elbow = self.l1 * s2
         z_elbow = self.l1 * c2
         out[..., 2, :3, :3] = yaw @ _rot_y(np.cos(j3), np.sin(j3))
-        out[..., 2, :3, 3] = _radial(c1, s1, reach_elbow, z_elbow)
+        _set_radial(out[..., 2, :3, 3], c1, s1, reach_elbow, z_elbow)
         reach_wrist = reach_elbow + self.l2 * np.cos(j3)
         z_wrist = z_elbow - self.l2 * np.sin(j3)
         out[..., 3, :3, :3] = _rot_z(np.cos(j1 + j4), np.sin(j1 + j4))
-        out[..., 3, :3, 3] = _radial(c1, s1, reach_wrist, z_wrist)
+        _set_radial(out[..., 3, :3, 3], c1, s1, reach_wrist, z_wrist)
         # the tool offset is fixed to the level forearm (x forward), not to the servo
         tx, ty, tz = self.tool_offset
         out[..., 4, :3, :3] = out[..., 3, :3, :3]
-        out[..., 4, :3, 3] = _radial(c1, s1, reach_wrist + tx, z_wrist - tz) + np.stack(
-            [-s1 * ty, c1 * ty, np.zeros_like(c1)], axis=-1
-        )
+        _set_radial(out[..., 4, :3, 3], c1, s1, reach_wrist + tx, z_wrist - tz)
+        out[..., 4, 0, 3] -= s1 * ty
+        out[..., 4, 1, 3] += c1 * ty
         return out
 
     def fk(self, q: np.ndarray) -> np.ndarray:
@@ -196,20 +196,29 @@ def _shift(x: float, y: float, z: float) -> np.ndarray:
 
 
 def _rot_z(c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    zero, one = np.zeros_like(c), np.ones_like(c)
-    return np.stack(
-        [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)],
-        -2,
-    )
+    # Filled in place rather than stacked: a tick's single pose pays numpy's call
+    # overhead once per element instead of once per stacked row.
+    out = np.zeros((*np.shape(c), 3, 3))
+    out[..., 0, 0] = out[..., 1, 1] = c
+    out[..., 0, 1] = -s
+    out[..., 1, 0] = s
+    out[..., 2, 2] = 1.0
+    return out
 
 
 def _rot_y(c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    zero, one = np.zeros_like(c), np.ones_like(c)
-    return np.stack(
-        [np.stack([c, zero, s], -1), np.stack([zero, one, zero], -1), np.stack([-s, zero, c], -1)],
-        -2,
-    )
+    out = np.zeros((*np.shape(c), 3, 3))
+    out[..., 0, 0] = out[..., 2, 2] = c
+    out[..., 0, 2] = s
+    out[..., 2, 0] = -s
+    out[..., 1, 1] = 1.0
+    return out
 
 
-def _radial(c1: np.ndarray, s1: np.ndarray, reach: np.ndarray, z: np.ndarray) -> np.ndarray:
-    return np.stack([c1 * reach, s1 * reach, z], axis=-1)
+def _set_radial(
+    dst: np.ndarray, c1: np.ndarray, s1: np.ndarray, reach: np.ndarray, z: np.ndarray
+) -> None:
+    """Write the point ``reach`` out along yaw (cos ``c1``, sin ``s1``) at height ``z`` to ``dst``."""
+    dst[..., 0] = c1 * reach
+    dst[..., 1] = s1 * reach
+    dst[..., 2] = z
