@@ -3,6 +3,7 @@ as the renderer's drawables. Reads the world under its lock; changes nothing."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -89,7 +90,26 @@ def _link_under(world: World, point: np.ndarray) -> str | None:
     5 mm above it), if any."""
     arm = world.arm
     assert arm is not None
-    for name, p, size in zip(arm.box_names, arm.box_poses, arm.box_sizes, strict=True):
+    # The arm rests in most frames: the same numbers (as bytes) give the same answer.
+    arrays = (np.asarray(point), np.asarray(arm.box_poses), np.asarray(arm.box_sizes))
+    return _link_under_boxes(
+        arm.box_names,
+        tuple(a.tobytes() for a in arrays),
+        tuple((a.dtype.str, a.shape) for a in arrays),
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _link_under_boxes(
+    names: tuple[str, ...], data: tuple[bytes, ...], layouts: tuple[tuple[str, tuple], ...]
+) -> str | None:
+    """:func:`_link_under` of the point, box poses and box sizes given as their arrays' bytes
+    and (dtype, shape)."""
+    point, poses, sizes = (
+        np.frombuffer(b, dtype=dtype).reshape(shape)
+        for b, (dtype, shape) in zip(data, layouts, strict=True)
+    )
+    for name, p, size in zip(names, poses, sizes, strict=True):
         local = np.linalg.inv(p) @ np.append(point, 1.0)
         half = 0.5 * np.asarray(size, dtype=float)
         if np.all(np.abs(local[:2]) <= half[:2]) and 0.0 <= local[2] - half[2] <= 5.0:
