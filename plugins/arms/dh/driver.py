@@ -96,6 +96,9 @@ class SSC32Driver(SerialArmDriver):
         super().__init__(model, port, **options)
         self.model: DHModel = model
         self.servos = list(servos)
+        # The joint servos' maps as arrays: one expression turns all pulses into joints.
+        self._slopes = np.array([m.slope for m in self.servos], dtype=float)
+        self._intercepts = np.array([m.intercept for m in self.servos], dtype=float)
         #: Doubts the joint values read back from the board (finite, limits, speed).
         self.guard = StatusGuard(model)
         self.gripper_map = gripper
@@ -179,7 +182,7 @@ class SSC32Driver(SerialArmDriver):
             return
         pulses = np.array([10.0 * b for b in reply[:-1]])
         joint_pulses = pulses[:-1] if self.gripper_map is not None else pulses
-        q = np.array([float(m.angle(p)) for m, p in zip(self.servos, joint_pulses, strict=True)])
+        q = self._slopes * joint_pulses + self._intercepts
         if self.guard.check(q, self._now if math.isfinite(self._now) else 0.0) is not None:
             return
         self.mark_alive()
@@ -229,13 +232,12 @@ class SSC32Driver(SerialArmDriver):
                 self._buf.clear()
                 self._query_sent = now
                 self._query_seq = self._move_seq + 1
-        if command:
-            self.write(command)
+        query = S.query_pulses(channels)[:-1] + b" Q\r" if send and not fail else b""
+        if command or query:
+            # the set point and the query in one write: the same bytes, one system call
+            self.write(command + query)
         if fail:
             self.lose_link(f"link lost: the SSC-32 did not answer {self.retries + 1} queries")
-            return
-        if send:
-            self.write(S.query_pulses(channels)[:-1] + b" Q\r")
 
     def _stream_step(self, now: float) -> bytes:
         """The group move of the set point due at ``now`` (empty when none is); lock held."""
@@ -260,9 +262,10 @@ class SSC32Driver(SerialArmDriver):
 
     def _pulses_for(self, q: np.ndarray) -> dict[int, int]:
         """Each joint servo's pulse (us, whole) for joints ``q``, kept on the board's range."""
+        pulses = (np.asarray(q, dtype=float) - self._intercepts) / self._slopes
         return {
-            m.channel: int(np.clip(round(float(m.pulse(v))), S.PULSE_MIN, S.PULSE_MAX))
-            for m, v in zip(self.servos, q, strict=True)
+            m.channel: min(max(round(p), S.PULSE_MIN), S.PULSE_MAX)
+            for m, p in zip(self.servos, pulses.tolist(), strict=True)
         }
 
     # ------------------------------------------------------------------ ArmDriver
@@ -280,7 +283,7 @@ class SSC32Driver(SerialArmDriver):
         if self._commanded_pulses is not None:
             close = np.abs(pulses - self._commanded_pulses) <= 5.0
             pulses = np.where(close, self._commanded_pulses, pulses)
-        return np.array([float(m.angle(p)) for m, p in zip(self.servos, pulses, strict=True)])
+        return self._slopes * pulses + self._intercepts
 
     @property
     def tool(self) -> ToolState:

@@ -160,7 +160,7 @@ class SSC32Emulator(PtyEmulator):
             if kind == "Q":
                 out += b"+" if self.moving(t) else b"."
             elif ch is not None and 0 <= ch < CHANNELS:
-                pulses = self.pulses(t) if pulses is None else pulses
+                pulses = self.pulses(t).tolist() if pulses is None else pulses
                 out.append(int(round(pulses[ch] / 10.0)) & 0xFF)
         if req.version:
             out += (S.VERSION + "\r").encode("ascii")
@@ -176,7 +176,7 @@ class SSC32Emulator(PtyEmulator):
                 now[m.channel] += self.joints.missed[j] / m.slope
                 self.joints.missed[j] = 0.0
         targets = {
-            ch: float(np.clip(p, S.PULSE_MIN, S.PULSE_MAX))
+            ch: float(min(max(p, S.PULSE_MIN), S.PULSE_MAX))
             for ch, (p, _) in req.moves.items()
             if 0 <= ch < CHANNELS
         }
