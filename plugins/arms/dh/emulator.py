@@ -79,8 +79,9 @@ class SSC32Emulator(PtyEmulator):
 
     def pulses(self, t: float) -> np.ndarray:
         """Every channel's pulse width at ``t`` (microseconds; read-only)."""
-        if self._pulses_at is not None and self._pulses_at[0] == t:
-            return self._pulses_at[1]
+        cached = self._pulses_at
+        if cached is not None and cached[0] == t:
+            return cached[1]
         span = np.maximum(self._t1 - self._t0, 1e-12)
         s = np.minimum(np.maximum((t - self._t0) / span, 0.0), 1.0)
         s = np.where(self._t1 <= self._t0, 1.0, s)
@@ -112,7 +113,10 @@ class SSC32Emulator(PtyEmulator):
         suction = bool(self.suction_channel is not None and self._outputs.get(self.suction_channel))
         grip = None
         if self.gripper_map is not None:
-            grip = float(self.gripper_map.angle(self.pulses(self.time)[self.gripper_map.channel]))
+            with self._lock:  # as true_joints: a step on another thread may be moving it
+                grip = float(
+                    self.gripper_map.angle(self.pulses(self.time)[self.gripper_map.channel])
+                )
         return ToolState(suction=suction, gripper=grip)
 
     def halt(self, reason: str) -> None:
