@@ -10,6 +10,8 @@ from sim_fakes import C270, FakeEmulator
 from armtree.clock import VirtualClock
 from armtree.errors import ConfigError
 from armtree.plugins.sim.camera import sim_camera
+from armtree.plugins.sim.drawing import world_drawables
+from armtree.plugins.sim.renderer import Renderer
 from armtree.plugins.sim.world import world_for
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.rig import RigContext
@@ -153,6 +155,23 @@ def test_eye_to_hand_arm_link_hides_a_marker(rig):
     world.step(clock.now())
     clock.advance(0.1)
     assert set(detect(camera.read().image)) == {2}
+
+
+def test_what_did_not_move_is_painted_from_memory_as_drawn_anew(rig):
+    """The objects and shadows that did not move are painted from the last frame's strokes
+    and outlines; the frame is the one a renderer drawing everything anew gives."""
+    clock, world, emu, camera = rig(STAND, tool=(300, -150, 150))
+    camera.read()
+    before = world_drawables(world)
+    emu.put([250, -60, 90])  # the arm moves; the objects on the table do not
+    world.step(clock.now())
+    clock.advance(0.1)
+    frame = camera.read()
+    r = camera.renderer
+    fresh = Renderer(r.camera, r.table, r.light, r.seed, r.noise, r.blur, r.exposure, r.shadows)
+    anew = fresh.render(camera.pose(), world_drawables(world), frame.index)
+    assert np.array_equal(frame.image, anew)
+    assert not np.array_equal(anew, fresh.render(camera.pose(), before, frame.index))
 
 
 def test_table_edge_shadow_and_light_are_rendered(rig):
