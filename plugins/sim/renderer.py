@@ -252,6 +252,8 @@ class Renderer:
         self._clean_key: bytes | None = None
         self._clean: np.ndarray | None = None
         self._lens_blurred: np.ndarray | None = None
+        # The last clean image blurred and its blur, to blur again only what changed.
+        self._last_blur: tuple[np.ndarray, np.ndarray] | None = None
         self._bg: np.ndarray | None = None
         self._bg_shaded: np.ndarray | None = None
         self._noise_bank = bank.result()
@@ -293,12 +295,38 @@ class Renderer:
             img = _streak(img, streak)
         elif self.blur > 0:
             if self._lens_blurred is None:
-                ksize = (3, 3) if self.blur <= 0.8 else (0, 0)
-                self._lens_blurred = cv2.GaussianBlur(img, ksize, self.blur)
+                self._lens_blurred = self._lens_blur(img)
             img = self._lens_blurred
         if self._noise_bank:
             return self._add_noise(img, frame_index)
         return img.copy() if img is self._clean or img is self._lens_blurred else img
+
+    def _lens_blur(self, clean: np.ndarray) -> np.ndarray:
+        """The lens's blur of ``clean``, worked out again only around the pixels that differ
+        from the last clean image blurred (a blurred pixel depends only on its neighbours)."""
+        ksize = (3, 3) if self.blur <= 0.8 else (0, 0)
+        last, self._last_blur = self._last_blur, None
+        box = None if last is None else _changed_box(last[0], clean)
+        h, w = clean.shape[:2]
+        if last is None or (box is not None and (box[2] - box[0]) * (box[3] - box[1]) > h * w / 2):
+            blurred = cv2.GaussianBlur(clean, ksize, self.blur)
+        else:
+            # Frames leave as copies or with noise added, never as this array: update it.
+            blurred = last[1]
+            if box is not None:
+                # Past the kernel's radius (at most ``m``) nothing changes, and pixels up to
+                # ``m`` past the box are blurred from a crop that reaches ``2 m`` past it.
+                m = int(3 * self.blur) + 2
+                x0, y0, x1, y1 = box
+                cx0, cy0 = max(x0 - 2 * m, 0), max(y0 - 2 * m, 0)
+                crop = np.ascontiguousarray(
+                    clean[cy0 : min(y1 + 2 * m, h), cx0 : min(x1 + 2 * m, w)]
+                )
+                part = cv2.GaussianBlur(crop, ksize, self.blur)
+                px0, py0, px1, py1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+                blurred[py0:py1, px0:px1] = part[py0 - cy0 : py1 - cy0, px0 - cx0 : px1 - cx0]
+        self._last_blur = (clean, blurred)
+        return blurred
 
     def _draw_scene(self, cam_pose: np.ndarray, drawables: list[Drawable]) -> np.ndarray:
         """Table, shadows and solids: everything but blur and noise."""
@@ -743,6 +771,18 @@ def _noise_bank(
 def _fractions(n: int) -> np.ndarray:
     """``(n, 1, 1)`` steps 0, 1/n, ... along an edge."""
     return np.linspace(0, 1, n, endpoint=False)[:, None, None]
+
+
+def _changed_box(a: np.ndarray, b: np.ndarray) -> tuple[int, int, int, int] | None:
+    """The smallest box (x0, y0, x1, y1; pixels, x1 and y1 exclusive) holding every pixel in
+    which the images ``a`` and ``b`` (H x W x C) differ; None when they are the same."""
+    diff = cv2.absdiff(a, b)
+    channels = diff.shape[2] if diff.ndim == 3 else 1
+    # Channels side by side in one row: the box of the non-zero bytes, in bytes.
+    x, y, w, h = cv2.boundingRect(diff.reshape(diff.shape[0], -1))
+    if w == 0:
+        return None
+    return x // channels, y, (x + w - 1) // channels + 1, y + h
 
 
 def _scene_key(cam_pose: np.ndarray, drawables: list[Drawable]) -> bytes:
