@@ -252,8 +252,9 @@ class Renderer:
         self._clean_key: bytes | None = None
         self._clean: np.ndarray | None = None
         self._lens_blurred: np.ndarray | None = None
-        # The last clean image blurred and its blur, to blur again only what changed.
-        self._last_blur: tuple[np.ndarray, np.ndarray] | None = None
+        # The last clean image blurred, its blur and its table image, to blur again only
+        # what changed.
+        self._last_blur: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None
         self._bg: np.ndarray | None = None
         self._bg_shaded: np.ndarray | None = None
         self._noise_bank = bank.result()
@@ -306,6 +307,8 @@ class Renderer:
         from the last clean image blurred (a blurred pixel depends only on its neighbours)."""
         ksize = (3, 3) if self.blur <= 0.8 else (0, 0)
         last, self._last_blur = self._last_blur, None
+        if last is not None and last[2] is not self._bg:
+            last = None  # the camera moved: most of the image changed
         box = None if last is None else _changed_box(last[0], clean)
         h, w = clean.shape[:2]
         if last is None or (box is not None and (box[2] - box[0]) * (box[3] - box[1]) > h * w / 2):
@@ -325,7 +328,7 @@ class Renderer:
                 part = cv2.GaussianBlur(crop, ksize, self.blur)
                 px0, py0, px1, py1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
                 blurred[py0:py1, px0:px1] = part[py0 - cy0 : py1 - cy0, px0 - cx0 : px1 - cx0]
-        self._last_blur = (clean, blurred)
+        self._last_blur = (clean, blurred, self._bg)
         return blurred
 
     def _draw_scene(self, cam_pose: np.ndarray, drawables: list[Drawable]) -> np.ndarray:
