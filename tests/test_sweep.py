@@ -39,6 +39,10 @@ class SeedSays(armtree.Behaviour):
         here = Path(os.environ.get("SWEEP_MARKS", "."))
         with open(here / "pids.txt", "a") as fh:
             fh.write(f"{self.runtime.seed} {os.getpid()}\\n")
+        import cv2
+
+        with open(here / "opencv_threads.txt", "a") as fh:
+            fh.write(f"{cv2.getNumThreads()}\\n")
 
     def update(self):
         seed = self.runtime.seed
@@ -210,6 +214,17 @@ def outcome(seed, verdict, reason="", expectations=(), status=None, seconds=1.0)
     }
 
 
+def test_runs_get_one_opencv_thread_only_when_every_core_has_a_run(monkeypatch):
+    from armtree.sweep.pool import run_environment
+
+    monkeypatch.delenv("OPENCV_FOR_THREADS_NUM", raising=False)
+    assert run_environment(2, cores=2) == {"OPENCV_FOR_THREADS_NUM": "1"}
+    assert run_environment(3, cores=2) == {"OPENCV_FOR_THREADS_NUM": "1"}
+    assert run_environment(1, cores=2) == {}
+    monkeypatch.setenv("OPENCV_FOR_THREADS_NUM", "2")
+    assert run_environment(2, cores=2) == {}, "the user's own setting is kept"
+
+
 def test_wilson_interval():
     low, high = wilson(93, 100)
     assert low == pytest.approx(0.8626, abs=1e-4) and high == pytest.approx(0.9657, abs=1e-4)
@@ -278,9 +293,14 @@ def test_the_report_counts_false_outcomes_apart_and_groups_reasons():
 @pytest.mark.slow
 def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsys, monkeypatch):
     import armtree.sweep.command as command
+    import armtree.sweep.pool as pool
 
     written = []
-    monkeypatch.setattr(command, "CHECKPOINT_S", 0.0)  # a report after every run, as it goes
+    monkeypatch.setattr(command, "CHECKPOINT_S", 0.0)
+    monkeypatch.setattr(pool.os, "cpu_count", lambda: 2)  # two workers fill two cores
+    monkeypatch.delenv(
+        "OPENCV_FOR_THREADS_NUM", raising=False
+    )  # a report after every run, as it goes
     real_write = command.write_report
     monkeypatch.setattr(
         command,
@@ -330,6 +350,8 @@ def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsy
         "every run (and the retry) had its own process"
     )
     assert os.getpid() not in {int(pid) for _, pid in seen}
+    threads = (work / "opencv_threads.txt").read_text().split()
+    assert threads == ["1"] * 7, "with a run on every core, each run's OpenCV has one thread"
     out = work / "out"
     assert (out / "report.md").read_text().startswith("# Sweep of ")
     for png in ("sim_time.png", "wall_time.png"):

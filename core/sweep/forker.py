@@ -184,13 +184,15 @@ class Child:
 class Forker:
     """A forker process and the children it started; safe to use from many threads.
 
-    ``log`` receives the forker's own stderr (import errors, crashes).
+    ``log`` receives the forker's own stderr (import errors, crashes); ``env``
+    adds environment variables for it and so for every run it forks.
     """
 
-    def __init__(self, log: Path | None = None) -> None:
+    def __init__(self, log: Path | None = None, env: dict[str, str] | None = None) -> None:
         self._log = open(log, "ab") if log is not None else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "armtree.sweep.forker"],
+            env={**os.environ, **(env or {})},
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self._log,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -15,14 +16,15 @@ class LocalPool:
 
     A thread per slot waits for its child, so a hung run is killed after
     ``run_timeout`` wall seconds without holding up the others. ``log`` gets
-    the forker's own error output.
+    the forker's own error output. With a run on every core, each run's OpenCV
+    works on one thread.
     """
 
     def __init__(self, workers: int, run_timeout: float | None, log: Path | None = None) -> None:
         self.workers = workers
         self.capacity = workers
         self.run_timeout = run_timeout
-        self.forker = Forker(log)
+        self.forker = Forker(log, run_environment(workers))
         self._threads = ThreadPoolExecutor(workers, thread_name_prefix="armtree-sweep")
 
     def describe(self) -> str:
@@ -46,3 +48,16 @@ class LocalPool:
         """Wait for the slots, then stop the forker (what still runs gets SIGTERM, then SIGKILL)."""
         self._threads.shutdown(wait=True, cancel_futures=True)
         self.forker.close()
+
+
+def run_environment(workers: int, cores: int | None = None) -> dict[str, str]:
+    """Environment for runs when ``workers`` share ``cores`` (default: this machine's).
+
+    With no core to spare, OpenCV's worker threads only add hand-offs to a run's
+    CPU time (detections are the same on any number of threads), so each run gets
+    one, unless the user set ``OPENCV_FOR_THREADS_NUM`` already.
+    """
+    cores = cores or os.cpu_count() or 1
+    if workers < cores or "OPENCV_FOR_THREADS_NUM" in os.environ:
+        return {}
+    return {"OPENCV_FOR_THREADS_NUM": "1"}
