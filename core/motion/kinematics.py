@@ -169,9 +169,18 @@ class KinematicModel(ABC):
 
     def box_poses_in(self, frames: np.ndarray) -> np.ndarray:
         """:meth:`box_poses` from link frames already computed by :meth:`link_frames`."""
-        idx = [b.link for b in self.boxes]
-        offsets = np.stack([b.offset for b in self.boxes])
+        idx, offsets = self._box_links_and_offsets()
         return frames[..., idx, :, :] @ offsets
+
+    def _box_links_and_offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each box's link index ``(B,)`` and offset ``(B, 4, 4)``, stacked once per ``boxes``."""
+        # The simulator asks for box poses every tick; the boxes change only when reassigned.
+        cached = getattr(self, "_box_arrays", None)
+        if cached is None or cached[0] is not self.boxes:
+            idx = np.array([b.link for b in self.boxes], dtype=np.intp)
+            cached = (self.boxes, idx, np.stack([b.offset for b in self.boxes]))
+            self._box_arrays = cached
+        return cached[1], cached[2]
 
     def box_sizes(self) -> np.ndarray:
         """Box sizes ``(B, 3)``, mm."""
