@@ -14,6 +14,7 @@ Units: joints in degrees (revolute) or mm (prismatic), time in seconds.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -108,9 +109,13 @@ class Trajectory:
         for s in np.unique(segs):
             sel = segs == s
             c = self.coeffs[int(s)]
+            # one gather and one scatter per segment, not one per power
+            t = tau[sel, None]
+            acc = np.zeros((len(t), out.shape[1]))
             for p in range(order, len(c)):
-                fac = np.prod(np.arange(p - order + 1, p + 1)) if order else 1.0
-                out[sel] += fac * c[p] * tau[sel, None] ** (p - order)
+                fac = math.prod(range(p - order + 1, p + 1)) if order else 1.0
+                acc += fac * c[p] * t ** (p - order)
+            out[sel] = acc
         return out
 
     def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -17,7 +17,8 @@ from armtree.motion.kinematics import KinematicModel
 def reachable(model: KinematicModel, points: np.ndarray) -> np.ndarray:
     """Boolean ``(...)``: whether some IK solution within the limits reaches each point."""
     sols = model.ik_all(np.asarray(points, dtype=float))
-    return np.any(np.all(np.isfinite(sols), axis=-1), axis=-1)
+    # array methods: skills ask this hundreds of times a run, mostly of one point
+    return np.isfinite(sols).all(axis=-1).any(axis=-1)
 
 
 def highest_reachable(
