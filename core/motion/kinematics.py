@@ -129,10 +129,11 @@ class KinematicModel(ABC):
     def within_limits(self, q: np.ndarray, tol: float = 1e-9) -> np.ndarray:
         """Boolean ``(...)``: each joint in range and every constraint satisfied."""
         q = np.asarray(q, dtype=float)
-        ok = np.all((q >= self.lower - tol) & (q <= self.upper + tol), axis=-1)
+        # array methods rather than np.all: every inverse-kinematics call comes through here
+        ok = ((q >= self.lower - tol) & (q <= self.upper + tol)).all(axis=-1)
         for c in self.constraints:
             ok &= np.asarray(c.g(q)) <= tol
-        return ok & np.all(np.isfinite(q), axis=-1)
+        return ok & np.isfinite(q).all(axis=-1)
 
     def ik(self, target: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
         """One solution for one target, the nearest to ``near`` (default: home).
@@ -141,10 +142,10 @@ class KinematicModel(ABC):
         solution is within the limits.
         """
         target = np.asarray(target, dtype=float)
-        if not np.all(np.isfinite(target)):
+        if not np.isfinite(target).all():
             raise Unreachable(f"target {target.tolist()} is not finite")
         sols = self.ik_all(target)
-        sols = sols[np.all(np.isfinite(sols), axis=-1)]
+        sols = sols[np.isfinite(sols).all(axis=-1)]
         if len(sols) == 0:
             shown = target[:3, 3] if target.shape == (4, 4) else target
             raise Unreachable(

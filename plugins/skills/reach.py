@@ -68,11 +68,12 @@ def nearest_reachable(
     center = np.array([r0, t[2]])
     best: np.ndarray | None = None
     coarse = max(step, span / 15.0)
+    cos, sin = np.cos(angle), np.sin(angle)
     for grid, half in ((coarse, span), (step, coarse * 1.5)):
         offsets = np.arange(-half, half + 1e-9, grid)
         rr, zz = np.meshgrid(center[0] + offsets, center[1] + offsets, indexing="ij")
         rr = np.maximum(rr, 0.0)
-        cands = np.stack([rr * np.cos(angle), rr * np.sin(angle), zz], axis=-1).reshape(-1, 3)
+        cands = np.stack([rr * cos, rr * sin, zz], axis=-1).reshape(-1, 3)
         if min_z is not None:
             cands = cands[cands[:, 2] >= min_z - 1e-9]
         ok = reachable(model, cands) if len(cands) else np.zeros(0, dtype=bool)
