@@ -106,8 +106,12 @@ class Trajectory:
         segs = np.atleast_1d(seg)
         tau = np.atleast_1d(np.asarray(tau, dtype=float))
         out = np.zeros((len(tau), self.coeffs[0].shape[1]))
-        for s in np.unique(segs):
-            sel = segs == s
+        if len(segs) == 1:
+            # one time (a streamed set point): nothing to sort into segments
+            groups: list[tuple[np.integer, slice | np.ndarray]] = [(segs[0], slice(None))]
+        else:
+            groups = [(s, segs == s) for s in np.unique(segs)]
+        for s, sel in groups:
             c = self.coeffs[int(s)]
             # one gather and one scatter per segment, not one per power
             t = tau[sel, None]
