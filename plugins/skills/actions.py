@@ -99,18 +99,9 @@ class Move(Action):
         self._waypoints: list[np.ndarray] = []
         self._handle: MotionHandle | None = None
         self._deadline = float("inf")
-        self._description: tuple[tuple[Any, ...], str] | None = None
 
     def describe(self) -> str:
         """What this move goes to, for messages."""
-        # a running skill's feedback asks every tick; the words change only with the target
-        target = np.asarray(self.xyz if self.xyz is not None else self.joints, dtype=float)
-        key = (self.label, self.xyz is None, target.shape, target.tobytes())
-        if self._description is None or self._description[0] != key:
-            self._description = (key, self._described())
-        return self._description[1]
-
-    def _described(self) -> str:
         if self.xyz is not None:
             return f"{self.label} to {fmt(self.xyz)}"
         return f"{self.label} to joints {np.round(self.joints, 1).tolist()}"

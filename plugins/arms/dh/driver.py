@@ -96,9 +96,7 @@ class SSC32Driver(SerialArmDriver):
         super().__init__(model, port, **options)
         self.model: DHModel = model
         self.servos = list(servos)
-        # The joint servos' maps as arrays: one expression turns all pulses into joints.
-        self._slopes = np.array([m.slope for m in self.servos], dtype=float)
-        self._intercepts = np.array([m.intercept for m in self.servos], dtype=float)
+        self._joint_servos = S.JointServos(self.servos)
         #: Doubts the joint values read back from the board (finite, limits, speed).
         self.guard = StatusGuard(model)
         self.gripper_map = gripper
@@ -182,7 +180,7 @@ class SSC32Driver(SerialArmDriver):
             return
         pulses = np.array([10.0 * b for b in reply[:-1]])
         joint_pulses = pulses[:-1] if self.gripper_map is not None else pulses
-        q = self._slopes * joint_pulses + self._intercepts
+        q = self._joint_servos.angles(joint_pulses)
         if self.guard.check(q, self._now if math.isfinite(self._now) else 0.0) is not None:
             return
         self.mark_alive()
@@ -262,7 +260,7 @@ class SSC32Driver(SerialArmDriver):
 
     def _pulses_for(self, q: np.ndarray) -> dict[int, int]:
         """Each joint servo's pulse (us, whole) for joints ``q``, kept on the board's range."""
-        pulses = (np.asarray(q, dtype=float) - self._intercepts) / self._slopes
+        pulses = self._joint_servos.pulses(q)
         return {
             m.channel: min(max(round(p), S.PULSE_MIN), S.PULSE_MAX)
             for m, p in zip(self.servos, pulses.tolist(), strict=True)
@@ -283,7 +281,7 @@ class SSC32Driver(SerialArmDriver):
         if self._commanded_pulses is not None:
             close = np.abs(pulses - self._commanded_pulses) <= 5.0
             pulses = np.where(close, self._commanded_pulses, pulses)
-        return self._slopes * pulses + self._intercepts
+        return self._joint_servos.angles(pulses)
 
     @property
     def tool(self) -> ToolState:

@@ -70,10 +70,7 @@ class SSC32Emulator(PtyEmulator):
         self._pulses_at: tuple[float, np.ndarray] | None = None
         self._outputs: dict[int, bool] = {}
         self._buf = bytearray()
-        # The servo maps as arrays: one numpy expression turns every pulse into its joint.
-        self._servo_channels = np.array([m.channel for m in self.servos], dtype=int)
-        self._servo_slopes = np.array([m.slope for m in self.servos], dtype=float)
-        self._servo_intercepts = np.array([m.intercept for m in self.servos], dtype=float)
+        self._joint_servos = S.JointServos(self.servos)
 
     # ------------------------------------------------------------------ pulses in time
 
@@ -91,8 +88,7 @@ class SSC32Emulator(PtyEmulator):
         return pulses
 
     def _angles(self, t: float) -> np.ndarray:
-        # ServoMap.angle for every joint at once.
-        return self._servo_slopes * self.pulses(t)[self._servo_channels] + self._servo_intercepts
+        return self._joint_servos.angles(self.pulses(t)[self._joint_servos.channels])
 
     def true_joints(self) -> np.ndarray:
         """Joint angles from the servo pulses (plus any injected slip), degrees / mm."""

@@ -71,6 +71,26 @@ class ServoMap:
         return (min(a, b), max(a, b))
 
 
+class JointServos:
+    """The joint servos' maps as arrays: one expression converts every joint at once.
+
+    The same arithmetic as :meth:`ServoMap.angle` and :meth:`ServoMap.pulse`, joint by joint.
+    """
+
+    def __init__(self, maps: Sequence[ServoMap]) -> None:
+        self.channels = np.array([m.channel for m in maps], dtype=int)
+        self.slopes = np.array([m.slope for m in maps], dtype=float)
+        self.intercepts = np.array([m.intercept for m in maps], dtype=float)
+
+    def angles(self, pulses: np.ndarray) -> np.ndarray:
+        """Joint values for the joints' pulse widths ``pulses`` (us), one per joint."""
+        return self.slopes * pulses + self.intercepts
+
+    def pulses(self, angles: np.ndarray) -> np.ndarray:
+        """Pulse widths (us, not rounded) that put the joints at ``angles``."""
+        return (np.asarray(angles, dtype=float) - self.intercepts) / self.slopes
+
+
 def servo_maps_from_config(config: Any, n_joints: int, source: str = "<profile>") -> list[ServoMap]:
     """Maps from a profile's ``arm.servos`` list (one ``{channel, table}`` per joint).
 
