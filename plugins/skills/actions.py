@@ -8,6 +8,7 @@ run's clock.
 from __future__ import annotations
 
 import enum
+import math
 from typing import Any
 
 import numpy as np
@@ -283,8 +284,8 @@ class Pause(Action):
 class Look(Action):
     """Read fresh camera frames while the arm is still and locate every marker in them.
 
-    Frames stamped before the step started (plus ``settle`` seconds) are skipped,
-    so nothing is measured from a moving camera. Up to ``frames`` fresh frames are
+    Frames stamped before the step started (plus ``settle`` seconds) are not read,
+    so nothing is measured from a moving camera and no time goes to frames left unused. Up to ``frames`` fresh frames are
     read, stopping early once a marker of ``want`` (a role) is seen. The result is
     a list of :class:`Sighting`, newest per marker id, or with ``average`` each
     marker's position averaged over the frames that saw it. No frame within
@@ -326,6 +327,10 @@ class Look(Action):
         rig = self.rig
         if rig.camera is None or rig.tracker is None:
             return self.fail("this rig has no camera and tracker to look with")
+        if not self._settled():
+            # A frame read now would be skipped, and reading it costs a marker search
+            # (and in the simulation a render).
+            return State.RUNNING
         view = eye_of(rig).newest()
         if view is not None and view.timestamp >= self._t0 - 1e-9 and view.index != self._used:
             self._used = view.index
@@ -340,6 +345,18 @@ class Look(Action):
         elif self.clock.now() > self._t0 + self.timeout:
             return self.fail(f"the camera gave no frame for {self.timeout:g} s")
         return State.RUNNING
+
+    def _settled(self) -> bool:
+        """True once the frame the camera holds now is stamped at or after the settle time.
+
+        A camera of known frame rate stamps its frames on multiples of its period, so
+        the frame at hand may be up to a period older than the clock.
+        """
+        now = self.clock.now()
+        fps = getattr(self.rig.camera, "fps", None)
+        if isinstance(fps, int | float) and fps > 0:
+            now = math.floor(now * fps + 1e-9) / fps
+        return now >= self._t0 - 1e-9
 
     def _averaged(self, sighting: Sighting) -> Sighting:
         positions = self._all[sighting.id]
