@@ -167,6 +167,21 @@ def test_at_measures_the_distance_in_the_table_plane():
     assert far.status == "fail" and far.measured == pytest.approx(245.7, abs=0.1)
 
 
+def test_at_a_bin_means_inside_it_wherever_in_it():
+    truth = world()
+    inside = WorldObject("trash_a", "trash", "trash", (40.0, 225.0, -32.0), on="bin", inside="bin")
+    on_bin = WorldObject("trash_b", "trash", "trash", (0.0, 190.0, 5.0), on="bin")
+    truth.objects.update(trash_a=inside, trash_b=on_bin)  # 57 mm off centre; 5 mm, on top
+    expect, _ = parse(
+        "expect:\n  - {object: trash_a, at: bin, within_mm: 10}\n"
+        "  - {object: trash_b, at: bin, within_mm: 10}\n",
+        truth,
+    )
+    inside, on_top = judge(expect, truth, BUILTIN_PREDICATES)
+    assert (inside.status, inside.measured, inside.detail) == ("pass", "bin", "trash_a in bin")
+    assert (on_top.status, on_top.detail) == ("fail", "trash_b on bin")
+
+
 def test_held_and_event_counts():
     truth = world(
         held="trash_b",

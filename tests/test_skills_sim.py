@@ -119,3 +119,26 @@ def test_clean_up_on_sim_vicra_bins_every_trash_its_overhead_camera_sees():
     assert result.verdict == "success", (result.message, score["in_bin"])
     assert score["trash_in_bin"] == score["trash_total"] == 3
     assert score["collision_count"] == 0 and score["held"] is None
+
+
+#: The shipped trees that declare what the world must show (their ``expect:``), with the
+#: overrides a run needs: search has no default tag.
+EXPECTING = [
+    ("pick_and_place.yaml", []),
+    ("clean_up.yaml", []),
+    ("sort.yaml", []),
+    ("touch_tag.yaml", []),
+    ("track.yaml", []),
+    ("search.yaml", ["tag=ducky"]),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rig", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"])
+@pytest.mark.parametrize(("tree_name", "overrides"), EXPECTING, ids=[t[0] for t in EXPECTING])
+def test_every_shipped_tree_keeps_its_own_expectations_on_every_sim_rig(tree_name, overrides, rig):
+    # a tree's SUCCESS that its own expect: contradicts is a false success (exit 1)
+    tree = load_tree(tree_name, rig=rig, overrides=overrides)
+    result = Run(tree, None, seed=0, record=False, max_ticks=6000, quiet=True).execute()
+    failed = [f"{e.expect}: {e.detail}" for e in result.expectations if e.status != "pass"]
+    assert (result.status, result.verdict) == ("SUCCESS", "success"), (result.message, failed)

@@ -128,7 +128,9 @@ class In(Predicate):
 class At(Predicate):
     """``at: P`` (``within_mm: T``): the object's centre is within T mm of P in the table plane.
 
-    P is a place of the profile or a body (the nearest of a role's bodies).
+    P is a place of the profile or a body (the nearest of a role's bodies). Where P
+    names a container (a bin), the object is at it when it lies inside it, wherever
+    in it: a bin spreads its drops across its inside, so no one tolerance fits every bin.
     """
 
     VALUE = NAME_SCHEMA
@@ -150,6 +152,10 @@ class At(Predicate):
 
     def judge(self, entry: Expectation, obj: WorldObject | None, world: WorldTruth) -> Judgement:
         assert obj is not None
+        bins = {o.name for o in world.select(entry.value) if o.container}
+        if bins:
+            where = f"in {obj.inside}" if obj.inside else ("held" if obj.held else f"on {obj.on}")
+            return Judgement(obj.inside in bins, obj.inside, f"{obj.name} {where}")
         points = [o.position for o in world.select(entry.value) if o.name != obj.name]
         if entry.value in world.places:
             points.append(world.places[entry.value])
