@@ -146,6 +146,23 @@ def test_moving_camera_blurs_the_image(rig):
     assert sharpness(moving) < 0.7 * sharpness(still)
 
 
+def test_a_camera_that_moved_and_stopped_before_its_next_frame_is_not_blurred(rig):
+    # Frames may be read seconds apart (a look reads none while the arm settles): the
+    # blur of the camera's motion is from where it was a tick ago, not at the last frame.
+    config = dict(C270, noise=0.0, blur=0.0)
+    clock, world, emu, camera = rig(config)
+    camera.read()
+    emu.put([205, 45, 130])  # 60 mm away, then still for the second before the next frame
+    for _ in range(20):
+        clock.advance(0.05)
+        world.step(clock.now())
+    first = camera.read().image
+    clock.advance(1 / 30)
+    world.step(clock.now())
+    second = camera.read().image
+    assert sharpness(first) == pytest.approx(sharpness(second), rel=1e-6)
+
+
 def test_eye_to_hand_arm_link_hides_a_marker(rig):
     clock, world, emu, camera = rig(STAND, tool=(300, -150, 150))
     assert set(detect(camera.read().image)) == {0, 2}

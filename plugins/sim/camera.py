@@ -86,7 +86,6 @@ class SimCamera(Camera):
         self._world: World | None = None
         self.renderer: Renderer | None = None
         self._last_index = -1
-        self._previous: tuple[int, np.ndarray] | None = None
         self._lock = threading.Lock()
         #: Called with every frame produced (the recorder listens here).
         self.listeners: list[Callable[[Frame], None]] = []
@@ -146,12 +145,11 @@ class SimCamera(Camera):
         drawables = world_drawables(self._world)
         if self.mount == "eye_in_hand":
             drawables = [d for d in drawables if not d.tool_mounted]
-        previous, frame_dt = None, 1.0 / self.fps
-        if self._previous is not None and index > self._previous[0]:
-            previous = self._previous[1]
-            frame_dt = (index - self._previous[0]) / self.fps
+        # The blur of the camera's own motion comes from where it was a tick ago, not
+        # from the frame rendered last: a look may read its first frame seconds later.
+        motion = self._world.camera_motion(self.mount, self.mounted)
+        previous, frame_dt = motion if motion is not None else (None, 1.0 / self.fps)
         image = self.renderer.render(cam_pose, drawables, index, previous, frame_dt)
-        self._previous = (index, cam_pose)
         self.frames_rendered += 1
         frame = Frame(
             image=image,

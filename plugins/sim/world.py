@@ -194,6 +194,10 @@ class World:
         #: Indices of link boxes that move rigidly with the tool (the end effector).
         self.tool_boxes: frozenset[int] = frozenset()
         self.arm: ArmView | None = None
+        #: The arm and the time (s) of the step before the last: where an eye-in-hand
+        #: camera was a tick before the frame it renders, for the blur of its motion.
+        self.arm_before: ArmView | None = None
+        self.time_before = 0.0
         self.collisions = CollisionMonitor(scene.physics.collision_tolerance_mm)
         self._slip_rng = np.random.default_rng(self._seq.spawn(2)[1])
         self._last_joints: list[float] | None = None
@@ -257,6 +261,7 @@ class World:
         """Advance the world to ``now`` seconds (after the arm emulators have stepped)."""
         with self.lock:
             dt = max(0.0, now - self.time)
+            self.arm_before, self.time_before = self.arm, self.time
             self._read_arm()
             self._missed_steps(dt, now)
             for name, bot in self.duckybots.items():
@@ -358,6 +363,15 @@ class World:
                 if self.arm is not None:
                     return self.arm.tool_pose @ extrinsics
             return extrinsics
+
+    def camera_motion(self, mount: str, extrinsics: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """Where an eye-in-hand camera was a world step ago (base frame, 4x4 mm) and that
+        step's length (s); None for a fixed camera or before the arm has stepped twice."""
+        with self.lock:
+            before = self.arm_before
+            if mount != "eye_in_hand" or before is None or self.time <= self.time_before:
+                return None
+            return before.tool_pose @ extrinsics, self.time - self.time_before
 
     def state(self) -> dict[str, Any]:
         """Every body's pose and support and the arm's joints, rounded to 1e-6 mm (for comparisons)."""
