@@ -347,10 +347,11 @@ class Look(Action):
         return State.RUNNING
 
     def _settled(self) -> bool:
-        """True once the frame the camera holds now is stamped at or after the settle time.
+        """True once the frame the camera holds now is likely stamped at or after the settle time.
 
-        A camera of known frame rate stamps its frames on multiples of its period, so
-        the frame at hand may be up to a period older than the clock.
+        The frame at hand may be up to a period older than the clock: the simulation's
+        camera stamps its frames on multiples of its period, which this follows exactly.
+        For a real camera it is a guess either way; a frame read too early is skipped.
         """
         now = self.clock.now()
         fps = getattr(self.rig.camera, "fps", None)
