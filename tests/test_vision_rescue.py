@@ -99,6 +99,7 @@ def test_texture_is_not_read_as_a_marker():
         grey = cv2.resize(cells, (320, 240), interpolation=cv2.INTER_NEAREST)
         grey = cv2.GaussianBlur(grey, (0, 0), 0.7)
         _, ids, rejected = cv2.aruco.ArucoDetector(get_dictionary("4x4_50")).detectMarkers(grey)
-        assert ids is None and len(rejected) >= 10
+        # no ids: None before OpenCV 5.1, an empty array since
+        assert (ids is None or len(ids) == 0) and len(rejected) >= 10
         frame = Frame(cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR), 0.0, k, np.zeros(5))
         assert ArucoTracker().detect(frame) == []
