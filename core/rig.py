@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
+import math
 import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable
@@ -254,6 +255,16 @@ class Camera(ABC):
     mount: str = "eye_to_hand"
     #: Camera pose: in the tool frame (eye-in-hand) or base frame (eye-to-hand), 4x4 mm.
     extrinsics: np.ndarray = np.eye(4)
+    #: Frames a second, when known.
+    fps: float | None = None
+
+    def stamp_due(self, now: float) -> float:
+        """The stamp (s, run clock) of the newest frame at run time ``now``: the last
+        multiple of the period when ``fps`` is known (exact for the simulation's camera,
+        a guess for a real one), else ``now``."""
+        if not self.fps or self.fps <= 0:
+            return now
+        return frame_index(now, self.fps) / self.fps
 
     @abstractmethod
     def start(self) -> None:
@@ -265,6 +276,12 @@ class Camera(ABC):
 
     def close(self) -> None:  # noqa: B027 - optional for cameras with nothing to release
         """Release the device."""
+
+
+def frame_index(now: float, fps: float) -> int:
+    """The number of the newest frame at run time ``now`` (s) of a camera taking ``fps``
+    frames a second from time 0."""
+    return int(math.floor(now * fps + 1e-9))
 
 
 class Tracker(ABC):

@@ -9,7 +9,6 @@ tool-to-camera offset), eye-to-hand cameras stand still.
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -18,7 +17,7 @@ import numpy as np
 
 from armtree.errors import ConfigError
 from armtree.params import Param
-from armtree.rig import Camera, Frame, RigContext
+from armtree.rig import Camera, Frame, RigContext, frame_index
 
 from .drawing import world_drawables
 from .geometry import look_at, pose, rpy_matrix
@@ -121,7 +120,7 @@ class SimCamera(Camera):
     def read(self) -> Frame | None:
         """The frame due at the run's current time, rendered now; None if not new or dropped."""
         self.start()
-        index = int(math.floor(self._context.clock.now() * self.fps + 1e-9))
+        index = frame_index(self._context.clock.now(), self.fps)
         with self._lock:
             if index <= self._last_index:
                 return None
@@ -135,7 +134,7 @@ class SimCamera(Camera):
     def render_now(self) -> Frame:
         """Render the frame due now even if it was already read (for tools and recordings)."""
         self.start()
-        index = int(math.floor(self._context.clock.now() * self.fps + 1e-9))
+        index = frame_index(self._context.clock.now(), self.fps)
         with self._lock:
             return self._render(index)
 

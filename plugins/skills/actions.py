@@ -8,7 +8,6 @@ run's clock.
 from __future__ import annotations
 
 import enum
-import math
 from typing import Any
 
 import numpy as np
@@ -285,8 +284,9 @@ class Look(Action):
     """Read fresh camera frames while the arm is still and locate every marker in them.
 
     Frames stamped before the step started (plus ``settle`` seconds) are not read,
-    so nothing is measured from a moving camera and no time goes to frames left unused. Up to ``frames`` fresh frames are
-    read, stopping early once a marker of ``want`` (a role) is seen. The result is
+    so nothing is measured from a moving camera and no time goes to frames left
+    unused. Up to ``frames`` fresh frames are read, stopping early once a marker
+    of ``want`` (a role) is seen. The result is
     a list of :class:`Sighting`, newest per marker id, or with ``average`` each
     marker's position averaged over the frames that saw it. No frame within
     ``timeout`` seconds fails the step.
@@ -347,17 +347,8 @@ class Look(Action):
         return State.RUNNING
 
     def _settled(self) -> bool:
-        """True once the frame the camera holds now is likely stamped at or after the settle time.
-
-        The frame at hand may be up to a period older than the clock: the simulation's
-        camera stamps its frames on multiples of its period, which this follows exactly.
-        For a real camera it is a guess either way; a frame read too early is skipped.
-        """
-        now = self.clock.now()
-        fps = getattr(self.rig.camera, "fps", None)
-        if isinstance(fps, int | float) and fps > 0:
-            now = math.floor(now * fps + 1e-9) / fps
-        return now >= self._t0 - 1e-9
+        """True once the camera's newest frame is stamped at or after the settle time."""
+        return self.rig.camera.stamp_due(self.clock.now()) >= self._t0 - 1e-9
 
     def _averaged(self, sighting: Sighting) -> Sighting:
         positions = self._all[sighting.id]
