@@ -24,6 +24,7 @@ import pluggy
 
 if TYPE_CHECKING:
     import argparse
+    from pathlib import Path
 
     from .errors import ConfigError
     from .outcomes import WorldTruth
@@ -156,6 +157,31 @@ def armtree_profile_sections() -> dict[str, ProfileSection]:
 
     :return: ``{section_name: ProfileSection}`` (:class:`armtree.profile_sections.ProfileSection`).
         A name armtree or another plugin already uses is an error naming both.
+    """
+
+
+# ---------------------------------------------------------------------------
+# Tree formats: a tree file in a format other than YAML.
+# ---------------------------------------------------------------------------
+
+
+@hookspec(firstresult=True)
+def armtree_read_tree(path: Path) -> Any | None:
+    """Read a tree file that is not YAML into the data a YAML tree file gives.
+
+    :param path: the tree file (its suffix is not ``.yaml`` or ``.yml``). A path
+        whose name ends in ``#ID`` (``tree.xml#search``) asks for the tree ``ID``
+        of a file that holds several; a ``subtree:`` node names one with
+        ``file: "#ID"`` (in the including file) or ``file: "other.xml#ID"``.
+    :return: the tree file's top-level mapping as :func:`armtree.yamlio.load_yaml`
+        gives it (:class:`~armtree.yamlio.MarkedDict` and
+        :class:`~armtree.yamlio.MarkedList` carrying the position of every key and
+        value in ``path``), or None when this plugin does not read the format (the
+        file is then read as YAML). The first answer that is not None is used.
+        Every check and positioned error of the loader applies to it unchanged.
+
+    Raise :class:`armtree.ConfigError` (with file, line and column) for a file
+    that cannot be read. Must not open ports or devices.
     """
 
 

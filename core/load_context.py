@@ -4,7 +4,7 @@ files it has parsed (:class:`TreeFiles`). See :mod:`armtree.tree_loader`."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -75,18 +75,34 @@ class LoadErrors:
         return ConfigError(first.message, first.file, first.line, first.column, errors)
 
 
-class TreeFiles:
-    """The tree files of one load, each parsed once, in the order they were first read."""
+#: ``read(path)``: a tree file in another format as the data its YAML would give, or
+#: None to read it as YAML (the plugins' ``armtree_read_tree``).
+ReadTree = Callable[[Path], Any]
 
-    def __init__(self, errors: LoadErrors) -> None:
+#: Suffixes always read as YAML.
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
+class TreeFiles:
+    """The tree files of one load, each parsed once, in the order they were first read.
+
+    A file whose suffix is not ``.yaml`` or ``.yml`` is offered to ``read`` first
+    (a plugin's format, such as BehaviorTree.CPP XML); a file nobody claims is YAML.
+    """
+
+    def __init__(self, errors: LoadErrors, read: ReadTree | None = None) -> None:
         self._errors = errors
+        self._read = read
         self._parsed: dict[Path, Any] = {}
 
     def parse(self, path: Path) -> Any:
-        """The file's YAML; None (its error recorded once) when it does not parse."""
+        """The file's data; None (its error recorded once) when it does not parse."""
         if path not in self._parsed:
             try:
-                self._parsed[path] = load_yaml_file(path)
+                data = None
+                if self._read is not None and path.suffix.lower() not in YAML_SUFFIXES:
+                    data = self._read(path)
+                self._parsed[path] = load_yaml_file(path) if data is None else data
             except ConfigError as exc:
                 self._errors.extend(exc.errors)
                 self._parsed[path] = None
