@@ -287,13 +287,15 @@ class XmlDocument:
         if builtin is not None:
             ntype, kind = builtin.armtree, builtin.kind
             ports = {k: v for k, v in element.attrs.items() if _is_port(k)}
-            for port in ports:
-                if port not in builtin.ports:
-                    takes = ", ".join(builtin.ports) or "no ports"
-                    self.error(
-                        f"{node_id} has no port {shown(port)} (it takes {takes})",
-                        element.name_mark(port),
-                    )
+            unknown = [port for port in ports if port not in builtin.ports]
+            for port in unknown:
+                takes = ", ".join(builtin.ports) or "no ports"
+                self.error(
+                    f"{node_id} has no port {shown(port)} (it takes {takes})",
+                    element.name_mark(port),
+                )
+            if unknown:
+                return None
             try:
                 options = builtin.read(ports)
             except ValueError as exc:
@@ -310,7 +312,7 @@ class XmlDocument:
                 kind = {"Control": "composite", "Decorator": "decorator"}.get(model.kind, "leaf")
             self._ports(element, model, spec)
         self._name(element, spec)
-        self._children(element, ntype, kind, spec)
+        self._children(element, node_id, kind, spec)
         node = MarkedDict({ntype: spec}, mark=element.mark)
         node.key_marks[ntype] = element.mark
         node.value_marks[ntype] = element.mark
@@ -332,18 +334,18 @@ class XmlDocument:
             spec.key_marks["name"] = element.name_mark("name")
             spec.value_marks["name"] = element.value_mark("name")
 
-    def _children(self, element: Element, ntype: str, kind: str | None, spec: MarkedDict) -> None:
+    def _children(self, element: Element, node_id: str, kind: str | None, spec: MarkedDict) -> None:
         children = element.children
         if kind == "leaf" and children:
             self.error(
-                f"{ntype} is a leaf (an Action or Condition): it takes no child nodes",
+                f"{node_id} is a leaf (an Action or Condition): it takes no child nodes",
                 children[0].mark,
             )
             return
         if kind == "decorator" or (kind is None and len(children) == 1):
             if len(children) > 1:
                 self.error(
-                    f"{ntype} is a decorator: it takes one child node, not {len(children)}",
+                    f"{node_id} is a decorator: it takes one child node, not {len(children)}",
                     children[1].mark,
                 )
             if children:
