@@ -12,7 +12,7 @@ import armtree
 from armtree.cli import main as armtree_main
 from armtree.cli import run_tree_main
 from armtree.plugin_manager import get_plugin_manager
-from armtree.plugins.btcpp.writer import palette
+from armtree.plugins.btcpp.writer import export_tree, palette
 from armtree.runlog import read_log
 
 
@@ -200,3 +200,39 @@ def test_ports_are_typed_by_the_files_model_and_bindings_kept(tmp_path):
     params = {i.type: i.params for i in loaded.nodes.values()}
     assert params["look"]["pose"] == armtree.Binding("/found")
     assert params["home"]["speed"] == armtree.Binding("speed")
+
+
+def test_subtree_ports_are_parameters_and_autoremap_shares_the_blackboard(tmp_path):
+    path = write(
+        tmp_path / "t.xml",
+        tree(
+            '    <Sequence>\n      <SubTree ID="Find" what="ducky" _autoremap="true"/>\n'
+            '      <SubTree ID="Find" name="again" what="trash" found="{=}"/>\n    </Sequence>',
+            '  <BehaviorTree ID="Find"><look tag="{what}" pose="{found}"/></BehaviorTree>\n',
+        ),
+    )
+    loaded = armtree.load_tree(path, manager=get_plugin_manager())
+    looks = [i.params for i in loaded.nodes.values() if i.type == "look"]
+    # shared: {found} is the tree's own key; isolated (no _autoremap): its own namespace,
+    # except a port given with the SubTree ({=}: the same name in the including tree)
+    assert [(p["tag"], p["pose"]) for p in looks] == [
+        ("ducky", armtree.Binding("found")),
+        ("trash", armtree.Binding("found")),
+    ]
+    path = write(
+        tmp_path / "u.xml",
+        tree(
+            '    <SubTree ID="Find" what="ducky"/>',
+            '  <BehaviorTree ID="Find"><look tag="{what}" pose="{found}"/></BehaviorTree>\n',
+        ),
+    )
+    loaded = armtree.load_tree(path, manager=get_plugin_manager())
+    look = next(i.params for i in loaded.nodes.values() if i.type == "look")
+    assert look["pose"] == armtree.Binding("Find/found")
+
+
+def test_an_exported_xml_exports_to_the_same_xml(tmp_path):
+    manager = get_plugin_manager()
+    first = tmp_path / "a.xml"
+    first.write_text(export_tree("load_ducky", manager))
+    assert export_tree(first, manager) == first.read_text()
