@@ -19,10 +19,9 @@ import argparse
 import statistics
 import subprocess
 import sys
-import threading
 import time
 
-from bench_monitor import TickTimes, cpu_seconds
+from bench_monitor import TickTimes, execute_paced, print_cost
 
 from armtree.cli import plugin_manager_for
 from armtree.runtime import Run
@@ -105,12 +104,7 @@ def one_run(tree_name: str, seed: int, served: bool) -> dict:
             client.stdout.readline()  # "ready"
             run.control.resume()
 
-        threading.Thread(target=watch, daemon=True).start()
-    else:
-        run.control.speed = 1.0
-    cpu0 = cpu_seconds()
-    result = run.execute()
-    cpu = cpu_seconds() - cpu0
+    result, cpu = execute_paced(run, watch if served else None)
     manager.pm.unregister(times)
     polls = 0
     if client is not None:
@@ -151,20 +145,8 @@ def main() -> None:
                 ),
                 flush=True,
             )
+    print_cost(args.tree, args.rounds, results)
     period_ms = 1000 / results[True][0]["tick_hz"]
-    base_work = statistics.median(r["tick_ms"] for r in results[False])
-    work = statistics.median(r["tick_ms"] for r in results[True])
-    base_cpu = statistics.median(r["cpu_ms_per_tick"] for r in results[False])
-    cpu = statistics.median(r["cpu_ms_per_tick"] for r in results[True])
-    print(f"tree {args.tree}, {args.rounds} rounds each, medians; tick period {period_ms:.0f} ms")
-    print(
-        f"tick work on the run thread: {base_work:.2f} ms without, {work:.2f} ms with: "
-        f"{work - base_work:+.2f} ms = {100 * (work - base_work) / period_ms:.1f} % of the tick"
-    )
-    print(
-        f"process CPU per tick: {base_cpu:.2f} ms without, {cpu:.2f} ms with: "
-        f"{cpu - base_cpu:+.2f} ms = {100 * (cpu - base_cpu) / period_ms:.1f} % of the tick"
-    )
     hook = statistics.median(r["hook_us"] for r in results[True])
     reply = statistics.median(r["reply_us"] for r in results[True])
     print(

@@ -29,7 +29,9 @@ def shape(tree: armtree.Tree) -> dict[str, Any]:
         "tick_hz": tree.tick_hz,
         "description": tree.description.strip(),
         "blackboard": tree.blackboard,
-        "expect": [(e.predicate, e.value, e.subject, e.every, dict(e.options)) for e in tree.expect],
+        "expect": [
+            (e.predicate, e.value, e.subject, e.every, dict(e.options)) for e in tree.expect
+        ],
         "profile": getattr(tree.profile, "name", None),
         "nodes": nodes,
     }

@@ -241,7 +241,9 @@ def _composite(children: st.SearchStrategy) -> st.SearchStrategy:
         ]
     )
     return st.builds(
-        lambda o, c: {o[0]: {**o[1], "children": c}}, options, st.lists(children, min_size=1, max_size=3)
+        lambda o, c: {o[0]: {**o[1], "children": c}},
+        options,
+        st.lists(children, min_size=1, max_size=3),
     )
 
 

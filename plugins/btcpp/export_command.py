@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from armtree import ConfigError
+from armtree.cli import add_set_option
 from armtree.plugin_manager import PluginManager, get_plugin_manager
 
 from .writer import export_tree, palette
@@ -35,14 +36,7 @@ class ExportCommand:
             help="write the <TreeNodesModel> of every registered behaviour (Groot2's palette)",
         )
         parser.add_argument("--rig", metavar="PROFILE", help="profile to check the tree against")
-        parser.add_argument(
-            "--set",
-            dest="overrides",
-            action="append",
-            default=[],
-            metavar="KEY=VALUE",
-            help="a value the check needs (a required tree parameter); not written",
-        )
+        add_set_option(parser, "a value the check needs (a required tree parameter); not written")
 
     def run(self, args: argparse.Namespace) -> int:
         """Write the XML; exit 2 (nothing written) for an invalid tree."""

@@ -117,13 +117,24 @@ def _only(options: dict[str, Any], *keys: str) -> bool:
     return set(options) <= set(keys)
 
 
-def _count(value: Any, minimum: int) -> str | None:
-    """An integer count (or a ``{param}`` reference) as a port string."""
-    if isinstance(value, str) and REFERENCE.match(value):
-        return value
-    if isinstance(value, int) and not isinstance(value, bool) and (value >= minimum or value == -1):
-        return str(value)
-    return None
+def _counted(
+    option: str, port: str, forever: bool
+) -> Callable[[dict[str, Any]], dict[str, str] | None]:
+    """armtree's count ``option`` as BT.CPP's ``port``: 1 or more, a ``{param}``
+    reference, or -1 (for ever) where both read it so (``forever``)."""
+
+    def export(options: dict[str, Any]) -> dict[str, str] | None:
+        value = options.get(option)
+        if not _only(options, option):
+            return None
+        if isinstance(value, str) and REFERENCE.match(value):
+            return {port: value}
+        whole = isinstance(value, int) and not isinstance(value, bool)
+        if whole and (value >= 1 or (forever and value == -1)):
+            return {port: str(value)}
+        return None
+
+    return export
 
 
 def _msec(value: Any) -> str | None:
@@ -249,12 +260,7 @@ BUILTINS: tuple[Builtin, ...] = (
         "retry",
         "RetryUntilSuccessful",
         "decorator",
-        lambda o: (
-            {"num_attempts": n}
-            if _only(o, "num_failures")
-            and (n := _count(o.get("num_failures"), 1)) not in (None, "-1")
-            else None
-        ),
+        _counted("num_failures", "num_attempts", forever=False),
         _retry_read,
         ("num_attempts",),
         "Decorator",
@@ -263,11 +269,7 @@ BUILTINS: tuple[Builtin, ...] = (
         "repeat",
         "Repeat",
         "decorator",
-        lambda o: (
-            {"num_cycles": n}
-            if _only(o, "num_success") and (n := _count(o.get("num_success"), 1)) is not None
-            else None
-        ),
+        _counted("num_success", "num_cycles", forever=True),
         lambda p: {"num_success": _int(p, "num_cycles", "")},
         ("num_cycles",),
         "Decorator",

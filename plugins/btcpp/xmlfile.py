@@ -3,7 +3,7 @@ values were written (1-based line and column), refusing what could expand withou
 
 defusedxml's parser refuses a document type declaration outright: BehaviorTree.CPP
 files have none, and a DTD is where entity expansion ("billion laughs") and external
-entities come from. Files above :data:`MAX_BYTES`, nesting deeper than
+entities come from. Files above 2 MB (as YAML tree files), nesting deeper than
 :data:`MAX_DEPTH` and more than :data:`MAX_ELEMENTS` elements are refused too, so
 nothing later walks an unbounded document.
 """
@@ -21,10 +21,8 @@ from defusedxml.ElementTree import DefusedXMLParser
 
 from armtree import ConfigError
 from armtree.errors import Mark
-from armtree.yamlio import decode
+from armtree.yamlio import decode, read_bounded
 
-#: Largest tree file read, in bytes (as for YAML tree files).
-MAX_BYTES = 2_000_000
 #: Deepest nesting of elements.
 MAX_DEPTH = 200
 #: Most elements one file may hold.
@@ -132,17 +130,7 @@ def parse_xml_file(path: Path) -> Element:
     """The root element of the XML file ``path``; :class:`ConfigError` at the line and
     column of malformed XML, a DTD or entity declaration, or a file too large."""
     file = str(path)
-    try:
-        with open(path, "rb") as stream:
-            raw = stream.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f"cannot read {file}: {exc.strerror or exc}", file=file) from None
-    if len(raw) > MAX_BYTES:
-        raise ConfigError(
-            f"the file is larger than {MAX_BYTES:,} bytes, the most armtree reads as a tree; "
-            "split it",
-            file=file,
-        )
+    raw = read_bounded(path)
     decode(raw, file)  # a bad byte is an error at its line and column
     return parse_xml(raw, file)
 
