@@ -74,6 +74,7 @@ from .run_hooks import RunHooks
 from .run_start import choose_clock, choose_record_dir, open_log, plugin_manager
 from .run_watchdog import RunWatchdog, profile_tick_limit
 from .runlog import RunLog
+from .status_guard import guard_statuses
 from .status_tracking import StatusTracker
 from .tree_replacement import TreeReplacement
 from .watchdog import TickAbandoned
@@ -373,6 +374,8 @@ class Run:
         self.report.log = self.log
 
     def _setup(self, bt: py_trees.trees.BehaviourTree) -> None:
+        # An update() that returns no status ends the run at that tick (not a spin).
+        guard_statuses(bt.root)
         try:
             bt.setup(rig=self.rig, clock=self.clock, runtime=self)
         except Exception as exc:  # noqa: BLE001 - reported with the node it came from
