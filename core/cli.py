@@ -149,7 +149,10 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
         "--record", metavar="DIR", help="write the run log to DIR (default runs/<tree>-<time>/)"
     )
     parser.add_argument(
-        "--timeout", type=float, metavar="SECONDS", help="fail after SECONDS on the run clock"
+        "--timeout",
+        type=float,
+        metavar="SECONDS",
+        help="fail after SECONDS on the run clock (default on the simulation: 600; inf: none)",
     )
     parser.add_argument("--max-ticks", type=int, metavar="N", help="fail after N ticks")
     parser.add_argument("--quiet", action="store_true", help="no live view")
@@ -160,22 +163,28 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
 def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
     """Load, validate and run the tree the options name; return the exit code."""
     from .display import print_summary
+    from .run_start import default_timeout
     from .runtime import run
     from .tree_loader import load_tree
 
-    if args.timeout is not None and args.timeout <= 0:
-        raise ConfigError(f"--timeout {args.timeout:g}: give a positive number of seconds")
+    if args.timeout is not None and not args.timeout > 0:
+        raise ConfigError(
+            f"--timeout {args.timeout:g}: give a positive number of seconds (inf: no limit)"
+        )
     if args.max_ticks is not None and args.max_ticks <= 0:
         raise ConfigError(f"--max-ticks {args.max_ticks}: give a positive number of ticks")
     if manager is None:
         manager = plugin_manager_for(getattr(args, "plugin", None), getattr(args, "block", None))
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
+    timeout = args.timeout
+    if timeout is None:
+        timeout = default_timeout(tree.profile, args.realtime, manager)
     result = run(
         tree,
         seed=args.seed,
         realtime=args.realtime,
         record=args.record,
-        timeout=args.timeout,
+        timeout=timeout,
         max_ticks=args.max_ticks,
         quiet=args.quiet,
         manager=manager,
