@@ -101,7 +101,13 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
     try:
         return action()
     except ConfigError as exc:
+        raised = [e.traceback for e in exc.errors if e.traceback]
+        if debug:
+            for text in raised:
+                print(text, file=sys.stderr, end="")
         print(exc.format(), file=sys.stderr)
+        if raised and not debug:
+            print("(run again with --debug for the traceback)", file=sys.stderr)
         return EXIT_USAGE
     except HardwareFault as exc:
         if debug:

@@ -13,6 +13,8 @@ class ConfigError(ValueError):
     Carries ``file``, ``line`` and ``column`` (1-based; ``None`` when unknown) so the
     CLI can print ``FILE:LINE:COL: message``. ``errors`` holds every problem found in
     one file when several were collected; ``str()`` of the exception lists them all.
+    ``traceback`` is the text of the traceback behind a problem a plugin's code raised
+    (a behaviour's constructor), which the CLI shows with ``--debug``.
     Nothing moves before a tree and its profile validate.
     """
 
@@ -23,6 +25,8 @@ class ConfigError(ValueError):
         line: int | None = None,
         column: int | None = None,
         errors: list[ConfigError] | None = None,
+        *,
+        traceback: str | None = None,
     ) -> None:
         super().__init__(message)
         self.message = message
@@ -30,6 +34,7 @@ class ConfigError(ValueError):
         self.line = line
         self.column = column
         self.errors: list[ConfigError] = errors if errors else [self]
+        self.traceback = traceback
 
     def location(self) -> str:
         """Return ``FILE:LINE:COL`` (or as much of it as is known)."""

@@ -40,11 +40,20 @@ class LoadErrors:
     def __len__(self) -> int:
         return len(self.found)
 
-    def error(self, message: str, mark: Mark | None, ctx: LoadContext | None = None) -> None:
-        """Record ``message`` at ``mark``, in ``ctx``'s file when the mark names none."""
+    def error(
+        self,
+        message: str,
+        mark: Mark | None,
+        ctx: LoadContext | None = None,
+        traceback: str | None = None,
+    ) -> None:
+        """Record ``message`` at ``mark``, in ``ctx``'s file when the mark names none;
+        ``traceback``: the text of what a plugin's code raised, for ``--debug``."""
         if ctx is not None and ctx.included_from is not None:
             message = f"{message} (included from {ctx.included_from})"
-        self.found.append(error_at(message, mark, str(ctx.file) if ctx else None))
+        found = error_at(message, mark, str(ctx.file) if ctx else None)
+        found.traceback = traceback
+        self.found.append(found)
 
     def unknown_keys(
         self, mapping: MarkedDict, known: Sequence[str], what: str, ctx: LoadContext

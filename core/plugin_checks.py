@@ -271,6 +271,16 @@ def _check_behaviour(factory: Any, report: _Reporter, params_ok: bool) -> None:
             "a subclass of py_trees.behaviour.Behaviour (or armtree.Behaviour)",
         )
         return
+    abstract = sorted(getattr(factory, "__abstractmethods__", ()) or ())
+    if abstract:
+        report.add(
+            factory,
+            "class",
+            f"{factory.__name__} leaves {', '.join(m + '()' for m in abstract)} undefined",
+            "a behaviour that defines "
+            + ", ".join(f"{m}()" for m in abstract)
+            + " (py_trees cannot build it otherwise)",
+        )
     for method, args, kwargs, call in LIFECYCLE:
         function = getattr(factory, method, None)
         if function is None:
