@@ -36,9 +36,11 @@ class LoadErrors:
 
     def __init__(self) -> None:
         self.found: list[ConfigError] = []
+        #: Errors reported before the others, in the order found.
+        self.leading: list[ConfigError] = []
 
     def __len__(self) -> int:
-        return len(self.found)
+        return len(self.found) + len(self.leading)
 
     def error(
         self,
@@ -67,14 +69,15 @@ class LoadErrors:
             )
         return not unknown
 
-    def extend(self, errors: Iterable[ConfigError]) -> None:
-        """Record errors already positioned (a profile's, a plugin's, a parser's)."""
-        self.found.extend(errors)
+    def extend(self, errors: Iterable[ConfigError], *, first: bool = False) -> None:
+        """Record errors already positioned (a profile's, a plugin's, a parser's);
+        ``first``: before all others (a plugin that did not load: the rest follows from it)."""
+        (self.leading if first else self.found).extend(errors)
 
     def fail(self, files: Iterable[Path]) -> ConfigError:
         """One error listing all, ordered by file (in the order ``files`` gives), line and column."""
         order = {str(path): i for i, path in enumerate(files)}
-        errors = sorted(
+        errors = self.leading + sorted(
             self.found,
             key=lambda e: (order.get(e.file or "", len(order)), e.line or 0, e.column or 0),
         )

@@ -150,6 +150,79 @@ def _armtree_requirements(distribution: str) -> list[str]:
 
 
 # ---------------------------------------------------------------------------
+# Hook names (before registering)
+# ---------------------------------------------------------------------------
+
+#: The attribute ``@armtree.hookimpl`` sets on what it marks.
+HOOKIMPL_ATTRIBUTE = "armtree_impl"
+#: How alike a plain function's name must be to a hook's to be taken for a misspelling.
+NEAR_HOOK = 0.85
+
+
+def hook_name_problems(plugin: Any, name: str, hooks: Any) -> list[ConfigError]:
+    """A misspelt hook in ``plugin`` (registered as ``name``), each at its ``def`` line.
+
+    A function marked ``@armtree.hookimpl`` or named ``armtree_*`` that is no hook of
+    ``hooks`` (the hook names), or an unmarked one whose name is nearly a hook's
+    (``armtre_behaviours``): pluggy would ignore the last and refuse the others
+    after the tree already failed on what the hook should have registered.
+    """
+    import difflib
+
+    hooks = sorted(hooks)
+    problems = []
+    for attribute in dir(plugin):
+        if attribute in hooks or attribute.startswith("__"):
+            continue
+        try:
+            found = inspect.getattr_static(plugin, attribute)
+        except AttributeError:
+            continue
+        function = getattr(found, "__func__", found)
+        if not inspect.isfunction(function) or not _defined_by(plugin, function):
+            continue
+        marked = hasattr(function, HOOKIMPL_ATTRIBUTE)
+        close = difflib.get_close_matches(attribute, hooks, n=1, cutoff=0.6)
+        # Unmarked and unprefixed, only a name that nearly is a hook's: "armtre_behaviours".
+        near = attribute.startswith("arm") and difflib.get_close_matches(
+            attribute, hooks, n=1, cutoff=NEAR_HOOK
+        )
+        if not (marked or attribute.startswith("armtree_") or near):
+            continue
+        hint = f"did you mean {close[0]!r}?" if close else "see armtree.hookspecs"
+        file, line = _def_line(function)
+        problems.append(
+            ConfigError(
+                f"plugin {name!r}: {attribute}() is not an armtree hook; {hint} (the hooks: "
+                f"`armtree hooks`; or skip the plugin with -p no:{name})",
+                file=file,
+                line=line,
+            )
+        )
+    return sorted(problems, key=lambda e: (e.file or "", e.line or 0))
+
+
+def _defined_by(plugin: Any, function: Any) -> bool:
+    """True for a function the plugin defines itself (not one a module imported)."""
+    if inspect.ismodule(plugin):
+        return function.__module__ == plugin.__name__
+    return True
+
+
+def _def_line(function: Any) -> tuple[str | None, int | None]:
+    """The file and the ``def`` line of ``function`` (past its decorators)."""
+    try:
+        file = inspect.getsourcefile(function)
+        lines, first = inspect.getsourcelines(function)
+    except (OSError, TypeError):
+        return None, None
+    for offset, text in enumerate(lines):
+        if text.lstrip().startswith(("def ", "async def ")):
+            return file, first + offset
+    return file, first
+
+
+# ---------------------------------------------------------------------------
 # Interfaces (at load)
 # ---------------------------------------------------------------------------
 
@@ -574,10 +647,12 @@ def _name(function: Any) -> str:
 
 
 __all__ = [
+    "HOOKIMPL_ATTRIBUTE",
     "Problem",
     "REQUIRES_ATTRIBUTE",
     "installed_version",
     "deep_problems",
+    "hook_name_problems",
     "interface_problems",
     "model_problems",
     "version_problem",

@@ -693,7 +693,8 @@ def _check_component(
     if not registry.has(kind, ctype):
         errors.append(
             error_at(
-                f"{section}: unknown {kind} type {shown(ctype)}{did_you_mean(ctype, registry.names(kind))}",
+                f"{section}: unknown {kind} type {shown(ctype)}"
+                f"{did_you_mean(ctype, registry.names(kind))}{registry.why_unknown(kind, ctype)}",
                 config.value_mark("type"),
             )
         )
