@@ -49,6 +49,32 @@ KINDS: dict[str, str] = {
 
 
 @dataclass(frozen=True)
+class ParamKind:
+    """What a plain py_trees behaviour's parameter names, as ``typing.Annotated`` metadata.
+
+    ``tag: Annotated[str, TagRole]`` and ``at: Annotated[str, Place]`` in a
+    constructor's signature give the parameter the :data:`KINDS` entry ``kind``,
+    so ``armtree check`` resolves its value against the profile as it does for
+    ``Param(kind=...)``.
+    """
+
+    kind: str
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS or not self.kind:
+            raise ValueError(f"kind must be one of {', '.join(repr(k) for k in KINDS if k)}")
+
+
+#: ``Annotated[str, TagRole]``: a tag role from the profile's ``tags:``.
+TagRole = ParamKind("tag_role")
+#: ``Annotated[str, Place]``: a place name from the profile's ``places:`` (or, with a
+#: list type, an ``[x, y, z]`` position in mm) the arm must reach.
+Place = ParamKind("place")
+#: ``Annotated[list[float], Position]``: an ``[x, y, z]`` position (mm) the arm must reach.
+Position = ParamKind("position")
+
+
+@dataclass(frozen=True)
 class Binding:
     """A parameter bound to a blackboard key with ``"{key}"`` in a tree file."""
 
