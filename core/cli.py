@@ -78,6 +78,18 @@ def add_set_option(parser: argparse.ArgumentParser, help: str) -> None:  # noqa:
     )
 
 
+def seed_value(text: str) -> int:
+    """An argparse ``type`` for ``--seed``: an integer >= 0 (numpy's generators take no
+    negative seed); anything else is a usage error, exit 2."""
+    try:
+        seed = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a seed: give an integer >= 0") from None
+    if seed < 0:
+        raise argparse.ArgumentTypeError(f"{seed} is not a seed: give an integer >= 0")
+    return seed
+
+
 def blocked_names(values: Sequence[str] | None) -> list[str]:
     """The plugin names of ``-p no:NAME`` options; anything else is a usage error."""
     names = []
@@ -117,16 +129,32 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except Exception as exc:  # noqa: BLE001 - the user gets a line, --debug the traceback
+    except OSError as exc:
+        if exc.filename is None:
+            return _unexpected(exc, debug)
+        # A path the user gave that cannot be read or written (-o, --record, --out).
         if debug:
             traceback.print_exc()
-            print(f"error: {type(exc).__name__}: {exc}", file=sys.stderr)
-        else:
-            print(
-                f"error: {type(exc).__name__}: {exc} (run again with --debug for the traceback)",
-                file=sys.stderr,
-            )
-        return EXIT_FAILURE
+        print(
+            f"{exc.filename}: {exc.strerror or exc}; give a path that exists and you may use",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - the user gets a line, --debug the traceback
+        return _unexpected(exc, debug)
+
+
+def _unexpected(exc: Exception, debug: bool) -> int:
+    """An error armtree did not foresee: one line, the traceback with ``debug``; exit 1."""
+    if debug:
+        traceback.print_exc()
+        print(f"error: {type(exc).__name__}: {exc}", file=sys.stderr)
+    else:
+        print(
+            f"error: {type(exc).__name__}: {exc} (run again with --debug for the traceback)",
+            file=sys.stderr,
+        )
+    return EXIT_FAILURE
 
 
 # ---------------------------------------------------------------------------
@@ -147,7 +175,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
         metavar="KEY=VALUE",
         help="override a profile key, tree parameter or blackboard value (YAML-typed)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the simulation (default 0)")
+    parser.add_argument(
+        "--seed", type=seed_value, default=0, help="seed of the simulation (default 0)"
+    )
     parser.add_argument(
         "--realtime", action="store_true", help="tick on the wall clock (hardware always does)"
     )

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import shown
+from .errors import shown, yaml_kind
 
 
 class _Required:
@@ -293,4 +293,4 @@ def _finite(v: float) -> bool:
 def _kind(value: Any) -> str:
     if value is None:
         return "null"
-    return f"{type(value).__name__} {shown(value)}"
+    return f"{yaml_kind(value)} {shown(value)}"

@@ -316,7 +316,7 @@ class PluginManager:
                     self.refused[key] = errors[0]
                     self.warn(
                         f"{component.kind} {name!r} of installed plugin {component.plugin!r} is "
-                        f"left out: {errors[0].location()}: {errors[0].message.split('. ')[0]}"
+                        f"left out: {errors[0].format().split('. ')[0]}"
                     )
         if problems:
             first = problems[0]
@@ -376,7 +376,7 @@ class Registry:
         ``"; ..."`` to append to the message, else ``""``."""
         refused = self._refused.get((kind, name))
         if refused is not None:
-            return f"; it is left out: {refused.location()}: {refused.message}"
+            return f"; it is left out: {refused.format()}"
         if not self._broken:
             return ""
         plugins = "; ".join(f"{plugin!r}: {why}" for plugin, why in self._broken.items())

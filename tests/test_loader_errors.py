@@ -69,7 +69,7 @@ CASES = [
             duration: "3"
         """,
         (3, 15),
-        "tick_counter.duration: expected an integer, got str '3'",
+        "tick_counter.duration: expected an integer, got a string '3'",
     ),
     (
         "bad choice",
