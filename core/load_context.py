@@ -75,8 +75,11 @@ class LoadErrors:
         (self.leading if first else self.found).extend(errors)
 
     def fail(self, files: Iterable[Path]) -> ConfigError:
-        """One error listing all, ordered by file (in the order ``files`` gives), line and column."""
+        """One error listing all, ordered by file (in the order ``files`` gives, then other
+        files as their errors came: a profile's, a plugin's), line and column."""
         order = {str(path): i for i, path in enumerate(files)}
+        for error in self.found:
+            order.setdefault(error.file or "", len(order))
         errors = self.leading + sorted(
             self.found,
             key=lambda e: (order.get(e.file or "", len(order)), e.line or 0, e.column or 0),

@@ -548,7 +548,62 @@ def _check_model(component: Any, report: _Reporter, notes: list[str]) -> None:
         )
         return
     for member, found, expected in model_problems(model):
-        report.add(type(model), member, found, expected)
+        report.add(model_member(model, member), member, found, expected)
+
+
+def model_member(model: Any, member: str) -> Any:
+    """What a problem's ``member`` names in the model's code, for its file and line: the
+    method (``ik_all(...)``, ``workspace_shape()``), else the constructor that sets the
+    attribute (``home``, ``joints[...]``, ``boxes[...]``)."""
+    name = member.split("(")[0].split("[")[0].strip()
+    found = getattr(type(model), name, None)
+    if callable(found) and not isinstance(found, type):
+        return found
+    return type(model).__init__ if "__init__" in vars(type(model)) else type(model)
+
+
+def rig_problems(profile: Any) -> list[ConfigError]:
+    """``armtree plugins --check``'s checks on the arm ``profile`` names, its kinematic
+    model built from the profile's own ``arm:`` section (limits, home, link frames and
+    boxes, the inverse kinematics' round trip, the workspace it describes).
+
+    Each error is at the plugin's source line, and names the profile's ``arm.type``
+    line; nothing is reported for an arm the profile's own checks already refuse.
+    """
+    manager = getattr(profile, "manager", None)
+    config = profile.component("arm") if hasattr(profile, "component") else None
+    if manager is None or not config or not isinstance(config.get("type"), str):
+        return []
+    registry = manager.registry
+    if not registry.has("arm", config["type"]):
+        return []
+    component = registry.get("arm", config["type"])
+    make = getattr(component.factory, "model", None)
+    if not callable(make):
+        return []
+    report = _Reporter(component.plugin, f"arm {component.name!r}")
+    try:
+        model = make(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return []  # the profile's checks say what is wrong with its arm: section
+    except Exception as exc:  # noqa: BLE001 - reported as the plugin's problem
+        report.add(make, "factory.model(config)", f"raised {type(exc).__name__}: {exc}", "a model")
+        model = None
+    from .motion.kinematics import KinematicModel
+
+    if isinstance(model, KinematicModel):
+        for member, found, expected in model_problems(model):
+            report.add(model_member(model, member), member, found, expected)
+    mark = profile.mark("arm.type") if hasattr(profile, "mark") else None
+    built = f" (the model built from the profile's arm: at {mark})" if mark else ""
+    return [
+        ConfigError(
+            problem.message.replace(". Fix the plugin,", f"{built}. Fix the plugin,", 1),
+            file=problem.file,
+            line=problem.line,
+        )
+        for problem in report.problems
+    ]
 
 
 def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
@@ -556,8 +611,11 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
 
     Joints with ``lower < upper``, a home pose of the right length inside the
     limits, finite link frames, link boxes on existing frames with positive
-    sizes, and ``ik_all(position(home))`` containing home within ``tol``
-    (degrees / mm), so planners, the workspace tool and the simulation work.
+    sizes, ``ik_all(position(home))`` containing home within ``tol``
+    (degrees / mm), and, for a model that describes its workspace
+    (``workspace_shape()``), finite bounds and the tool positions of home and of
+    configurations within the limits inside it, so planners, the workspace tool
+    and the simulation work.
     """
     out: list[tuple[str, str, str]] = []
     n = len(model.joints)
@@ -601,6 +659,7 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
     position = _call(out, "position(home)", lambda: np.asarray(model.position(home), dtype=float))
     if position is None or position.shape != (3,) or not np.all(np.isfinite(position)):
         return out
+    out.extend(_workspace_problems(model, home, tol))
     solutions = _call(out, "ik_all(position(home))", lambda: np.asarray(model.ik_all(position)))
     if solutions is None:
         return out
@@ -619,6 +678,45 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
                     "fk(ik(p)) == p",
                 )
             )
+    return out
+
+
+#: Configurations within the limits whose tool positions must lie in the described workspace.
+WORKSPACE_SAMPLES = 64
+
+
+def _workspace_problems(model: Any, home: np.ndarray, tol: float) -> list[tuple[str, str, str]]:
+    """The workspace a model describes against where its forward kinematics puts the tool."""
+    from .motion.workspace import ArmWorkspace
+
+    out: list[tuple[str, str, str]] = []
+    workspace = _call(out, "workspace_shape()", lambda: ArmWorkspace(model))
+    if workspace is None or workspace.kind != "model" or workspace.bounds is None:
+        return out
+    lower, upper = workspace.bounds
+    if lower.shape != (3,) or upper.shape != (3,) or not np.all(lower < upper):
+        return [("workspace_shape()", f"bounds {lower} to {upper}", "finite lower < upper (mm)")]
+    rng = np.random.default_rng(0)  # the same configurations every time
+    lo, hi = model.lower, model.upper
+    samples = np.vstack([home, lo + (hi - lo) * rng.random((WORKSPACE_SAMPLES, len(home)))])
+    samples = samples[np.asarray(model.within_limits(samples), dtype=bool)]
+    reached = _call(out, "position(q)", lambda: np.asarray(model.position(samples), dtype=float))
+    if reached is None or not len(samples):
+        return out
+    inside = _call(out, "workspace_shape()", lambda: workspace.reachable(reached, tol=tol))
+    if inside is None:
+        return out
+    outside = np.flatnonzero(~np.asarray(inside, dtype=bool))
+    if len(outside):
+        q, p = samples[outside[0]], reached[outside[0]]
+        out.append(
+            (
+                "workspace_shape()",
+                f"the tool at {np.round(p, 2).tolist()} mm (joints {np.round(q, 2).tolist()}, "
+                f"within the limits) outside it, {len(outside)} of {len(samples)} such",
+                "every position the arm reaches inside its workspace",
+            )
+        )
     return out
 
 
@@ -654,6 +752,8 @@ __all__ = [
     "deep_problems",
     "hook_name_problems",
     "interface_problems",
+    "model_member",
     "model_problems",
+    "rig_problems",
     "version_problem",
 ]

@@ -48,6 +48,7 @@ from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile_include import apply_includes
 from .resolve import available, resolve
 from .rig import TagSpec
+from .plugin_checks import rig_problems
 from .stall_watch import DEFAULT_STALL_S, MAX_STALL_S
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
@@ -435,6 +436,10 @@ def _finish(
             and getattr(node, "swapped_from", None)
         },
     )
+    if "arm" not in invalid:
+        # The arm's model as plugins --check checks it, built from this profile: a home
+        # outside the limits or an IK with a sign error is the plugin's, reported first.
+        errors[:0] = rig_problems(profile)
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
     errors.extend(_component_checks(profile, manager))
