@@ -44,11 +44,11 @@ from .errors import ConfigError, Mark, shown
 from .hook_calls import call_isolated, plugin_of
 from .motion.scene import Scene
 from .params import check_value
+from .plugin_checks import rig_problems
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile_include import apply_includes
 from .resolve import available, resolve
 from .rig import TagSpec
-from .plugin_checks import rig_problems
 from .stall_watch import DEFAULT_STALL_S, MAX_STALL_S
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
