@@ -50,6 +50,7 @@ def scaffolded(tmp_path_factory):
     return package, (package / "src" / "armtree_cheapo" / "kinematics.py").read_text()
 
 
+@pytest.mark.slow  # two or three commands on a simulated rig each
 @pytest.mark.parametrize("mistake", sorted(MISTAKES))
 def test_check_and_run_tree_refuse_an_arm_plugins_mistake_at_its_line(scaffolded, mistake):
     package, original = scaffolded
