@@ -226,8 +226,11 @@ def armtree_rig_ready(rig: Rig, context: RigContext) -> None:
     :param context: the :class:`armtree.rig.RigContext` its factories shared;
         append to ``context.steppers`` to be advanced every tick.
 
-    The built-in simulation uses it to put the emulated arm into its world.
-    Called before any behaviour is set up and before the run starts.
+    The built-in simulation uses it to put the emulated arm into its world. A
+    plugin that drives a tool of its own (a gripper on a separate servo controller)
+    sets ``rig.tool`` to its :class:`armtree.rig.Tool` here; a rig left without one
+    gets the arm's own (:class:`armtree.rig.ArmTool`). Called before any behaviour
+    is set up and before the run starts.
     """
 
 

@@ -17,8 +17,9 @@ the whole file before returning, collecting every problem into one
 * then the planning scene these make (:meth:`armtree.motion.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
 * ``plugins`` is a list of modules or ``.py`` files loaded before validation;
-  ``watchdog: {tick_s: S}`` is the longest a tick may take (wall seconds,
-  default 120) before the run ends with exit 3;
+  ``watchdog: {tick_s: S, stall_s: S}``: the longest a tick may take (wall
+  seconds, default 120) before the run ends with exit 3, and how long a run may
+  make no progress (run seconds, default 60) before it is reported as a stall;
 * sections plugins register (``armtree_profile_sections``, such as the built-in
   simulation's ``world:``): their value's type, then each section's own check;
 * last, every plugin's ``armtree_validate_profile`` hook, its errors reported
@@ -43,10 +44,12 @@ from .errors import ConfigError, Mark, shown
 from .hook_calls import call_isolated, plugin_of
 from .motion.scene import Scene
 from .params import check_value
+from .plugin_checks import rig_problems
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile_include import apply_includes
 from .resolve import available, resolve
 from .rig import TagSpec
+from .stall_watch import DEFAULT_STALL_S, MAX_STALL_S
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
@@ -433,6 +436,10 @@ def _finish(
             and getattr(node, "swapped_from", None)
         },
     )
+    if "arm" not in invalid:
+        # The arm's model as plugins --check checks it, built from this profile: a home
+        # outside the limits or an IK with a sign error is the plugin's, reported first.
+        errors[:0] = rig_problems(profile)
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
     errors.extend(_component_checks(profile, manager))
@@ -691,7 +698,8 @@ def _check_component(
     if not registry.has(kind, ctype):
         errors.append(
             error_at(
-                f"{section}: unknown {kind} type {shown(ctype)}{did_you_mean(ctype, registry.names(kind))}",
+                f"{section}: unknown {kind} type {shown(ctype)}"
+                f"{did_you_mean(ctype, registry.names(kind))}{registry.why_unknown(kind, ctype)}",
                 config.value_mark("type"),
             )
         )
@@ -887,36 +895,46 @@ def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
         )
 
 
+#: ``watchdog:`` keys: (default, largest, what it bounds).
+WATCHDOG_KEYS = {
+    "tick_s": (DEFAULT_TICK_S, MAX_TICK_S, "the longest one tick may take"),
+    "stall_s": (DEFAULT_STALL_S, MAX_STALL_S, "how long a run may make no progress"),
+}
+
+
 def _check_watchdog(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """``watchdog: {tick_s: S}``: the longest a tick may take on the wall clock."""
+    """``watchdog: {tick_s: S, stall_s: S}``: the longest a tick may take on the wall
+    clock, and the run time without progress that is reported as a stall."""
     section = data.get("watchdog")
     if section is None:
         return
     if not isinstance(section, MarkedDict):
         errors.append(
             error_at(
-                "watchdog: expected {tick_s: SECONDS} (the longest one tick may take)",
+                "watchdog: expected a mapping {tick_s: SECONDS, stall_s: SECONDS} (the longest "
+                "one tick may take, how long a run may make no progress)",
                 data.value_mark("watchdog"),
             )
         )
         return
     for key in section:
-        if key != "tick_s":
+        if key not in WATCHDOG_KEYS:
             errors.append(
                 error_at(
-                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), ['tick_s'])}",
+                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), WATCHDOG_KEYS)}",
                     section.key_mark(key),
                 )
             )
-    value = section.get("tick_s", DEFAULT_TICK_S)
-    if not _is_number(value) or not 0 < value <= MAX_TICK_S:
-        errors.append(
-            error_at(
-                f"watchdog.tick_s: expected a number of seconds > 0 and <= {MAX_TICK_S:g}, "
-                f"got {shown(value)}",
-                section.value_mark("tick_s"),
+    for key, (default, largest, _) in WATCHDOG_KEYS.items():
+        value = section.get(key, default)
+        if not _is_number(value) or not 0 < value <= largest:
+            errors.append(
+                error_at(
+                    f"watchdog.{key}: expected a number of seconds > 0 and <= {largest:g}, "
+                    f"got {shown(value)}",
+                    section.value_mark(key),
+                )
             )
-        )
 
 
 def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:

@@ -5,8 +5,9 @@ context)`` for the arm, camera and tracker, ``factory(config, context, model,
 scene)`` for the planner (``model`` is the arm driver's kinematic model,
 ``scene`` what :mod:`armtree.motion.scene` makes of the profile's obstacles, or the raw
 ``obstacles`` list when that module is absent). Then the ``armtree_rig_ready``
-hook lets plugins wire components together, the context's steppers and closers
-move into the rig, and :meth:`Rig.start` starts the components in
+hook lets plugins wire components together (a plugin may set ``rig.tool``; else
+the arm's own :class:`~armtree.rig.ArmTool`, when it has a tool), the context's
+steppers and closers move into the rig, and :meth:`Rig.start` starts the components in
 :data:`armtree.rig.START_ORDER` (the arm connects, the camera opens). If
 anything fails, whatever was built is closed (:meth:`Rig.close`: components in
 reverse start order, then the closers) before the error propagates.
@@ -23,7 +24,7 @@ from .clock import Clock
 from .errors import ConfigError, HardwareFault
 from .plugin_manager import get_plugin_manager
 from .profile import profile_section, profile_source
-from .rig import Rig, RigContext, TagSpec
+from .rig import ArmTool, Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
@@ -131,6 +132,8 @@ def build_rig(
         rig.tags = parse_tags(profile_section(profile, "tags"), file)
         rig.places = {k: list(v) for k, v in (profile_section(profile, "places") or {}).items()}
         manager.hook.armtree_rig_ready(rig=rig, context=context)
+        if rig.tool is None and rig.arm is not None and arm_grips(registry, profile) is not None:
+            rig.tool = ArmTool(rig.arm)
         rig.steppers.extend(context.steppers)
         rig.closers.extend(context.closers)
         context.steppers = rig.steppers
@@ -141,6 +144,22 @@ def build_rig(
         raise
     rig.start()
     return rig
+
+
+def arm_grips(registry: Any, profile: Any) -> str | bool | None:
+    """What the profile's arm holds things with (its factory's ``grips_with(config)``):
+    ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
+    config = component_config(profile, "arm")
+    name = config.get("type") if isinstance(config, Mapping) else None
+    if not isinstance(name, str) or not registry.has("arm", name):
+        return True
+    grips = getattr(registry.get("arm", name).factory, "grips_with", None)
+    if not callable(grips):
+        return True
+    try:
+        return grips(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return True  # the profile's own checks report why
 
 
 def _factory(registry: Any, kind: str, config: Any, file: str | None) -> Any:

@@ -20,6 +20,7 @@ from .outcomes import BUILTIN_PREDICATES, Predicate
 from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
+from .stall_watch import MAX_STALL_S
 from .subtree_include import SUBTREE_KEYS
 from .watchdog import MAX_TICK_S
 from .workcell import workcell_schema
@@ -260,9 +261,11 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
         "plugins": {"type": "array", "items": {"type": "string"}},
         "watchdog": {
             "type": "object",
-            "description": "the longest one tick may take on the wall clock",
+            "description": "the longest one tick may take on the wall clock (tick_s); how long "
+            "a run may make no progress before it is reported as a stall (stall_s, run time)",
             "properties": {
-                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S}
+                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S},
+                "stall_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_STALL_S},
             },
             "additionalProperties": False,
         },

@@ -89,7 +89,7 @@ class TreeKeys:
         try:
             return manager.extended(resolved, where)
         except ConfigError as exc:
-            self._errors.extend(exc.errors)
+            self._errors.extend(exc.errors, first=True)
             return manager
 
     def profile(

@@ -150,7 +150,7 @@ PROFILE_CASES = [
     (
         "arm: {type: dobot_v1, port: sim, baud: fast}\n",
         (1, 40),
-        "arm.baud: expected an integer, got str 'fast'",
+        "arm.baud: expected an integer, got a string 'fast'",
     ),
     (
         "arm: {type: dobot_v1, port: sim, firmware: new}\n",

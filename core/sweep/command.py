@@ -79,7 +79,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--timeout",
         type=float,
         metavar="SECONDS",
-        help="each run fails after SECONDS on its own clock (as run-tree --timeout)",
+        help="each run fails after SECONDS on its own clock (as run-tree --timeout: 600 on "
+        "the simulation unless given)",
     )
 
 

@@ -70,17 +70,22 @@ def run_task(task: RunTask) -> tuple[Outcome, int]:
     process-wide blackboard cleared by the run itself.
     """
     from ..plugin_manager import make_plugin_manager
+    from ..run_start import default_timeout
     from ..runtime import run
     from ..tree_loader import load_tree
 
     manager = make_plugin_manager(task.plugins, task.blocked)
     tree = load_tree(task.tree, rig=task.rig, overrides=task.overrides, manager=manager)
+    # As run-tree: a simulated run that makes no progress ends at the default timeout.
+    timeout = task.timeout
+    if timeout is None:
+        timeout = default_timeout(tree.profile, False, manager)
     result = run(
         tree,
         seed=task.seed,
         record=True,
         runs_dir=task.run_dir,
-        timeout=task.timeout,
+        timeout=timeout,
         quiet=True,
         manager=manager,
         stop_key=False,

@@ -242,26 +242,32 @@ class ArmHome(Action):
             self.rig.arm.stop()
 
 
-class Suction(Action):
-    """Switch the suction pump on or off; done when the arm acknowledges it."""
+class Grip(Action):
+    """Take hold (``on``) or let go with the rig's tool (``rig.tool``, whatever it is:
+    a suction cup, a gripper, a plugin's); done when the tool reports it."""
 
     def __init__(self, rig: Any, on: bool) -> None:
         self.rig = rig
         self.on = on
         self._handle: MotionHandle | None = None
 
+    def describe(self) -> str:
+        """``grip`` or ``release``, for the skill's feedback."""
+        return "grip" if self.on else "release"
+
     def start(self) -> None:
-        self._handle = self.rig.arm.set_suction(self.on)
+        tool = self.rig.tool
+        if tool is not None:
+            self._handle = tool.grip() if self.on else tool.release()
 
     def poll(self) -> State:
-        assert self._handle is not None
+        word = "grip" if self.on else "release"
+        if self._handle is None:
+            return self.fail(f"{word} failed: this rig has no tool")
         if not self._handle.done:
             return State.RUNNING
         if self._handle.status is not MotionStatus.DONE:
-            word = "on" if self.on else "off"
-            return self.fail(
-                f"suction {word} failed: {self._handle.error or self._handle.status.value}"
-            )
+            return self.fail(f"{word} failed: {self._handle.error or self._handle.status.value}")
         return State.DONE
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from armtree import Param
 
-from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
+from .actions import Grip, Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .bins import contents_of
@@ -64,8 +64,8 @@ def clean_one(
     rig, speed = skill.rig, skill.speed()
     log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
     over = above(skill, item.position, skill.param("approach_mm"))
-    if has_gripper(rig.arm):
-        yield Suction(rig, False)  # a gripper opens before it goes down
+    if has_gripper(rig):
+        yield Grip(rig, False)  # a gripper opens before it goes down
     try:
         yield Move(rig, over, speed=speed, label="approach trash")
         grip = grip_point(skill, item.position, skill.workcell.grasp_offset_mm)
@@ -74,7 +74,7 @@ def clean_one(
         log.skipped[item.id] = str(exc)
         yield Move(rig, origin, speed=speed, label="return")
         return
-    yield Suction(rig, True)
+    yield Grip(rig, True)
     yield Pause(skill.clock, skill.param("dwell_s"))
     yield Move(rig, over, speed=speed, label="lift")
     approach = skill.param("approach_mm")
