@@ -225,11 +225,11 @@ def _run(
     args: argparse.Namespace,
     console: Console,
     argv: Sequence[str],
-    sweep: Sweep,
+    plugged: Sweep,
     hooks: SweepHooks,
     manager: Any,
 ) -> int:
-    tree, seeds, out = sweep.tree, sweep.seeds, sweep.out
+    tree, seeds, out = plugged.tree, plugged.seeds, plugged.out
     profile = getattr(tree, "profile", None)
     plugins = tuple(getattr(args, "plugin", None) or ())
     blocked = tuple(getattr(manager, "blocked", ()) or ())
@@ -240,7 +240,7 @@ def _run(
         plugins=plugins,
         blocked=blocked,
         timeout=args.timeout,
-        settings=dict(sweep.settings),
+        settings=dict(plugged.settings),
     )
     tasks = [RunTask(seed=s, run_dir=str(out / "runs" / f"seed-{s}"), **template) for s in seeds]
     workers = args.workers or os.cpu_count() or 1
@@ -288,11 +288,11 @@ def _run(
         write_report(out, summarise(partial, done))
 
     def finished(outcome: Outcome) -> None:
-        hooks.notify("armtree_sweep_run_finished", sweep=sweep, outcome=outcome)
+        hooks.notify("armtree_sweep_run_finished", sweep=plugged, outcome=outcome)
 
     outcomes, interrupted = _with_progress(pool, tasks, console, tree.name, checkpoint, finished)
     hooks.notify(
-        "armtree_sweep_finished", sweep=sweep, outcomes=list(outcomes), interrupted=interrupted
+        "armtree_sweep_finished", sweep=plugged, outcomes=list(outcomes), interrupted=interrupted
     )
     sweep["wall_seconds"] = time.monotonic() - started
     sweep["interrupted"] = interrupted
