@@ -278,14 +278,10 @@ def test_dataset_info_and_check_commands(work, capsys):
 
 
 def test_without_the_extra_the_error_names_it(monkeypatch):
-    real = deps.importlib.import_module
-
-    def without_av(name, *args):
-        if name == "av":
-            raise ImportError("No module named 'av'")
-        return real(name, *args)
-
-    monkeypatch.setattr(deps.importlib, "import_module", without_av)
+    real = deps.importlib.util.find_spec
+    monkeypatch.setattr(
+        deps.importlib.util, "find_spec", lambda name, *a: None if name == "av" else real(name, *a)
+    )
     with pytest.raises(ConfigError) as missing:
         deps.require("--dataset ds")
     assert "pip install 'armtree[dataset]'" in str(missing.value)

@@ -292,3 +292,19 @@ def test_a_lock_says_who_holds_it(tmp_path):
         assert "process" in str(refused.value) and "wait for it to end" in str(refused.value)
     finally:
         held.release()
+
+
+def test_image_stats_are_those_of_every_pixel_per_channel():
+    rng = np.random.default_rng(5)
+    images = [rng.integers(0, 256, (12, 16, 3), dtype=np.uint8) for _ in range(4)]
+    got = stats.of_images(images)
+    pixels = np.stack(images).reshape(-1, 3).astype(np.float64) / 255.0
+    for name, want in (
+        ("min", pixels.min(0)),
+        ("max", pixels.max(0)),
+        ("mean", pixels.mean(0)),
+        ("std", pixels.std(0)),
+    ):
+        assert got[name].shape == (3, 1, 1)
+        np.testing.assert_allclose(got[name].reshape(3), want, rtol=1e-9, atol=1e-12)
+    assert got["count"].tolist() == [4]

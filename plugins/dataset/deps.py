@@ -4,6 +4,7 @@ naming the extra that installs them when they are missing."""
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from types import ModuleType
 
 from armtree.errors import ConfigError
@@ -13,12 +14,11 @@ INSTALL = "pip install 'armtree[dataset]'"
 
 
 def require(where: str) -> None:
-    """Raise a :class:`ConfigError` at ``where`` unless pyarrow and PyAV import."""
+    """Raise a :class:`ConfigError` at ``where`` unless pyarrow and PyAV are installed
+    (found, not imported: a run that only records never loads pyarrow)."""
     missing = []
     for name in ("pyarrow", "av"):
-        try:
-            importlib.import_module(name)
-        except ImportError:
+        if importlib.util.find_spec(name) is None:
             missing.append("PyAV (av)" if name == "av" else name)
     if missing:
         raise ConfigError(
@@ -29,11 +29,17 @@ def require(where: str) -> None:
 
 def pyarrow() -> tuple[ModuleType, ModuleType]:
     """``(pyarrow, pyarrow.parquet)``."""
-    require("dataset")
-    return importlib.import_module("pyarrow"), importlib.import_module("pyarrow.parquet")
+    try:
+        return importlib.import_module("pyarrow"), importlib.import_module("pyarrow.parquet")
+    except ImportError:
+        require("dataset")
+        raise
 
 
 def av() -> ModuleType:
     """PyAV."""
-    require("dataset")
-    return importlib.import_module("av")
+    try:
+        return importlib.import_module("av")
+    except ImportError:
+        require("dataset")
+        raise

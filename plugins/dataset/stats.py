@@ -51,17 +51,27 @@ def of_values(values: np.ndarray) -> Stats:
 
 def of_images(images: Sequence[np.ndarray]) -> Stats:
     """Per-channel statistics of RGB ``images`` (H, W, 3 uint8), as fractions of 255,
-    each ``(3, 1, 1)``."""
-    stack = np.stack([np.transpose(im, (2, 0, 1)) for im in images]).astype(np.float64)
-    out = {
-        "min": np.min(stack, axis=(0, 2, 3), keepdims=True)[0],
-        "max": np.max(stack, axis=(0, 2, 3), keepdims=True)[0],
-        "mean": np.mean(stack, axis=(0, 2, 3), keepdims=True)[0],
-        "std": np.std(stack, axis=(0, 2, 3), keepdims=True)[0],
-    }
-    out = {k: v / 255.0 for k, v in out.items()}
-    out["count"] = np.array([len(images)])
-    return out
+    each ``(3, 1, 1)``.
+
+    Worked out from each channel's histogram of the 256 grey levels: exact, and a
+    small fraction of the time of a reduction over the pixels in floating point.
+    """
+    stack = np.stack(images)
+    levels = np.arange(256, dtype=np.float64)
+    out: dict[str, list[float]] = {"min": [], "max": [], "mean": [], "std": []}
+    for channel in range(stack.shape[-1]):
+        counts = np.bincount(stack[..., channel].ravel(), minlength=256).astype(np.float64)
+        total = counts.sum()
+        mean = float(counts @ levels / total)
+        variance = max(0.0, float(counts @ (levels - mean) ** 2 / total))
+        seen = np.nonzero(counts)[0]
+        out["min"].append(float(seen[0]))
+        out["max"].append(float(seen[-1]))
+        out["mean"].append(mean)
+        out["std"].append(variance**0.5)
+    result = {k: np.asarray(v).reshape(-1, 1, 1) / 255.0 for k, v in out.items()}
+    result["count"] = np.array([len(images)])
+    return result
 
 
 def aggregate(parts: Sequence[Stats]) -> Stats:

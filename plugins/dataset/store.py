@@ -156,6 +156,21 @@ def read_episodes(root: Path) -> Any:
     return table.sort_by("episode_index")
 
 
+def last_episode(root: Path) -> dict[str, Any] | None:
+    """The newest episode's row of meta/episodes without its statistics (None when the
+    dataset has none): where the next episode's frames, video and row go."""
+    _, pq = deps.pyarrow()
+    paths = files(root, layout.EPISODES_DIR)
+    if not paths:
+        return None
+    source = pq.ParquetFile(paths[-1])
+    columns = [name for name in source.schema_arrow.names if not name.startswith("stats/")]
+    table = source.read(columns=columns)
+    if table.num_rows == 0:
+        return None
+    return table.sort_by("episode_index").slice(table.num_rows - 1).to_pylist()[0]
+
+
 def read_data(root: Path) -> Any:
     """Every frame of the dataset's data files as one pyarrow table (None when none)."""
     pa, pq = deps.pyarrow()
@@ -168,6 +183,7 @@ def read_data(root: Path) -> Any:
 __all__ = [
     "INDEX_COLUMN",
     "files",
+    "last_episode",
     "open_info",
     "read_data",
     "read_episodes",

@@ -167,8 +167,7 @@ class _Append:
                 info["features"][key]["info"] = layout.video_info(self.fps, height, width)
         self.info = info
         self.keys = layout.video_keys(info)
-        old_rows = store.read_episodes(self.root)
-        last = old_rows.slice(len(old_rows) - 1).to_pylist()[0] if old_rows else None
+        last = store.last_episode(self.root)
         tasks = store.read_tasks(self.root)
         n_tasks = len(tasks)
         chunks = int(info["chunks_size"])
