@@ -241,7 +241,8 @@ def _check_stats(report: Report, root: Path, info: dict[str, Any]) -> None:
             continue
         if not set(layout.STAT_NAMES) <= set(entry):
             report.add(f"{layout.STATS_PATH}: {key} lacks {set(layout.STAT_NAMES) - set(entry)}")
-        elif ft["dtype"] != "video" and entry["count"] != [info["total_frames"]]:
+        elif ft["dtype"] not in ("video", "image") and entry["count"] != [info["total_frames"]]:
+            # images are counted by the frames sampled for their statistics
             report.add(
                 f"{layout.STATS_PATH}: {key} counts {entry['count']} frames of {info['total_frames']}"
             )
