@@ -4,6 +4,7 @@ anything moves (another format or fps, a folder another writer holds, an interru
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import textwrap
@@ -20,6 +21,7 @@ from armtree.cli import main, run_tree_main
 from armtree.plugins.dataset import deps
 from armtree.plugins.dataset.check import check
 from armtree.plugins.dataset.lock import DatasetLock
+from armtree.plugins.dataset.recorder import EpisodeRecorder
 from armtree.plugins.dataset.writer import DatasetWriter
 
 INTERRUPTER = """
@@ -254,6 +256,25 @@ def test_only_judged_successes_are_kept_unless_all_are_asked_for(work, capsys):
     reader = LeRobotReader(work / "ds")
     assert [e["armtree/verdict"] for e in reader.episodes] == ["failure"]
     assert len(reader) == 20  # ticks at 0 to 1.95 s: a frame at each tenth of a second
+
+
+def test_a_disk_that_fills_while_recording_drops_the_episode_whole(work, capsys, monkeypatch):
+    make_dataset(work / "ds", 10)
+    before = snapshot(work / "ds")
+
+    def full(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(self.work / "camera.mp4"))
+
+    monkeypatch.setattr(EpisodeRecorder, "finish", full)
+    args = ["load_ducky.yaml", "--quiet", "--seed", "1", "--timeout", "1", "--dataset", "ds"]
+    assert run_tree_main([*args, "--rig", "sim_vicra", "--dataset-keep", "all"]) == 2
+    assert "the dataset records a dobot_v1 arm, this rig has a vicra" in capsys.readouterr().err
+    assert run_tree_main([*args, "--dataset-keep", "all"]) == 1
+    captured = capsys.readouterr()
+    assert "dataset: episode dropped: [Errno 28] No space left on device" in captured.err
+    assert snapshot(work / "ds") == before
+    assert not (work / "ds" / ".staging").exists()
+    assert check(work / "ds").problems == []
 
 
 def test_dataset_info_and_check_commands(work, capsys):

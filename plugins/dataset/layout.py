@@ -23,12 +23,13 @@ from typing import Any
 CODEBASE_VERSION = "v3.0"
 #: Files per chunk folder (LeRobot's default).
 CHUNKS_SIZE = 1000
-#: A data or episodes parquet file is full at this size (LeRobot's default).
-DATA_FILES_SIZE_IN_MB = 100
-#: A video file is full at this size. LeRobot's recorder uses 500; appending rewrites
-#: the open video file (MP4 has its index at one end), so a smaller file keeps each
-#: append cheap. LeRobot reads the limit from info.json like any other.
-VIDEO_FILES_SIZE_IN_MB = 100
+#: A data or episodes parquet file, and a video file, is full at this size. LeRobot's
+#: recorder uses 100 and 500: it keeps its files open while it records, where an
+#: armtree append rewrites the newest files (neither an MP4's index nor a parquet
+#: footer can be added to), so smaller files keep each append cheap (a tenth of a
+#: second: docs/benchmarks.md, "Datasets"). LeRobot reads the limits from info.json.
+DATA_FILES_SIZE_IN_MB = 25
+VIDEO_FILES_SIZE_IN_MB = 25
 #: Frames a second of a new dataset unless ``--dataset-fps`` says otherwise.
 DEFAULT_FPS = 10
 

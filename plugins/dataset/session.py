@@ -310,6 +310,8 @@ class SweepDataset:
 
     def _append(self, outcomes: list[dict[str, Any]]) -> None:
         folders = [Path(o["run_dir"]) / STAGED for o in outcomes if o.get("run_dir")]
+        for folder in folders:  # what a run killed while recording left
+            shutil.rmtree(folder.with_name(STAGED + PARTIAL), ignore_errors=True)
         staged = [f for f in folders if is_staged(f)]
         if not staged:
             return
