@@ -184,7 +184,8 @@ class RunDataset:
             episode.stage(self.folder)
         except (ValueError, OSError) as exc:
             recorder.discard()
-            self._say(result, f"episode dropped: {exc}")
+            why = _os_error(exc) if isinstance(exc, OSError) else str(exc)
+            self._say(result, f"episode dropped: {why}")
             return
         if self.writer is None:
             result.details["dataset"] = f"episode staged for the sweep ({episode.length} frames)"

@@ -197,48 +197,25 @@ class _Append:
         }
         episode_index = int(info["total_episodes"])
         frame_index = int(last["dataset_to_index"]) if last else 0
-        rows, all_stats, indices = [], [], []
+        rows, all_stats = [], []
         for episode in episodes:
             if episode.task not in tasks:
                 tasks.append(episode.task)
-            task_index = tasks.index(episode.task)
-            table = self.frames(episode, episode_index, frame_index, task_index)
-            slot = data.place(episode_index, table.nbytes, table)
-            row: dict[str, Any] = {
-                "episode_index": episode_index,
-                "tasks": [episode.task],
-                "length": episode.length,
-                "data/chunk_index": slot.chunk,
-                "data/file_index": slot.file,
-                "dataset_from_index": frame_index,
-                "dataset_to_index": frame_index + episode.length,
-            }
-            for key, files in videos.items():
-                size = Path(episode.video).stat().st_size
-                vslot = files.place(episode_index, size, episode.video)
-                start = files.seconds.get(vslot, 0.0)
-                end = start + episode.length / self.fps
-                files.seconds[vslot] = end
-                row.update(
-                    {
-                        f"videos/{key}/chunk_index": vslot.chunk,
-                        f"videos/{key}/file_index": vslot.file,
-                        f"videos/{key}/from_timestamp": start,
-                        f"videos/{key}/to_timestamp": end,
-                    }
-                )
+            table = self.frames(episode, episode_index, frame_index, tasks.index(episode.task))
             episode_stats = self.episode_stats(episode, table)
             all_stats.append(episode_stats)
-            for feature, values in episode_stats.items():
-                for name in layout.STAT_NAMES:
-                    row[f"stats/{feature}/{name}"] = np.asarray(values[name]).tolist()
+            row = self.row(episode, episode_index, frame_index, episode_stats)
+            slot = data.place(table.nbytes, table)
+            row.update({"data/chunk_index": slot.chunk, "data/file_index": slot.file})
+            for key, files in videos.items():
+                row.update(self.video_row(key, files, episode))
             # An episode's row is a few kilobytes, most of it statistics.
-            mslot = metas.place(episode_index, _ROW_BYTES, row)
-            row["meta/episodes/chunk_index"] = mslot.chunk
-            row["meta/episodes/file_index"] = mslot.file
+            slot = metas.place(_ROW_BYTES, row)
+            row.update(
+                {"meta/episodes/chunk_index": slot.chunk, "meta/episodes/file_index": slot.file}
+            )
             row.update({key: episode.tags.get(key.split("/", 1)[1]) for key in layout.TAGS})
-            rows.append(row)
-            indices.append(episode_index)
+            rows.append(_in_lerobot_order(row))
             episode_index += 1
             frame_index += episode.length
 
@@ -254,7 +231,36 @@ class _Append:
         info["total_tasks"] = len(tasks)
         info["splits"] = {"train": f"0:{episode_index}"}
         self.txn.write_json(layout.INFO_PATH, info)
-        return indices
+        return [row["episode_index"] for row in rows]
+
+    def row(
+        self, episode: Episode, index: int, start: int, episode_stats: dict[str, st.Stats]
+    ) -> dict[str, Any]:
+        """The episode's row of meta/episodes, in LeRobot's column order (the files' columns
+        are added as they are placed)."""
+        row: dict[str, Any] = {
+            "episode_index": index,
+            "tasks": [episode.task],
+            "length": episode.length,
+            "dataset_from_index": start,
+            "dataset_to_index": start + episode.length,
+        }
+        for feature, values in episode_stats.items():
+            for name in layout.STAT_NAMES:
+                row[f"stats/{feature}/{name}"] = np.asarray(values[name]).tolist()
+        return row
+
+    def video_row(self, key: str, files: _Files, episode: Episode) -> dict[str, Any]:
+        """Where the episode's video goes: its file, and the seconds it spans in it."""
+        slot = files.place(Path(episode.video).stat().st_size, episode.video)
+        start = files.seconds.get(slot, 0.0)
+        end = files.seconds[slot] = start + episode.length / self.fps
+        return {
+            f"videos/{key}/chunk_index": slot.chunk,
+            f"videos/{key}/file_index": slot.file,
+            f"videos/{key}/from_timestamp": start,
+            f"videos/{key}/to_timestamp": end,
+        }
 
     # -- one episode --------------------------------------------------------
 
@@ -398,7 +404,7 @@ class _Files:
         if prefix.startswith("videos/"):
             self.seconds[self.slot] = float(last[f"{prefix}/to_timestamp"])
 
-    def place(self, episode_index: int, size: float, item: Any) -> layout.FileSlot:
+    def place(self, size: float, item: Any) -> layout.FileSlot:
         """The file an item of ``size`` bytes goes to (the next one when it would overflow)."""
         if self.size > 0 and self.size + size >= self.limit:
             self.slot, self.size = self.slot.next(self.chunks_size), 0.0
@@ -412,6 +418,27 @@ class _Files:
         for slot, item in self.items:
             out.setdefault(slot, []).append(item)
         return list(out.items())
+
+
+#: The order of meta/episodes' columns, by their first words (LeRobot's order, then armtree's).
+_COLUMN_ORDER = (
+    "episode_index",
+    "tasks",
+    "length",
+    "data/",
+    "dataset_from_index",
+    "dataset_to_index",
+    "videos/",
+    "stats/",
+    "meta/",
+    "armtree/",
+)
+
+
+def _in_lerobot_order(row: dict[str, Any]) -> dict[str, Any]:
+    """``row`` with its columns in :data:`_COLUMN_ORDER` (stable within each group)."""
+    rank = {key: next(i for i, p in enumerate(_COLUMN_ORDER) if key.startswith(p)) for key in row}
+    return {key: row[key] for key in sorted(row, key=rank.__getitem__)}
 
 
 def _size(path: Path, prefix: str) -> float:
