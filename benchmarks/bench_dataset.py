@@ -68,8 +68,8 @@ def appends(work: Path, staged_from: Path, count: int) -> list[tuple[float, floa
             shutil.rmtree(copy, ignore_errors=True)
             shutil.copytree(staged_from, copy)
             episode = load(copy)
-            videos = list((work / "growing").glob("videos/*/*/*.mp4"))
-            size = max((p.stat().st_size for p in videos), default=0) / 1e6
+            videos = sorted((work / "growing").glob("videos/*/*/*.mp4"))
+            size = videos[-1].stat().st_size / 1e6 if videos else 0.0  # the newest file
             usage = resource.getrusage(resource.RUSAGE_SELF)
             cpu, started = usage.ru_utime + usage.ru_stime, time.monotonic()
             writer.append([episode])

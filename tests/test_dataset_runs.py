@@ -178,6 +178,30 @@ def test_a_sweep_of_three_seeds_writes_parquet_metadata_and_video_that_agree(wor
     assert not list((work / "out" / "runs").glob("*/dataset-episode*"))
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "rig, joints",
+    [
+        ("sim_dobot", ["base", "rear_arm", "forearm"]),
+        ("sim_vicra", ["z", "theta1", "theta2", "wrist"]),
+        ("sim_magician", None),
+        ("sim_dh", None),
+    ],
+)
+def test_every_sim_rig_records_episodes_check_accepts(work, capsys, rig, joints):
+    args = ["load_ducky.yaml", "--rig", rig, "--quiet", "--timeout", "6", "--dataset", "ds"]
+    assert run_tree_main([*args, "--dataset-keep", "all", "--seed", "3"]) == 1
+    assert "dataset: episode 0 added" in capsys.readouterr().out
+    report = check(work / "ds")
+    assert report.problems == [] and report.episodes == 1 and report.frames == 60
+    reader = LeRobotReader(work / "ds")
+    names = reader.info["features"]["observation.state"]["names"]
+    assert names[-2:] == ["suction", "gripper.pos"]
+    if joints is not None:
+        assert names[:-2] == [f"{j}.pos" for j in joints]
+    assert reader.item(59)["observation.images.camera"].ndim == 3
+
+
 def make_dataset(root: Path, fps: int) -> None:
     """A dataset folder holding one episode of a 3-joint dobot_v1 at ``fps``."""
     from test_dataset_writer import make_episode

@@ -308,3 +308,7 @@ def test_image_stats_are_those_of_every_pixel_per_channel():
         assert got[name].shape == (3, 1, 1)
         np.testing.assert_allclose(got[name].reshape(3), want, rtol=1e-9, atol=1e-12)
     assert got["count"].tolist() == [4]
+    twice = stats.of_images(images[:2], [2, 1])
+    again = stats.of_images([images[0], images[0], images[1]])
+    for name in ("min", "max", "mean", "std", "count"):
+        np.testing.assert_allclose(twice[name], again[name], rtol=1e-12)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import shutil
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -233,8 +234,8 @@ class EpisodeRecorder:
                 raise ValueError("the camera gave the run no frame, so the episode has no images")
             self.video.finish()
             image_shape = (*self._image.shape[:2], 3)
-            picks = stats.sample_indices(len(self._shown_at))
-            image_stats = stats.of_images([self._samples[self._shown_at[i]] for i in picks])
+            picks = Counter(self._shown_at[i] for i in stats.sample_indices(len(self._shown_at)))
+            image_stats = stats.of_images([self._samples[i] for i in picks], list(picks.values()))
             video_path = self.work / VIDEO_FILE
         self._closed = True
         return Episode(

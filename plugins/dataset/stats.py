@@ -49,18 +49,21 @@ def of_values(values: np.ndarray) -> Stats:
     }
 
 
-def of_images(images: Sequence[np.ndarray]) -> Stats:
+def of_images(images: Sequence[np.ndarray], times: Sequence[int] | None = None) -> Stats:
     """Per-channel statistics of RGB ``images`` (H, W, 3 uint8), as fractions of 255,
-    each ``(3, 1, 1)``.
+    each ``(3, 1, 1)``; ``times[i]`` says how many of the sampled frames image ``i``
+    stands for (default once each), so a repeated frame is counted, not read, again.
 
     Worked out from each channel's histogram of the 256 grey levels: exact, and a
     small fraction of the time of a reduction over the pixels in floating point.
     """
-    stack = np.stack(images)
+    times = [1] * len(images) if times is None else list(times)
     levels = np.arange(256, dtype=np.float64)
     out: dict[str, list[float]] = {"min": [], "max": [], "mean": [], "std": []}
-    for channel in range(stack.shape[-1]):
-        counts = np.bincount(stack[..., channel].ravel(), minlength=256).astype(np.float64)
+    for channel in range(images[0].shape[-1]):
+        counts = np.zeros(256, dtype=np.float64)
+        for image, n in zip(images, times, strict=True):
+            counts += n * np.bincount(image[..., channel].ravel(), minlength=256)
         total = counts.sum()
         mean = float(counts @ levels / total)
         variance = max(0.0, float(counts @ (levels - mean) ** 2 / total))
@@ -70,7 +73,7 @@ def of_images(images: Sequence[np.ndarray]) -> Stats:
         out["mean"].append(mean)
         out["std"].append(variance**0.5)
     result = {k: np.asarray(v).reshape(-1, 1, 1) / 255.0 for k, v in out.items()}
-    result["count"] = np.array([len(images)])
+    result["count"] = np.array([sum(times)])
     return result
 
 
