@@ -3,14 +3,14 @@
     python benchmarks/bench_dataset.py [--tree load_ducky.yaml] [--rig sim_dobot] [--seeds 1-6] [--rounds 3]
 
 Two ways a user makes episodes, each against its own peer measured in the same
-session with the same seeds (configurations alternate within each round, the best
-round of each is kept, on wall time):
+session with the same seeds:
 
-* ``run-tree TREE --seed N --quiet`` one seed after another, against the same with
-  ``--dataset DIR --dataset-keep all`` appending to one growing dataset (every run
-  an episode: recording, encoding, appending);
+* ``run-tree TREE --seed N --quiet``, each seed run without and then with
+  ``--dataset DIR --dataset-keep all`` (every run an episode: recording, encoding,
+  appending to one growing dataset); the medians of the runs and of each pair's
+  ratio, which a shared machine's load moves least;
 * ``armtree sweep TREE --seeds A-B --workers 2``, against the same with
-  ``--dataset DIR --dataset-keep all``.
+  ``--dataset DIR --dataset-keep all``, alternating, the best round of each.
 
 Each line gives wall and CPU seconds per run (CPU: every process of the
 configuration, children included). Then the cost of one append as the newest video
@@ -26,6 +26,7 @@ import json
 import os
 import resource
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -108,16 +109,27 @@ def main() -> None:
             command += ["--seeds", args.seeds, "--workers", "2", "--out", out, "--overwrite"]
             return [command + _dataset(folder)]
 
-        configs = {
-            "run-tree": run_tree(None),
-            "run-tree --dataset": run_tree(work / "ds-run"),
+        # run-tree: each seed without, then with --dataset, so that each pair meets the
+        # same load; medians of the runs and of the pairs' ratios.
+        pairs: list[tuple[tuple[float, float], tuple[float, float]]] = []
+        for round_ in range(args.rounds):
+            for seed, (plain, recorded) in enumerate(
+                zip(run_tree(None), run_tree(work / "ds-run"), strict=True), start=seeds[0]
+            ):
+                pairs.append((_timed([plain], work), _timed([recorded], work)))
+                (w0, c0), (w1, c1) = pairs[-1]
+                print(
+                    f"round {round_ + 1} seed {seed}: run-tree {w0:.2f} s wall {c0:.2f} s CPU; "
+                    f"--dataset {w1:.2f} s wall {c1:.2f} s CPU",
+                    flush=True,
+                )
+        # The datasets grow from round to round, as a dataset that is appended to does.
+        sweeps = {
             "sweep": sweep(None, "sweep-a"),
             "sweep --dataset": sweep(work / "ds-sweep", "sweep-b"),
         }
-        # Later rounds append to the datasets the earlier ones made, as a growing
-        # dataset is appended to.
         for round_ in range(args.rounds):
-            for name, commands in configs.items():
+            for name, commands in sweeps.items():
                 wall, cpu = _timed(commands, work)
                 if name not in best or wall < best[name][0]:
                     best[name] = (wall, cpu)
@@ -126,13 +138,21 @@ def main() -> None:
                     flush=True,
                 )
         print(f"load average after the runs: {os.getloadavg()[0]:.1f}")
-        for base in ("run-tree", "sweep"):
-            (w0, c0), (w1, c1) = best[base], best[f"{base} --dataset"]
-            print(
-                f"{base}: per run {w0 / n:.2f} s wall, {c0 / n:.2f} s CPU without; "
-                f"{w1 / n:.2f} s, {c1 / n:.2f} s with --dataset: wall {100 * (w1 / w0 - 1):+.1f} %, "
-                f"CPU {100 * (c1 / c0 - 1):+.1f} %"
-            )
+        median = statistics.median
+        print(
+            f"run-tree, median of {len(pairs)} runs: {median(a[0] for a, _ in pairs):.2f} s wall, "
+            f"{median(a[1] for a, _ in pairs):.2f} s CPU without; "
+            f"{median(b[0] for _, b in pairs):.2f} s, {median(b[1] for _, b in pairs):.2f} s with "
+            f"--dataset; median ratio of the pairs: wall "
+            f"{100 * (median(b[0] / a[0] for a, b in pairs) - 1):+.1f} %, CPU "
+            f"{100 * (median(b[1] / a[1] for a, b in pairs) - 1):+.1f} %"
+        )
+        (w0, c0), (w1, c1) = best["sweep"], best["sweep --dataset"]
+        print(
+            f"sweep, best of {args.rounds}: per run {w0 / n:.2f} s wall, {c0 / n:.2f} s CPU without; "
+            f"{w1 / n:.2f} s, {c1 / n:.2f} s with --dataset: wall {100 * (w1 / w0 - 1):+.1f} %, "
+            f"CPU {100 * (c1 / c0 - 1):+.1f} %"
+        )
         info = json.loads((work / "ds-sweep" / "meta" / "info.json").read_text())
         print(
             f"the sweep's dataset: {info['total_episodes']} episodes, {info['total_frames']} frames"
