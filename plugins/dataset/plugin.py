@@ -28,7 +28,7 @@ def _options(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--dataset",
         metavar="DIR",
-        help="append each run as an episode to the LeRobotDataset v3.0 in DIR "
+        help="append each kept run as an episode to the LeRobotDataset v3.0 in DIR "
         "(made if new; pip install 'armtree[dataset]')",
     )
     group.add_argument(
