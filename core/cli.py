@@ -315,6 +315,17 @@ def _commands(manager: Any) -> dict[str, Any]:
     return commands
 
 
+def configure_command(command: Any, parser: argparse.ArgumentParser, manager: Any) -> None:
+    """``command.configure(parser)``, handing it the plugin manager when its ``configure``
+    takes one (``configure(parser, manager)``: its options may come from plugins)."""
+    import inspect  # loaded with the plugins already
+
+    if "manager" in inspect.signature(command.configure).parameters:
+        command.configure(parser, manager=manager)
+    else:
+        command.configure(parser)
+
+
 def _asks_version(argv: Sequence[str]) -> bool:
     """True when ``--version`` comes before the subcommand (after options only)."""
     if "--version" not in argv:
@@ -361,7 +372,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         summary = getattr(command, "help", "") or ""
         child = sub.add_parser(name, help=summary, description=summary)
         plugin_options(child, suppress=True)
-        command.configure(child)
+        configure_command(command, child, manager)
     args = parser.parse_args(argv)
     args.manager = manager
     debug = bool(getattr(args, "debug", False))

@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from .profile_sections import ProfileSection
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
+    from .sweep.hooks import Sweep
     from .worldview import SceneObject
 
 hookspec = pluggy.HookspecMarker("armtree")
@@ -133,8 +134,10 @@ def armtree_commands() -> dict[str, Any]:
 
     :return: ``{name: command}``; ``command.help`` is a one-line summary,
         ``command.configure(parser)`` adds arguments to an
-        :class:`argparse.ArgumentParser` and ``command.run(args)`` returns the
-        exit code (0 ok, 1 failed, 2 bad input, 3 hardware fault).
+        :class:`argparse.ArgumentParser` (``configure(parser, manager)`` is also
+        handed the plugin manager, for options that plugins add) and
+        ``command.run(args)`` returns the exit code (0 ok, 1 failed, 2 bad input,
+        3 hardware fault).
     """
 
 
@@ -374,4 +377,56 @@ def armtree_scene_objects(run: Run) -> list[SceneObject] | None:
     This is what people look at, never what a skill decides on: the built-in
     simulation answers with its ground truth. Called from the run's thread at
     most a few times per second; must not block.
+    """
+
+
+# ---------------------------------------------------------------------------
+# Sweeps: for plugins that take part in ``armtree sweep`` (a dataset that
+# collects every run). Called in the sweep's own process; the runs happen in
+# child processes, where the run hooks above are called as for any run.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_sweep_options(parser: argparse.ArgumentParser) -> None:
+    """Add options to ``armtree sweep``.
+
+    :param parser: the sweep command's :class:`argparse.ArgumentParser`. The parsed
+        values reach the sweep's hooks as ``sweep.settings`` (keyed by ``dest``) and
+        each run of the sweep as ``run.settings``. Use option names of your own.
+    """
+
+
+@hookspec
+def armtree_sweep_started(sweep: Sweep) -> None:
+    """A sweep has checked its options and loaded its tree; no run has started.
+
+    :param sweep: the :class:`armtree.sweep.hooks.Sweep` (tree, seeds, out folder,
+        settings, closers). What ``sweep.settings`` holds after this hook is what
+        every run gets in ``run.settings`` (with the run's ``tree``, ``rig``,
+        ``overrides``, ``seed`` and ``sweep_run_dir``, its own folder).
+
+    Raising :class:`armtree.ConfigError` refuses the sweep: the CLI prints it and
+    exits 2, and no run starts. Register clean-up in ``sweep.closers``.
+    """
+
+
+@hookspec
+def armtree_sweep_run_finished(sweep: Sweep, outcome: dict[str, Any]) -> None:
+    """One run of the sweep has ended, in the sweep's process, in the order runs end.
+
+    :param outcome: what ``sweep.json`` keeps of the run: ``seed``, ``status``,
+        ``verdict``, ``reason``, ``run_dir`` (the run's folder), ...
+
+    Keep it short or hand the work to a thread: the sweep starts the next run
+    when it returns. An exception is reported and the sweep goes on.
+    """
+
+
+@hookspec
+def armtree_sweep_finished(sweep: Sweep, outcomes: list[dict[str, Any]], interrupted: bool) -> None:
+    """Every run has ended (``interrupted``: the sweep was stopped before the last).
+
+    Called before the sweep prints its summary and returns; the place to finish
+    work still under way. An exception is reported and the sweep goes on.
     """

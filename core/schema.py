@@ -138,6 +138,11 @@ def tree_definitions(registry: Registry) -> dict[str, Any]:
         "properties": {
             "tree": {"type": "string", "description": "the tree's name"},
             "description": {"type": "string"},
+            "task": {
+                "type": "string",
+                "description": "the instruction a dataset episode of this tree is labelled with "
+                "(LeRobot's task; default: the tree's name)",
+            },
             "rig": {"type": "string", "description": "default hardware profile"},
             "tick_hz": {"type": "number", "exclusiveMinimum": 0, "description": "ticks per second"},
             "plugins": {"type": "array", "items": {"type": "string"}},

@@ -232,6 +232,7 @@ class _Loader:
             source=path,
             tick_hz=tick_hz,
             description=str(data.get("description") or ""),
+            task=str(data.get("task") or ""),
             blackboard=self.blackboard,
             nodes=self.nodes,
             profile=profile,
