@@ -248,7 +248,7 @@ def test_profile_errors_point_at_the_value(tmp_path):
         "arm: {type: dobot_v1, port: sim}\n"
         "tracker: {type: hamming, preprocess: {blur: 4}}\n"
         "tags:\n"
-        "  ducky: {id: 1, size_mm: 25}\n"
+        "  ducky: {id: 69937, size_mm: 25}\n"
     )
     # The tracker's own checks run while the profile loads (armtree check), at the value.
     with pytest.raises(ConfigError) as err:
@@ -258,7 +258,7 @@ def test_profile_errors_point_at_the_value(tmp_path):
     path.write_text(path.read_text().replace("blur: 4", "blur: 3"))
     profile = load_profile(str(path))
     good = hamming_factory({"type": "hamming"}, context(profile))
-    assert good.roles.describe(1) == ("ducky", 25.0)
+    assert good.roles.describe(69937) == ("ducky", 25.0)
 
 
 def test_dark_blobs_and_all_black_insides_are_not_markers():

@@ -1,4 +1,9 @@
-"""The ``aruco`` tracker: OpenCV's ArucoDetector, any predefined dictionary by name.
+"""The ``aruco`` and ``apriltag`` trackers: OpenCV's ArucoDetector, any predefined dictionary.
+
+``{type: apriltag, family: 36h11}`` is this tracker with the dictionary
+``apriltag_36h11`` (OpenCV carries AprilTag 16h5, 25h9, 36h10 and 36h11 as
+ArUco dictionaries), so ``{type: aruco, dictionary: apriltag_36h11}`` is the
+same tracker spelled the long way (docs/trackers.md).
 
 Seed 000 tracks its marker with ArUco; seed 004 solves the marker pose with
 solvePnP. Corners are refined to sub-pixel accuracy by default from the
@@ -33,7 +38,11 @@ from .refine import refine_corners
 from .rescue import Rescuer
 
 FAMILY = "aruco"
+APRILTAG = "apriltag"
 DEFAULT_DICTIONARY = "4x4_50"
+#: AprilTag families OpenCV's ArUco module carries, and the one most people print.
+APRILTAG_FAMILIES = ("16h5", "25h9", "36h10", "36h11")
+DEFAULT_APRILTAG = "36h11"
 #: Pixels per cell when reading a candidate's bits (OpenCV's default is 4).
 SMALL_MARKER_PIXELS_PER_CELL = 8
 
@@ -148,6 +157,7 @@ class ArucoTracker(Tracker):
     ) -> None:
         self.dictionary_name = dictionary
         self.dictionary = get_dictionary(dictionary, where)
+        self.marker_family = dictionary_key(dictionary)
         params = parameters if parameters is not None else detector_parameters(None)
         self.preprocessing = preprocessing or Preprocessing()
         self.roles = roles or TagRoles({})
@@ -234,21 +244,18 @@ class ArucoTracker(Tracker):
                 c = cv2.cornerSubPix(
                     gray, c.reshape(-1, 1, 2), (self._win, self._win), (-1, -1), self._criteria
                 ).reshape(4, 2)
-            det = Detection(id=int(marker_id), corners=c, family=FAMILY)
+            det = Detection(id=int(marker_id), corners=c, family=self.family)
             detections.append(finish_detection(det, self.roles, frame, pose_quality=True))
         return detections
 
 
-def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
-    """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
-    where = context.profile
-    values = check_config(config, aruco_factory.PARAMS, "tracker", where)
-    roles = TagRoles.from_profile(context.profile, values["size_mm"])
-    return ArucoTracker(
-        values["dictionary"],
+def _tracker(values: dict[str, Any], dictionary: str, where: Any, family: str) -> ArucoTracker:
+    """The tracker a checked ``tracker:`` section describes (``where`` is the profile)."""
+    tracker = ArucoTracker(
+        dictionary,
         detector_parameters(values["detector"], where),
         Preprocessing.from_config(values["preprocess"], where),
-        roles,
+        TagRoles.from_profile(where, values["size_mm"], dictionary_key(dictionary)),
         only_registered=values["only_registered"],
         refine=values["refine"],
         rescue=values["rescue"],
@@ -258,21 +265,25 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
         else values["min_side_px"],
         where=where,
     )
+    tracker.family = family
+    return tracker
+
+
+def dictionary_key(name: str) -> str:
+    """A dictionary's name as families and ``tags: family_ids:`` spell it (``apriltag_36h11``)."""
+    return str(name).strip().lower().removeprefix("dict_")
+
+
+def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
+    """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
+    values = check_config(config, aruco_factory.PARAMS, "tracker", context.profile)
+    return _tracker(values, values["dictionary"], context.profile, FAMILY)
 
 
 def _validate(config: dict[str, Any], profile: Any) -> None:
     """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
     values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
-    tracker = ArucoTracker(
-        values["dictionary"],
-        detector_parameters(values["detector"], profile),
-        Preprocessing.from_config(values["preprocess"], profile),
-        TagRoles.from_profile(profile, values["size_mm"]),
-        only_registered=values["only_registered"],
-        refine=values["refine"],
-        where=profile,
-    )
-    probe(tracker, profile, "tracker.detector")
+    probe(_tracker(values, values["dictionary"], profile, FAMILY), profile, "tracker.detector")
 
 
 aruco_factory.validate = _validate
@@ -314,4 +325,35 @@ aruco_factory.PARAMS = (
         True,
         doc="read small candidates OpenCV rejected again on edge-refined corners (edges only)",
     ),
+)
+
+
+def apriltag_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
+    """AprilTag markers (36h11 by default): the aruco tracker with OpenCV's AprilTag dictionary."""
+    values = check_config(config, apriltag_factory.PARAMS, "tracker", context.profile)
+    dictionary = _apriltag_dictionary(values["family"])
+    return _tracker(values, dictionary, context.profile, APRILTAG)
+
+
+def _validate_apriltag(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks, as the aruco tracker's."""
+    values = check_config(config, apriltag_factory.PARAMS, "tracker", profile)
+    tracker = _tracker(values, _apriltag_dictionary(values["family"]), profile, APRILTAG)
+    probe(tracker, profile, "tracker.detector")
+
+
+def _apriltag_dictionary(family: str) -> str:
+    return f"apriltag_{family}"
+
+
+apriltag_factory.validate = _validate_apriltag
+apriltag_factory.PARAMS = (
+    Param(
+        "family",
+        "str",
+        DEFAULT_APRILTAG,
+        doc="AprilTag family (OpenCV carries 16h5, 25h9, 36h10, 36h11)",
+        choices=APRILTAG_FAMILIES,
+    ),
+    *(p for p in aruco_factory.PARAMS if p.name != "dictionary"),
 )

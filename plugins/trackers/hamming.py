@@ -151,6 +151,7 @@ class HammingTracker(Tracker):
     """
 
     family = FAMILY
+    marker_family = FAMILY
 
     def __init__(
         self,
@@ -279,7 +280,7 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
     """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
     where = context.profile
     values = check_config(config, hamming_factory.PARAMS, "tracker", where)
-    roles = TagRoles.from_profile(context.profile, values["size_mm"])
+    roles = TagRoles.from_profile(context.profile, values["size_mm"], FAMILY)
     return HammingTracker(
         Preprocessing.from_config(values["preprocess"], where),
         roles,
@@ -298,7 +299,7 @@ def _validate(config: dict[str, Any], profile: Any) -> None:
     values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
     tracker = HammingTracker(
         Preprocessing.from_config(values["preprocess"], profile),
-        TagRoles.from_profile(profile, values["size_mm"]),
+        TagRoles.from_profile(profile, values["size_mm"], FAMILY),
         min_side_px=values["min_side_px"],
         max_corrected_bits=values["max_corrected_bits"],
         max_border_errors=values["max_border_errors"],
