@@ -33,7 +33,8 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
-from .preprocess import Preprocessing, to_gray
+from .kernels import apart_from
+from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 from .rescue import Rescuer
 
@@ -170,6 +171,7 @@ class ArucoTracker(Tracker):
         self._cells = self.dictionary.markerSize + 2
         # small markers OpenCV rejected, read again on edge-refined corners
         self._rescue = Rescuer(self.dictionary) if rescue and self._edges else None
+        self._reader = self._rescue or Rescuer(self.dictionary)
         # Refine on the grey image ourselves when the detector sees a binarised one.
         self._refine_on_gray = (
             not self.preprocessing.identity
@@ -190,7 +192,29 @@ class ArucoTracker(Tracker):
             )
         self.min_side_px = min_side_px
         self._sized_for: tuple[int, ...] = ()
+        # the last detect()'s grey image and markers, for the unread count asked after it
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._unread: int | None = 0
         self.detector = cv2.aruco.ArucoDetector(self.dictionary, params)
+
+    @property
+    def unread(self) -> int:
+        """Marker-like shapes in the last detect()'s frame that read as no marker of the
+        dictionary (see :class:`armtree.rig.Tracker`).
+
+        Counted when first asked, from dark quadrilaterals of the frame thresholded at
+        Otsu's level (OpenCV's detector drops a candidate inside a larger one, such as a
+        marker inside the outline of the paper it is printed on): a search over many
+        frames asks only of frames that did not show what it looked for.
+        """
+        if self._unread is None and self._last is not None:
+            image, found = self._last
+            grey = to_gray(image) if image.ndim == 3 else image
+            dark = threshold_image(grey, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+            quads = dark_quads(dark, self.min_side_px or 10.0)
+            quads = quads[apart_from(quads, found)]
+            self._unread = int(self._reader.marker_like(grey, quads).sum())
+        return self._unread or 0
 
     def _size_for(self, shape: tuple[int, ...]) -> None:
         """Set the detector's perimeter limit from ``min_side_px`` for frames of ``shape``."""
@@ -207,7 +231,10 @@ class ArucoTracker(Tracker):
         warm_up(self, FAMILY, self.dictionary_name)
 
     def detect(self, frame: Frame) -> list[Detection]:
-        """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known."""
+        """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known.
+
+        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        """
         image = frame.image
         colour = (
             self.preprocessing.identity
@@ -231,6 +258,7 @@ class ArucoTracker(Tracker):
             )
             quads = np.concatenate([quads, more])
             ids = np.concatenate([ids, more_ids])
+        self._last, self._unread = (gray, quads), None
         if len(ids) == 0:
             return []
         detections = []

@@ -26,13 +26,15 @@ def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:
     """Marker id -> its :class:`TagSpec` from the profile's ``tags:`` (empty without one),
     the ids those of marker family ``family`` where ``family_ids`` gives them.
 
-    Uses ``profile.tags()`` when the profile offers it, else reads the raw
-    ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``). A size
-    that is not a positive number, or an id given to two roles, is a ConfigError.
+    Uses ``profile.tags()`` when the profile offers it (a loaded profile: its ids were
+    checked against their families where it was written, :mod:`.tag_checks`), else reads
+    the raw ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``), where a
+    size that is not a positive number, or an id given to two roles, is a ConfigError.
     """
     where = profile
     tags_method = getattr(profile, "tags", None)
-    raw = tags_method() if callable(tags_method) else profile_section(profile, "tags")
+    checked = callable(tags_method)
+    raw = tags_method() if checked else profile_section(profile, "tags")
     table: dict[int, TagSpec] = {}
     for role, spec in (raw or {}).items():
         if not isinstance(spec, TagSpec):
@@ -43,7 +45,7 @@ def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:
                 where, f"tags.{role}.size_mm", f"a marker size must be positive, got {spec.size_mm}"
             )
         for marker_id in spec.ids:
-            if marker_id in table and table[marker_id].role != spec.role:
+            if not checked and marker_id in table and table[marker_id].role != spec.role:
                 raise config_error(
                     where,
                     "tags",

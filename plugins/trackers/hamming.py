@@ -32,8 +32,8 @@ from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
 from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
-from .kernels import best_of_overlapping, clockwise_quads, read_markers, sample_cells
-from .preprocess import Preprocessing, threshold_image, to_gray
+from .kernels import apart_from, best_of_overlapping, read_markers, sample_cells
+from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 
 FAMILY = "hamming"
@@ -185,13 +185,16 @@ class HammingTracker(Tracker):
         warm_up(self, FAMILY)
 
     def detect(self, frame: Frame) -> list[Detection]:
-        """Every Hamming marker in ``frame``; poses when its size and intrinsics are known."""
+        """Every Hamming marker in ``frame``; poses when its size and intrinsics are known.
+
+        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        """
         gray = to_gray(frame.image)
         quads = self.candidates(gray)
         if self.refine and len(quads):
             # refined corners put the cell samples on the cells, which matters at 2-3 px per cell
             quads = refine_corners(gray, quads, GRID, contour_inset=0.5)
-        readings = self.decode(gray, quads)
+        readings, self.unread = self._decode(gray, quads)
         detections = []
         for r in readings:
             det = Detection(
@@ -213,45 +216,23 @@ class HammingTracker(Tracker):
         else:
             processed = self.preprocessing.apply(gray)
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-        # findContoursLinkRuns gives what RETR_CCOMP with CHAIN_APPROX_SIMPLE gives,
-        # without findContours' internal full-frame threshold on OpenCV's worker threads.
-        contours, _ = cv2.findContoursLinkRuns(dark)
-        min_perimeter = 4.0 * self.min_side_px
-        h, w = gray.shape
-        max_perimeter = 2.0 * (w + h)
-        min_area = 0.5 * self.min_side_px**2
-        found = []
-        for contour in contours:
-            # outer edges of dark regions run one way, holes (inner edges of dark rings)
-            # the other; the hierarchy link runs return does not say which is which
-            area = cv2.contourArea(contour, True)
-            if area < min_area or len(contour) < 4:
-                continue
-            perimeter = cv2.arcLength(contour, True)
-            if perimeter < min_perimeter or perimeter > max_perimeter:
-                continue
-            approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
-            if len(approx) != 4 or not cv2.isContourConvex(approx):
-                continue
-            # a square's outline fills its quad; a blob's (an ellipse, a hand) does not
-            fill = area / max(cv2.contourArea(approx), 1.0)
-            if 0.8 < fill < 1.2:
-                found.append(approx)
-        if not found:
-            return np.zeros((0, 4, 2), np.float32)
-        quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
-        return clockwise_quads(quads, float(self.min_side_px))
+        return dark_quads(dark, self.min_side_px)
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
+        return self._decode(gray, quads)[0]
+
+    def _decode(self, gray: np.ndarray, quads: np.ndarray) -> tuple[list[_Reading], int]:
+        """:meth:`decode`'s readings, and how many marker-like candidates apart from them
+        decoded as no id."""
         if len(quads) == 0:
-            return []
+            return [], 0
         if self.only_registered and not self.roles.table:
-            return []
+            return [], 0
         levels = sample_cells(
             np.ascontiguousarray(gray), quads.astype(np.float64), _CELL_SAMPLES, _QUIET_SAMPLES
         )
-        rows, turns, ids, corrected, ties = read_markers(
+        rows, turns, ids, corrected, ties, unread = read_markers(
             levels @ _READING_OP,
             _BORDER_CELLS,
             _TURNED,
@@ -265,15 +246,17 @@ class HammingTracker(Tracker):
             self.max_corrected_bits,
             self.max_flip_margin,
         )
-        if len(rows) == 0:
-            return []
         corners = quads[rows[:, None], _ROLLS[turns]]
+        unseen = int(apart_from(quads[unread], corners).sum())
+        if len(rows) == 0:
+            return [], unseen
         # a dark sheet with a white window around a marker can itself read as a
         # marker with corrections; the marker in the window, read cleanly, is the one
         kept = best_of_overlapping(corners, corrected, ties > 1)
-        return [
+        readings = [
             _Reading(corners[i], int(ids[i]), int(corrected[i]), bool(ties[i] > 1)) for i in kept
         ]
+        return readings, unseen
 
 
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:

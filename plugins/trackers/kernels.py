@@ -199,10 +199,12 @@ def read_markers(
     of the marker as printed when its top-left corner is the quad's corner k;
     the ``word_*`` tables decode a 7-bit row (:mod:`.hamming_code`);
     ``registered`` is the profile's ids, sorted. Returns ``(rows, turns, ids,
-    corrected, ties)``: the candidate, the chosen corner k, its id, the bits
-    corrected and how many turns tied for the best reading. The rules are the
-    tracker's (see :class:`.hamming.HammingTracker`): registered ids first,
-    then fewest corrections, then the smallest id.
+    corrected, ties, unread)``: the candidate, the chosen corner k, its id, the
+    bits corrected and how many turns tied for the best reading; and the
+    candidates that look like markers (contrast, a black border, an inside
+    neither all black nor all white) but decode as no id under any turn. The
+    rules are the tracker's (see :class:`.hamming.HammingTracker`): registered
+    ids first, then fewest corrections, then the smallest id.
     """
     n_cells = (reading.shape[1] - 1) // 3
     n_data = turned.shape[1]
@@ -234,6 +236,7 @@ def read_markers(
     # ids 0 and 2**28 - 1 are an all-black and an all-white inside
     refused |= (ids == 0) | (ids == (1 << (4 * bits)) - 1)
     corrected = np.where(refused, bits + 1, corrected)  # a count never allowed
+    unread = rows[~(corrected <= max_corrected_bits).any(axis=1)]
     if len(registered):  # sorted
         at = np.minimum(np.searchsorted(registered, ids), len(registered) - 1)
         is_registered = registered[at] == ids
@@ -247,7 +250,14 @@ def read_markers(
     chosen = np.argmin(np.where(tied, ids, np.iinfo(np.int64).max), axis=1)
     found = best < no_key
     pick = np.arange(len(rows))[found], chosen[found]
-    return rows[found], chosen[found], ids[pick], corrected[pick], tied.sum(axis=1)[found]
+    return (
+        rows[found],
+        chosen[found],
+        ids[pick],
+        corrected[pick],
+        tied.sum(axis=1)[found],
+        unread,
+    )
 
 
 def twice_signed_area(quads: np.ndarray) -> np.ndarray:
@@ -279,6 +289,26 @@ def best_of_overlapping(
     for i in np.argsort(rank, kind="stable"):
         kept[i] = not (overlapping[i] & kept).any()
     return np.flatnonzero(kept)
+
+
+def apart_from(quads: np.ndarray, markers: np.ndarray) -> np.ndarray:
+    """Which of ``quads (N, 4, 2)`` neither hold a marker of ``markers (M, 4, 2)`` nor lie in
+    one (no centre of either inside the other): a marker's label or mount, or a contour of
+    its cells, is not another marker-like shape."""
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    markers = np.asarray(markers, dtype=np.float64).reshape(-1, 4, 2)
+    if len(quads) == 0 or len(markers) == 0:
+        return np.ones(len(quads), dtype=bool)
+    inside = _contains(quads, markers.mean(axis=1)) | _contains(markers, quads.mean(axis=1)).T
+    return ~inside.any(axis=1)
+
+
+def _contains(quads: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``(N, P)``: point p inside convex quad n (either winding)."""
+    edges = quads[:, _NEXT] - quads  # (N, 4, 2)
+    to = points[None, None, :, :] - quads[:, :, None, :]  # (N, 4, P, 2)
+    cross = edges[..., None, 0] * to[..., 1] - edges[..., None, 1] * to[..., 0]
+    return (cross >= 0).all(axis=1) | (cross <= 0).all(axis=1)
 
 
 def clockwise_quads(quads: np.ndarray, min_side: float) -> np.ndarray:
