@@ -6,16 +6,18 @@ convex quadrilaterals, the 9x9 cells read through each quad's homography
 (:mod:`.kernels`, all candidates at once), each cell compared with the midpoint of
 the black border and the white quiet zone around it (planes fitted over the
 marker, so a marker half in shadow reads like one in full light), then
-Hamming(7,4) decoding of the four rotations at once. Corners are refined to sub-pixel
+Hamming(7,4) decoding of the four rotations at once, by soft decision (each
+row's code word chosen by how far its disagreeing cells are from the
+threshold, :func:`.kernels.read_markers`). Corners are refined to sub-pixel
 accuracy from the square's edges (:mod:`.refine`) before the cells are read.
 
 Unlike Hampy, which reports every rotation that decodes, a marker here gets
 exactly one id and one orientation: a rotation that reads as an id registered
 in the profile wins, then the rotation needing the fewest bit corrections,
 and a tie that remains is reported once with ``ambiguous=True`` (smallest id
-first). The format needs this: small ids read upside down are other valid
-ids (id 2 turned 180 degrees is exactly id 2 << 24, id 1 is one bit from
-3 << 24), so profiles should register the ids they use.
+first). Ids whose turns read as other ids are not valid markers at all
+(:func:`.hamming_code.id_problem`; id 2 turned 180 degrees is exactly id
+2 << 24): profiles and ``armtree markers`` refuse them.
 """
 
 from __future__ import annotations
@@ -31,12 +33,16 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
-from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
+from .hamming_code import CODEWORDS, GRID
 from .kernels import apart_from, best_of_overlapping, read_markers, sample_cells
 from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 
 FAMILY = "hamming"
+#: How much better (summed cell margins) a row's code word must fit than the next:
+#: enough to refuse the guesses that made wrong ids of small markers, not so much
+#: that clean rows are refused (docs/benchmarks.md, "small markers").
+MIN_ROW_GAP = 0.6
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
@@ -141,13 +147,15 @@ class _Reading:
 class HammingTracker(Tracker):
     """Finds Hampy-format Hamming markers; one detection per physical marker.
 
-    ``max_corrected_bits`` bounds the corrections over the seven rows (each
-    row corrects at most one, as Hamming(7,4) allows); a correction that flips
-    a clearly read cell while another cell of the row is in doubt (margin
-    below ``max_flip_margin``, a fraction of the local black-white difference)
-    is refused, as that is how a double error looks; ``max_border_errors``
-    how many of the 32 border cells may read white; ``only_registered``
-    drops ids the profile does not list.
+    ``max_corrected_bits`` bounds the bits corrected over the seven rows; a
+    correction may flip only a cell in doubt (read closer to the threshold than
+    ``max_flip_margin``, a fraction of the local black-white difference), and a
+    row is read only when its code word beats every other by ``min_row_gap``
+    (summed margins): a clearly read wrong cell is an occluder or another
+    marker, and a row nearly as close to two code words is a guess (docs/
+    benchmarks.md, "small markers"). ``max_border_errors`` is how many of the 32
+    border cells may read white; ``only_registered`` drops ids the profile does
+    not list.
     """
 
     family = FAMILY
@@ -165,6 +173,7 @@ class HammingTracker(Tracker):
         only_registered: bool = False,
         refine: bool = True,
         max_flip_margin: float = 0.25,
+        min_row_gap: float = MIN_ROW_GAP,
     ) -> None:
         self.preprocessing = preprocessing or Preprocessing(**SEED_PREPROCESS)
         self.roles = roles or TagRoles({})
@@ -175,6 +184,7 @@ class HammingTracker(Tracker):
         self.only_registered = bool(only_registered)
         self.refine = bool(refine)
         self.max_flip_margin = float(max_flip_margin)
+        self.min_row_gap = float(min_row_gap)
 
     # -- the Tracker contract -------------------------------------------------
 
@@ -236,15 +246,14 @@ class HammingTracker(Tracker):
             levels @ _READING_OP,
             _BORDER_CELLS,
             _TURNED,
-            WORD_NIBBLE,
-            WORD_ERRORS,
-            WORD_FLIP,
+            CODEWORDS,
             np.array(sorted(self.roles.table), dtype=np.int64),
             self.only_registered,
             self.min_contrast,
             self.max_border_errors,
             self.max_corrected_bits,
             self.max_flip_margin,
+            self.min_row_gap,
         )
         corners = quads[rows[:, None], _ROLLS[turns]]
         unseen = int(apart_from(quads[unread], corners).sum())
@@ -259,14 +268,11 @@ class HammingTracker(Tracker):
         return readings, unseen
 
 
-def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
-    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
-    where = context.profile
-    values = check_config(config, hamming_factory.PARAMS, "tracker", where)
-    roles = TagRoles.from_profile(context.profile, values["size_mm"], FAMILY)
+def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
+    """The tracker a checked ``tracker:`` section describes (``where`` is the profile)."""
     return HammingTracker(
         Preprocessing.from_config(values["preprocess"], where),
-        roles,
+        TagRoles.from_profile(where, values["size_mm"], FAMILY),
         min_side_px=values["min_side_px"],
         max_corrected_bits=values["max_corrected_bits"],
         max_border_errors=values["max_border_errors"],
@@ -274,23 +280,20 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
         only_registered=values["only_registered"],
         refine=values["refine"],
         max_flip_margin=values["max_flip_margin"],
+        min_row_gap=values["min_row_gap"],
     )
+
+
+def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
+    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
+    values = check_config(config, hamming_factory.PARAMS, "tracker", context.profile)
+    return _tracker(values, context.profile)
 
 
 def _validate(config: dict[str, Any], profile: Any) -> None:
     """Load-time checks (``armtree check``): build the tracker and run it once."""
     values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
-    tracker = HammingTracker(
-        Preprocessing.from_config(values["preprocess"], profile),
-        TagRoles.from_profile(profile, values["size_mm"], FAMILY),
-        min_side_px=values["min_side_px"],
-        max_corrected_bits=values["max_corrected_bits"],
-        max_border_errors=values["max_border_errors"],
-        min_contrast=values["min_contrast"],
-        refine=values["refine"],
-        max_flip_margin=values["max_flip_margin"],
-    )
-    probe(tracker, profile, "tracker.preprocess")
+    probe(_tracker(values, profile), profile, "tracker.preprocess")
 
 
 hamming_factory.validate = _validate
@@ -347,5 +350,13 @@ hamming_factory.PARAMS = (
         doc="cells read closer than this to the threshold are in doubt",
         minimum=0.0,
         maximum=0.5,
+    ),
+    Param(
+        "min_row_gap",
+        "float",
+        MIN_ROW_GAP,
+        doc="how much better a row's code word must fit than any other (summed margins)",
+        minimum=0.0,
+        maximum=3.5,
     ),
 )
