@@ -17,8 +17,9 @@ conditions:
 
 Families: ArUco 4x4_50 and AprilTag 36h11 (the ``aruco`` / ``apriltag`` tracker
 against OpenCV's ``ArucoDetector.detectMarkers`` with the tracker's own detector
-parameters), and Hampy (the ``hamming`` tracker against ``hampy.detect_markers``
-1.4.2, ``pip install -e '.[bench]'``; OpenCV has no Hampy dictionary). Each
+parameters), and Hampy (the ``hamming`` tracker, with seed 004's threshold as it
+ships and with the adaptive one, against ``hampy.detect_markers`` 1.4.2,
+``pip install -e '.[bench]'``; OpenCV has no Hampy dictionary). Each
 family sees the same layouts (poses, light, noise) with its own markers.
 
 Printed: per family, condition and size, the markers found (a detection of the
@@ -50,6 +51,7 @@ from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import ArucoTracker, get_dictionary
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.plugins.trackers.markers import cells_per_side, marker_image
+from armtree.plugins.trackers.preprocess import Preprocessing
 from armtree.rig import Frame
 
 K = syn.nominal_camera()
@@ -281,7 +283,11 @@ def contenders(family: str) -> dict[str, object]:
     """Name -> ``detect(image) -> [(id, corners)]`` for the family's tracker and peers."""
     if family == "hamming":
         tracker = HammingTracker()
-        out = {"hamming tracker": lambda im: [(d.id, d.corners) for d in tracker.detect(_f(im))]}
+        adaptive = HammingTracker(Preprocessing(adaptive=True, blur=3))
+        out = {
+            "hamming tracker": lambda im: [(d.id, d.corners) for d in tracker.detect(_f(im))],
+            "  adaptive threshold": lambda im: [(d.id, d.corners) for d in adaptive.detect(_f(im))],
+        }
         try:
             import hampy
 

@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import pytest
 
+from armtree import load_tree
 from armtree.cli import run_tree_main
+from armtree.plugins.trackers.families import tracker_family
+from armtree.resolve import available
 from armtree.runlog import read_log
 
 #: One run per rig, the trackers and both AprilTag spellings spread across them.
@@ -15,6 +18,10 @@ RUNS = [
     ("sim_magician", "tracker.dictionary=apriltag_36h11", 10021),
     ("sim_dh", "tracker.type=hamming", 10033),
 ]
+
+
+SIM_RIGS = ("sim_dobot", "sim_vicra", "sim_magician", "sim_dh")
+TRACKERS = ("tracker.type=hamming", "tracker.type=apriltag", "tracker.dictionary=apriltag_36h11")
 
 
 def result_of(directory):
@@ -33,6 +40,18 @@ def test_load_ducky_runs_with_the_tracker(tmp_path, capsys, rig, tracker, seed):
     result = result_of(tmp_path / "run")
     assert result["status"] == "SUCCESS" and result["verdict"] == "success"
     assert all(e["status"] == "pass" for e in result["expectations"])
+
+
+@pytest.mark.slow
+def test_every_shipped_tree_loads_with_every_tracker_on_every_sim_rig():
+    # each (tree, rig) with one of the three settings in turn: every setting on every rig
+    pairs = [(name, rig) for name in available("tree") for rig in SIM_RIGS]
+    for n, (name, rig) in enumerate(pairs):
+        setting = TRACKERS[n % len(TRACKERS)]
+        extra = ["tag=duckybot"] if name == "search" else []
+        tree = load_tree(name, rig=rig, overrides=[setting, *extra])
+        family = tracker_family(tree.profile.section("tracker")).name
+        assert family == ("hamming" if "hamming" in setting else "apriltag_36h11")
 
 
 def test_markers_of_another_family_fail_the_search_saying_so(tmp_path, capsys):

@@ -191,6 +191,19 @@ def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
         yield camera_over(skill, point, cell.look_height_mm)
 
 
+def scan_look(skill: ArmSkill, want: str | None, tally: Tally | None) -> Look:
+    """A look from a scan pose: up to the skill's ``frames``, ending early once ``want``
+    is seen; the frames are added to ``tally`` when given."""
+    return Look(
+        skill.rig,
+        skill.clock,
+        want=want,
+        frames=skill.param("frames"),
+        settle=skill.settle(),
+        tally=tally,
+    )
+
+
 def clear_here(
     skill: ArmSkill,
     pose: np.ndarray,
@@ -207,14 +220,7 @@ def clear_here(
     trash = skill.param("trash")
     bin_xyz = skill.point(skill.param("bin"), f"{skill.name}: bin")
     while True:
-        sightings = yield Look(
-            skill.rig,
-            skill.clock,
-            want=want,
-            frames=skill.param("frames"),
-            settle=skill.settle(),
-            tally=tally,
-        )
+        sightings = yield scan_look(skill, want, tally)
         log.check(sightings)
         radius = float(skill.param("bin_radius_mm"))
         items = [
@@ -312,14 +318,7 @@ class Search(ArmSkill):
             if self.param("clean_up"):
                 sightings = yield from clear_here(self, pose, tag, log, tally)
             else:
-                sightings = yield Look(
-                    self.rig,
-                    self.clock,
-                    want=tag,
-                    frames=self.param("frames"),
-                    settle=self.settle(),
-                    tally=tally,
-                )
+                sightings = yield scan_look(self, tag, tally)
             found = [s for s in sightings if s.role == tag]
             if found:
                 position = found[0].position
