@@ -33,7 +33,7 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
-from .kernels import apart_from
+from .kernels import apart_from, framed_by_light
 from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 from .rescue import Rescuer
@@ -46,6 +46,10 @@ APRILTAG_FAMILIES = ("16h5", "25h9", "36h10", "36h11")
 DEFAULT_APRILTAG = "36h11"
 #: Pixels per cell when reading a candidate's bits (OpenCV's default is 4).
 SMALL_MARKER_PIXELS_PER_CELL = 8
+#: Least :func:`.kernels.framed_by_light` of a marker: a printed one's quiet zone is
+#: about as light as its white cells, a light blob in a dark patch's is not (docs/
+#: benchmarks.md, "small markers").
+MIN_FRAMED = 0.4
 
 
 def dictionary_names() -> dict[str, int]:
@@ -265,6 +269,10 @@ class ArucoTracker(Tracker):
         registered = self.roles.ids
         if self._edges:
             quads = refine_corners(gray, quads, self._cells, contour_inset=0.5)
+        # a marker lies in a light quiet zone; OpenCV also reads a light blob on a
+        # dark patch of the scene as one, with corrections
+        framed = framed_by_light(gray, quads, self._cells) >= MIN_FRAMED
+        quads, ids = quads[framed], ids[framed]
         for c, marker_id in zip(quads, ids, strict=True):
             if self.only_registered and int(marker_id) not in registered:
                 continue

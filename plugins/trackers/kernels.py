@@ -175,6 +175,36 @@ def sample_cells(
     return out
 
 
+def framed_by_light(image: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
+    """How much lighter than its border the ring just outside each quad ``(N, 4, 2)`` is, as
+    a fraction of the border's contrast with its lightest inner cell (``cells`` a side,
+    border included): about 1 for a printed marker in its white quiet zone, about 0 for a
+    dark patch of the scene around a light blob, which a detector can read as a marker."""
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    if len(quads) == 0:
+        return np.zeros(0)
+    centres = np.arange(cells) + 0.5
+    middle = (np.stack(np.meshgrid(centres, centres), axis=-1).reshape(-1, 1, 2)) / cells
+    out, side = -0.5 / cells, 1.0 + 0.5 / cells
+    along = centres / cells
+    ring = np.concatenate(
+        [
+            np.column_stack([along, np.full(cells, out)]),
+            np.column_stack([np.full(cells, side), along]),
+            np.column_stack([along, np.full(cells, side)]),
+            np.column_stack([np.full(cells, out), along]),
+        ]
+    )
+    levels = sample_cells(image, quads, middle, ring)
+    grid = levels[:, : cells * cells].reshape(-1, cells, cells)
+    border = np.concatenate(
+        [grid[:, 0], grid[:, -1], grid[:, 1:-1, 0], grid[:, 1:-1, -1]], axis=1
+    ).mean(axis=1)
+    lightest = grid[:, 1:-1, 1:-1].reshape(len(quads), -1).max(axis=1)
+    quiet = np.median(levels[:, cells * cells :], axis=1)
+    return (quiet - border) / np.maximum(lightest - border, 1e-6)
+
+
 def read_markers(
     reading: np.ndarray,
     border: np.ndarray,
