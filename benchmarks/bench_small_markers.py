@@ -325,7 +325,7 @@ def _f(image: np.ndarray) -> Frame:
     return Frame(image, 0.0, K, np.zeros(5))
 
 
-def detection(n_frames: int) -> dict[str, list[np.ndarray]]:
+def detection(n_frames: int, families: list[str]) -> dict[str, list[np.ndarray]]:
     """Print the detection table; return a few frames per family for the speed figure."""
     plan = layouts(n_frames)
     pools = {**ID_POOLS, "hamming": hamming_ids(2000)}
@@ -334,7 +334,7 @@ def detection(n_frames: int) -> dict[str, list[np.ndarray]]:
         f"1. markers found and wrong ids, {n_frames} frames of 640x480 per family, three "
         "markers a frame (covered: partly hidden markers, counted apart)"
     )
-    for family in FAMILIES:
+    for family in families:
         readers = contenders(family)
         cells: dict[tuple[str, str, int], list[int]] = {}
         seconds = dict.fromkeys(readers, 0.0)
@@ -412,9 +412,12 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=10000, help="frames per family")
     parser.add_argument("--rounds", type=int, default=3, help="timing rounds per frame")
     parser.add_argument("--quick", action="store_true", help="700 frames per family")
+    parser.add_argument(
+        "--families", nargs="+", choices=list(FAMILIES), default=list(FAMILIES), help="families"
+    )
     args = parser.parse_args()
     n = 700 if args.quick else args.frames
-    kept = detection(n)
+    kept = detection(n, args.families)
     speed({f: images[:200] for f, images in kept.items()}, args.rounds)
     return 0
 

@@ -40,9 +40,9 @@ from .refine import refine_corners
 
 FAMILY = "hamming"
 #: How much better (summed cell margins) a row's code word must fit than the next:
-#: enough to refuse the guesses that made wrong ids of small markers, not so much
-#: that clean rows are refused (docs/benchmarks.md, "small markers").
-MIN_ROW_GAP = 0.6
+#: enough to refuse the guesses that made wrong ids of small tilted markers, not so
+#: much that clean rows are refused (docs/benchmarks.md, "small markers").
+MIN_ROW_GAP = 1.0
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
