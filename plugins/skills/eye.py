@@ -189,8 +189,9 @@ class Tally:
             else:
                 self.roles.add(s.role)
         if not wanted:
-            # asked only here: the aruco tracker counts these when asked
-            self.unread = max(self.unread, int(tracker.unread))
+            # asked only here: the aruco tracker counts these when asked; a tracker
+            # that does not subclass armtree.rig.Tracker counts none
+            self.unread = max(self.unread, int(getattr(tracker, "unread", 0)))
 
     def describe(self, family: str | None) -> str:
         """What was seen, for a failure message: shapes of another family, markers of other
