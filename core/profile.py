@@ -9,7 +9,8 @@ the whole file before returning, collecting every problem into one
 * ``arm``/``camera``/``tracker``/``planner``: a mapping with a ``type`` that a
   plugin registered (did-you-mean); when the factory declares ``PARAMS`` the
   other keys are checked against them (unknown keys, types, required ones);
-* ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0}``, no id used twice;
+* ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0, family_ids: {FAMILY: N | [N, ...]}}``,
+  no id used twice (the trackers plugin checks the ids against their families);
 * ``places``: ``name: [x, y, z]`` in mm; ``obstacles``: a list of shapes
   (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
   ``table: {z: MM}`` (or ``table: MM``): the table top in the arm's base frame;
@@ -285,8 +286,7 @@ class Profile:
         """Marker roles by name."""
         out: dict[str, TagSpec] = {}
         for role, spec in (self.section("tags") or {}).items():
-            ids = (spec["id"],) if "id" in spec else tuple(spec["ids"])
-            out[str(role)] = TagSpec(str(role), tuple(int(i) for i in ids), float(spec["size_mm"]))
+            out[str(role)] = tag_spec(str(role), spec)
         return out
 
     def places(self) -> dict[str, list[float]]:
@@ -758,6 +758,20 @@ def _is_id(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
 
 
+#: The keys of one ``tags:`` entry.
+TAG_KEYS = ("id", "ids", "size_mm", "family_ids")
+
+
+def tag_spec(role: str, spec: Mapping[str, Any]) -> TagSpec:
+    """One checked ``tags:`` entry as a :class:`TagSpec`, its ``family_ids`` as tuples."""
+    ids = (spec["id"],) if "id" in spec else tuple(spec.get("ids", ()))
+    family_ids = {
+        str(family): tuple(int(i) for i in (value if isinstance(value, (list, tuple)) else [value]))
+        for family, value in (spec.get("family_ids") or {}).items()
+    }
+    return TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]), family_ids)
+
+
 def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
     tags = data.get("tags")
     if tags is None:
@@ -774,10 +788,10 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
             errors.append(error_at(f"tags.{role}: expected {{id: N, size_mm: S}}", where))
             continue
         for key in spec:
-            if key not in ("id", "ids", "size_mm", "family"):
+            if key not in TAG_KEYS:
                 errors.append(
                     error_at(
-                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), ['id', 'ids', 'size_mm', 'family'])}",
+                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), TAG_KEYS)}",
                         spec.key_mark(key),
                     )
                 )
@@ -836,6 +850,53 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
                     spec.value_mark("size_mm"),
                 )
             )
+        if "family_ids" in spec:
+            _check_family_ids(str(role), spec, errors)
+
+
+def _check_family_ids(role: str, spec: MarkedDict, errors: list[ConfigError]) -> None:
+    """``family_ids``: the role's ids in other marker families, shaped as its ``id`` / ``ids``.
+
+    Which families exist and which ids they have is the trackers' to say
+    (their ``armtree_validate_profile``); here only the shape is checked.
+    """
+    given = spec["family_ids"]
+    if not isinstance(given, MarkedDict) or not given:
+        errors.append(
+            error_at(
+                f"tags.{role}.family_ids: expected a mapping of marker family: id, "
+                "e.g. {hamming: 69937}",
+                spec.value_mark("family_ids"),
+            )
+        )
+        return
+    many = "ids" in spec and isinstance(spec["ids"], list)
+    for family, value in given.items():
+        where = given.value_mark(family)
+        path = f"tags.{role}.family_ids.{family}"
+        if not many:
+            if not _is_id(value):
+                errors.append(
+                    error_at(f"{path}: expected one marker id >= 0, got {shown(value)}", where)
+                )
+            continue
+        count = len(spec["ids"])
+        if not isinstance(value, MarkedList) or len(value) != count:
+            errors.append(
+                error_at(
+                    f"{path}: expected a list of {count} marker ids, one for each of "
+                    f"tags.{role}.ids, got {shown(value)}",
+                    where,
+                )
+            )
+            continue
+        for i, v in enumerate(value):
+            if not _is_id(v):
+                errors.append(
+                    error_at(
+                        f"{path}: expected marker ids >= 0, got {shown(v)}", value.item_mark(i)
+                    )
+                )
 
 
 def _vector(value: Any, n: int = 3) -> bool:

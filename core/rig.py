@@ -12,7 +12,7 @@ import enum
 import math
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -373,7 +373,21 @@ def frame_index(now: float, fps: float) -> int:
 
 
 class Tracker(ABC):
-    """Finds markers in a frame."""
+    """Finds markers in a frame.
+
+    ``marker_family`` names the markers it reads (``"hamming"``, or an ArUco
+    dictionary such as ``"4x4_50"`` or ``"apriltag_36h11"``): the rig gives it
+    the profile's tag ids for that family (``tags: ROLE: family_ids:``).
+    ``unread`` is how many marker-like shapes of the last :meth:`detect`'s frame
+    (a dark square border around light and dark cells, apart from every marker
+    reported) decoded as nothing in that family: markers of another family, or
+    ones too blurred to read. Skills word a failed search with it.
+    """
+
+    #: The marker family read; None when it has no name tags could use.
+    marker_family: str | None = None
+    #: Marker-like shapes in the last frame that decoded as nothing in the family.
+    unread: int = 0
 
     def start(self) -> None:  # noqa: B027 - optional: trackers with nothing to prepare
         """Prepare for the first frame (load or compile what detection needs); the rig calls it."""
@@ -431,11 +445,22 @@ class Planner(ABC):
 
 @dataclass(frozen=True)
 class TagSpec:
-    """A marker role from the profile's ``tags:`` section."""
+    """A marker role from the profile's ``tags:`` section.
+
+    ``ids`` are the role's markers; ``family_ids`` the same markers in marker
+    families that number them otherwise (``{"hamming": (69937,)}``), keyed by
+    the family name a tracker gives as :attr:`Tracker.marker_family`.
+    """
 
     role: str
     ids: tuple[int, ...]
     size_mm: float
+    family_ids: Mapping[str, tuple[int, ...]] = field(default_factory=dict, hash=False)
+
+    def in_family(self, family: str | None) -> TagSpec:
+        """This role as a tracker of marker family ``family`` reads it: ``ids`` are its ids there."""
+        ids = self.family_ids.get(family, self.ids) if family else self.ids
+        return TagSpec(self.role, tuple(ids), self.size_mm, self.family_ids)
 
 
 @dataclass

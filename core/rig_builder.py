@@ -23,7 +23,7 @@ from typing import Any
 from .clock import Clock
 from .errors import ConfigError, HardwareFault
 from .plugin_manager import get_plugin_manager
-from .profile import profile_section, profile_source
+from .profile import profile_section, profile_source, tag_spec
 from .rig import ArmTool, Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
@@ -82,17 +82,17 @@ def make_scene(profile: Any) -> Any:
     return obstacles
 
 
-def parse_tags(tags: Any, file: str | None = None) -> dict[str, TagSpec]:
-    """``tags:`` of a profile (``{role: {id: N | ids: [...], size_mm: S}}``) as TagSpecs."""
+def parse_tags(tags: Any, file: str | None = None, family: str | None = None) -> dict[str, TagSpec]:
+    """``tags:`` of a profile (``{role: {id: N | ids: [...], size_mm: S}}``) as TagSpecs,
+    their ``ids`` those of marker family ``family`` (``family_ids``) where the profile gives them."""
     found: dict[str, TagSpec] = {}
     for role, spec in (tags or {}).items():
         if isinstance(spec, TagSpec):
-            found[role] = spec
+            found[role] = spec.in_family(family)
             continue
         if not isinstance(spec, Mapping) or "size_mm" not in spec:
             raise ConfigError(f"tags.{role}: give id or ids, and size_mm", file=file)
-        ids = spec.get("ids", [spec["id"]] if "id" in spec else [])
-        found[role] = TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]))
+        found[role] = tag_spec(str(role), spec).in_family(family)
     return found
 
 
@@ -129,7 +129,10 @@ def build_rig(
             factory = _factory(registry, "planner", planner_config, file)
             model = rig.arm.model if rig.arm is not None else None
             rig.planner = factory(dict(planner_config), context, model, make_scene(profile))
-        rig.tags = parse_tags(profile_section(profile, "tags"), file)
+        # the ids skills and calibrations act on are those of the markers the tracker reads
+        # (a tracker that does not subclass Tracker names no family)
+        family = getattr(rig.tracker, "marker_family", None)
+        rig.tags = parse_tags(profile_section(profile, "tags"), file, family)
         rig.places = {k: list(v) for k, v in (profile_section(profile, "places") or {}).items()}
         manager.hook.armtree_rig_ready(rig=rig, context=context)
         if rig.tool is None and rig.arm is not None and arm_grips(registry, profile) is not None:

@@ -225,7 +225,15 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
             "id": marker_id,
             "ids": {"type": "array", "items": marker_id, "minItems": 1},
             "size_mm": {"type": "number", "exclusiveMinimum": 0, "description": "marker side (mm)"},
-            "family": {"type": "string"},
+            "family_ids": {
+                "type": "object",
+                "description": "the same markers' ids in another marker family (hamming, "
+                "an ArUco dictionary such as 4x4_50 or apriltag_36h11), shaped as id or ids",
+                "additionalProperties": {
+                    "anyOf": [marker_id, {"type": "array", "items": marker_id, "minItems": 1}]
+                },
+                "minProperties": 1,
+            },
         },
         "required": ["size_mm"],
         "oneOf": [{"required": ["id"]}, {"required": ["ids"]}],

@@ -16,7 +16,7 @@ from armtree.calibration import calibration_of
 from armtree.errors import PlanningError, Unreachable
 from armtree.rig import MotionHandle, MotionStatus
 
-from .eye import Sighting, eye_of
+from .eye import Sighting, Tally, eye_of
 
 
 class SkillFailure(Exception):
@@ -295,7 +295,8 @@ class Look(Action):
     of ``want`` (a role) is seen. The result is
     a list of :class:`Sighting`, newest per marker id, or with ``average`` each
     marker's position averaged over the frames that saw it. No frame within
-    ``timeout`` seconds fails the step.
+    ``timeout`` seconds fails the step. Each frame read is added to ``tally``
+    (a search's :class:`Tally`) when one is given.
     """
 
     def __init__(
@@ -307,10 +308,12 @@ class Look(Action):
         settle: float = 0.0,
         timeout: float = 2.0,
         average: bool = False,
+        tally: Tally | None = None,
     ) -> None:
         self.rig = rig
         self.clock = clock
         self.want = want
+        self.tally = tally
         self.frames = max(1, frames)
         self.settle = settle
         self.timeout = timeout
@@ -345,6 +348,9 @@ class Look(Action):
                 self._seen[sighting.id] = sighting
                 self._all.setdefault(sighting.id, []).append(sighting.position)
             self.result = [self._averaged(s) for s in self._seen.values()]
+            if self.tally is not None:
+                in_frame = any(s.role == self.want for s in view.sightings)
+                self.tally.add(view, rig.tracker, in_frame)
             wanted = self.want is None or any(s.role == self.want for s in self.result)
             if self._count >= self.frames or (self.want is not None and wanted):
                 return State.DONE

@@ -602,9 +602,7 @@ class Pick(Gripping):
             if expected is not None:
                 self.add_skip(int(expected))
             where = f"within {radius:g} mm of {fmt(hint)}" if hint is not None else "in view"
-            raise SkillFailure(
-                f"{self.name}: no {tag!r} tag {where} (looked from {found.looks} camera poses)"
-            )
+            raise SkillFailure(f"{self.name}: no {tag!r} tag {where} ({found.not_found(self.rig)})")
         self.feedback_message = f"{tag!r} tag at {fmt(found.position)}"
         return (yield from self.grip(found.position, tag, found.sighting.id))
 
@@ -850,7 +848,7 @@ class Place(PuttingDown):
             if found.sighting is None:
                 raise SkillFailure(
                     f"{self.name}: no {tag!r} tag within {radius:g} mm of {fmt(target)} "
-                    f"(looked from {found.looks} camera poses); still holding the object"
+                    f"({found.not_found(self.rig)}); still holding the object"
                 )
             target = found.position
         return (yield from self.put_down(target, bool(tag)))
