@@ -112,7 +112,7 @@ EDGES = [
     (["emulate", "dobot_v1", "--seed", "-1"], "-1 is not a seed"),
     (["replay", "nope"], "nope: no such directory"),
     (["detect", "--tracker", "nope", "x.png"], "unknown tracker 'nope'"),
-    (["markers", "--family", "aruco", "--id", "-1", "-o", "m.png"], "dictionary 4x4_50 has ids"),
+    (["markers", "--family", "aruco", "--id", "-1", "-o", "m.png"], "4x4_50 has ids 0 to 49"),
     (["markers", "--family", "aruco", "--id", "1", "-o", "/proc/no/m.png"], "No such file"),
     (["schema", "-o", "/proc/no/s.json"], "cannot write the schema"),
     (["new-plugin", "2fast", "--kind", "skill"], "'2fast' is not a plugin name"),
