@@ -28,14 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, PlanningError, Unreachable
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.start_contact import START_CONTACT_MM
-from armtree.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.start_contact import START_CONTACT_MM
+from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import ssc32 as S
 from .kinematics import DHModel
@@ -385,7 +385,7 @@ class SSC32Driver(SerialArmDriver):
         Raises :class:`PlanningError` (reason ``outside_limits``, ``too_fast``,
         ``collision``, ...) saying where along it the path fails. A path from a
         start believed in a shallow contact is taken when its first move only
-        leaves the contact (:func:`~armtree.motion.start_contact.leaving_run`);
+        leaves the contact (:func:`~armtree.maths.motion.start_contact.leaving_run`);
         the arm then comes to rest at the end of that move.
         """
         scale = float(min(max(speed, 0.01), 1.0))

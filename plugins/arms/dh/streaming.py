@@ -2,7 +2,7 @@
 
 An SSC-32 takes a target and a time and moves every listed servo there at a
 constant speed: no acceleration limit, no via-points. To drive an arm along a
-cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.motion.trajectory`) the
+cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.maths.motion.trajectory`) the
 host sends, every ``period`` seconds, the trajectory's position ``lead``
 seconds ahead with that ramp time. Each ramp starts from where the servos are
 when it arrives, so a late send leaves no lag behind: the chords stay within
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.motion.trajectory import Trajectory
+from armtree.maths.motion.trajectory import Trajectory
 
 #: The shortest ramp sent (s): the last set point of a trajectory sent late.
 MIN_RAMP_S = 0.02
