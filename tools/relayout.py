@@ -180,7 +180,9 @@ KEEP_AT_TOP = {"__init__.py", "__init__.pyi", "py.typed", "errors.py", "__pycach
 #: Names moved between modules by later commits: (module, name) -> the module that
 #: defines it now. Applied to an import of the name from the old module once the old
 #: module no longer binds it and the new one defines it.
-SYMBOLS: dict[tuple[str, str], str] = {}
+SYMBOLS: dict[tuple[str, str], str] = {
+    ("armtree.hooks.plugin_manager", "did_you_mean"): "armtree.errors",
+}
 
 #: The last part of a dotted name that makes it a file name, not a module's attribute
 #: (``armtree.schema.json`` is the shipped schema file).

@@ -30,8 +30,7 @@ from typing import Any
 
 import yaml
 
-from armtree.errors import ConfigError
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, did_you_mean
 from armtree.maths.perception.frames import LinearCorrection
 
 from .yamlio import MarkedDict, error_at

@@ -34,8 +34,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from armtree.errors import ConfigError
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, did_you_mean
 
 from .yamlio import MarkedDict, MarkedList, error_at
 

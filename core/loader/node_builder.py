@@ -19,9 +19,9 @@ import py_trees
 
 from armtree.config.constructor_params import name_argument, takes_signature_params
 from armtree.config.yamlio import MarkedDict, MarkedList
-from armtree.errors import ConfigError, Mark, shown
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.builtin_behaviours import COMPOSITE, DECORATOR, LEAF
-from armtree.hooks.plugin_manager import Registry, did_you_mean
+from armtree.hooks.plugin_manager import Registry
 
 from .load_context import LoadContext, LoadErrors
 from .node_params import NodeParams, PendingNode

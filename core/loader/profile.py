@@ -47,10 +47,10 @@ from armtree.config.profile_include import apply_includes
 from armtree.config.resolve import available, resolve
 from armtree.config.workcell import check_workcell
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
-from armtree.errors import ConfigError, Mark, shown
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.hook_calls import call_isolated, plugin_of
 from armtree.hooks.plugin_checks import rig_problems
-from armtree.hooks.plugin_manager import PluginManager, did_you_mean, get_plugin_manager
+from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 from armtree.maths.motion.scene import Scene
 from armtree.runtime.stall_watch import DEFAULT_STALL_S, MAX_STALL_S
 from armtree.runtime.watchdog import DEFAULT_TICK_S, MAX_TICK_S

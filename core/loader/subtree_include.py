@@ -14,8 +14,7 @@ from typing import Any
 
 from armtree.config.resolve import available, resolve
 from armtree.config.yamlio import MarkedDict
-from armtree.errors import Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import Mark, did_you_mean, shown
 
 from .load_context import LoadContext, LoadErrors, TreeFiles
 from .node_builder import node_name

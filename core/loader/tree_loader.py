@@ -71,8 +71,8 @@ from typing import Any
 
 from armtree.config.resolve import available, resolve
 from armtree.config.yamlio import MarkedDict
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.plugin_manager import PluginManager, Registry, did_you_mean, get_plugin_manager
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
+from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
 
 from .blackboard_use import BlackboardUse
 from .load_context import LoadContext, LoadErrors, TreeFiles

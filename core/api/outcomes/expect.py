@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
-from armtree.errors import ConfigError, Mark
+from armtree.errors import ConfigError, Mark, did_you_mean
 
 from .predicates import BUILTIN_PREDICATES, Predicate
 from .truth import WorldObject, WorldTruth
@@ -144,8 +144,6 @@ def _parse_entry(
     predicates: Mapping[str, Predicate],
     errors: list[ConfigError],
 ) -> Expectation | None:
-    from armtree.hooks.plugin_manager import did_you_mean
-
     names = ", ".join(sorted(predicates))
     if isinstance(entry, MarkedDict) and True in entry:
         entry = _on_as_text(entry)

@@ -18,6 +18,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from armtree.errors import did_you_mean
+
 from .truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
 
 if TYPE_CHECKING:
@@ -72,8 +74,6 @@ def _targets(world: WorldTruth, ref: str) -> set[str]:
 
 def _unknown(world: WorldTruth, ref: Any, what: str, places: bool = False) -> str | None:
     """A message when ``ref`` is not a name this world knows, else None."""
-    from armtree.hooks.plugin_manager import did_you_mean
-
     if not isinstance(ref, str) or not ref:
         return f"expected the name of {what}, got {ref!r}"
     if world.knows(ref) or (places and ref in world.places):
