@@ -182,6 +182,9 @@ KEEP_AT_TOP = {"__init__.py", "__init__.pyi", "py.typed", "errors.py", "__pycach
 #: module no longer binds it and the new one defines it.
 SYMBOLS: dict[tuple[str, str], str] = {
     ("armtree.hooks.plugin_manager", "did_you_mean"): "armtree.errors",
+    ("armtree.loader.profile", "profile_section"): "armtree.config.profile_access",
+    ("armtree.loader.profile", "profile_source"): "armtree.config.profile_access",
+    ("armtree.loader.profile", "profile_error"): "armtree.config.profile_access",
 }
 
 #: The last part of a dotted name that makes it a file name, not a module's attribute

@@ -11,8 +11,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from armtree.config.profile_access import profile_error
 from armtree.errors import ConfigError, did_you_mean
-from armtree.loader.profile import profile_error
 
 from .params import Param, check_value
 

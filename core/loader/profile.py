@@ -309,40 +309,6 @@ class Profile:
         return _finish(marked, self.source, list(overrides), manager or self.manager, None)
 
 
-def profile_section(profile: Any, key: str, default: Any = None) -> Any:
-    """Top-level section ``key`` of a :class:`Profile` or of a plain profile mapping.
-
-    Components receive the Profile; tests and embedding code may pass a mapping
-    (or an object with the section as an attribute). ``default`` when absent.
-    """
-    if profile is None:
-        return default
-    data = getattr(profile, "data", profile)
-    if isinstance(data, Mapping):
-        return data.get(key, default)
-    return getattr(profile, key, default)
-
-
-def profile_source(profile: Any) -> str | None:
-    """The file a :class:`Profile` was loaded from, as a string; ``None`` when unknown.
-
-    Plain profile mappings (tests, embedding code) have no file.
-    """
-    source = getattr(profile, "source", None)
-    return str(source) if source else None
-
-
-def profile_error(profile: Any, path: str, message: str) -> ConfigError:
-    """A :class:`ConfigError` ``"PATH: MESSAGE"`` about the value at dotted ``path``.
-
-    A :class:`Profile` places it at the value's file, line and column
-    (:meth:`Profile.error`); a plain mapping gives one naming no file.
-    """
-    if isinstance(profile, Profile):
-        return profile.error(path, message)
-    return ConfigError(f"{path}: {message}", file=profile_source(profile))
-
-
 def load_profile(
     path_or_name: str | Path,
     overrides: Iterable[str] = (),

@@ -22,9 +22,10 @@ from typing import Any
 
 from armtree.api.clock import Clock
 from armtree.api.rig import ArmTool, Rig, RigContext, TagSpec
+from armtree.config.profile_access import profile_section, profile_source
 from armtree.errors import ConfigError, HardwareFault
 from armtree.hooks.plugin_manager import get_plugin_manager
-from armtree.loader.profile import profile_section, profile_source, tag_spec
+from armtree.loader.profile import tag_spec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")

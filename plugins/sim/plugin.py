@@ -25,8 +25,8 @@ from typing import Any
 import armtree
 from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.config.params import check_value
+from armtree.config.profile_access import profile_error, profile_section
 from armtree.config.profile_sections import ProfileSection
-from armtree.loader.profile import profile_error, profile_section
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera

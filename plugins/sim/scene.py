@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 
 from armtree.api.rig import TagSpec
+from armtree.config.profile_access import profile_error, profile_section
 from armtree.errors import ConfigError, did_you_mean, shown
-from armtree.loader.profile import profile_error, profile_section, tag_spec
+from armtree.loader.profile import tag_spec
 from armtree.plugins.trackers.families import (
     HAMMING,
     MarkerFamily,

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from armtree.api.outcomes.truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
-from armtree.loader.profile import profile_section
+from armtree.config.profile_access import profile_section
 
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World

@@ -20,8 +20,9 @@ from py_trees.common import Status
 import armtree
 from armtree.api.rig import MotionHandle
 from armtree.config.params import Binding
+from armtree.config.profile_access import profile_source
 from armtree.config.workcell import Workcell, workcell_of
-from armtree.loader.profile import Profile, profile_source
+from armtree.loader.profile import Profile
 
 from .actions import Action, SkillFailure, State
 
