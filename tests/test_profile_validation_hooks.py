@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from armtree.config.profile_sections import PROFILE_KEYS
 from armtree.errors import ConfigError
-from armtree.loader.profile import PROFILE_KEYS, load_profile
+from armtree.loader.profile import load_profile
 from armtree.maths.motion.scene import Scene
 
 # A simulated Dobot whose world and tags agree; each test breaks one line of it.

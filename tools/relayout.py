@@ -185,6 +185,15 @@ SYMBOLS: dict[tuple[str, str], str] = {
     ("armtree.loader.profile", "profile_section"): "armtree.config.profile_access",
     ("armtree.loader.profile", "profile_source"): "armtree.config.profile_access",
     ("armtree.loader.profile", "profile_error"): "armtree.config.profile_access",
+    ("armtree.loader.node_builder", "node_kind"): "armtree.api.factories",
+    ("armtree.loader.node_builder", "construct"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "LEAF"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "COMPOSITE"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "DECORATOR"): "armtree.api.factories",
+    ("armtree.loader.profile", "PROFILE_KEYS"): "armtree.config.profile_sections",
+    ("armtree.loader.profile", "COMPONENT_SECTIONS"): "armtree.config.profile_sections",
+    ("armtree.runtime.watchdog", "DEFAULT_TICK_S"): "armtree.config.profile_sections",
+    ("armtree.runtime.watchdog", "MAX_TICK_S"): "armtree.config.profile_sections",
 }
 
 #: The last part of a dotted name that makes it a file name, not a module's attribute

@@ -44,6 +44,14 @@ from armtree.api.rig import TagSpec
 from armtree.config.calibration import check_calibration
 from armtree.config.params import check_value
 from armtree.config.profile_include import apply_includes
+from armtree.config.profile_sections import (
+    COMPONENT_SECTIONS,
+    DEFAULT_STALL_S,
+    DEFAULT_TICK_S,
+    MAX_STALL_S,
+    MAX_TICK_S,
+    PROFILE_KEYS,
+)
 from armtree.config.resolve import available, resolve
 from armtree.config.workcell import check_workcell
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
@@ -52,31 +60,7 @@ from armtree.hooks.hook_calls import call_isolated, plugin_of
 from armtree.hooks.plugin_checks import rig_problems
 from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 from armtree.maths.motion.scene import Scene
-from armtree.runtime.stall_watch import DEFAULT_STALL_S, MAX_STALL_S
-from armtree.runtime.watchdog import DEFAULT_TICK_S, MAX_TICK_S
 
-#: Profile section -> component kind in the plugin registry.
-COMPONENT_SECTIONS: dict[str, str] = {
-    "arm": "arm",
-    "camera": "camera",
-    "tracker": "tracker",
-    "planner": "planner",
-}
-#: Every top-level key armtree itself knows (plugins register more: :func:`section_names`).
-PROFILE_KEYS = (
-    "profile",
-    "description",
-    *COMPONENT_SECTIONS,
-    "tags",
-    "places",
-    "table",
-    "obstacles",
-    "workcell",
-    "plugins",
-    "watchdog",
-    "include",
-    "calibration",
-)
 #: Sections a profile must have.
 REQUIRED_SECTIONS = ("arm",)
 #: Keys that name the profile rather than configure it (``--set`` cannot address them).

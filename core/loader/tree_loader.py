@@ -69,6 +69,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from armtree.api.factories import construct, node_kind
 from armtree.config.resolve import available, resolve
 from armtree.config.yamlio import MarkedDict
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
@@ -76,7 +77,7 @@ from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_man
 
 from .blackboard_use import BlackboardUse
 from .load_context import LoadContext, LoadErrors, TreeFiles
-from .node_builder import MAX_NODES, NodeBuilder, construct, node_kind
+from .node_builder import MAX_NODES, NodeBuilder
 from .node_params import NodeParams, is_bindable
 from .profile import Profile, override_sections, parse_overrides
 from .subtree_include import MAX_INCLUDE_DEPTH, SUBTREE_KEYS, SubtreeIncludes
