@@ -37,14 +37,14 @@ def test_each_public_name_is_the_object_its_layer_defines():
 def test_a_submodule_is_not_an_attribute_until_imported():
     code = (
         "import armtree\n"
-        "try:\n    armtree.tree_loader\nexcept AttributeError as e:\n    print('refused', e)\n"
+        "try:\n    armtree.loader\nexcept AttributeError as e:\n    print('refused', e)\n"
         "print(armtree.ConfigError.__module__)\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True
     )
     assert done.stdout.splitlines() == [
-        "refused module 'armtree' has no attribute 'tree_loader'",
+        "refused module 'armtree' has no attribute 'loader'",
         "armtree.errors",
     ]
 

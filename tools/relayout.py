@@ -194,6 +194,8 @@ SYMBOLS: dict[tuple[str, str], str] = {
     ("armtree.loader.profile", "COMPONENT_SECTIONS"): "armtree.config.profile_sections",
     ("armtree.runtime.watchdog", "DEFAULT_TICK_S"): "armtree.config.profile_sections",
     ("armtree.runtime.watchdog", "MAX_TICK_S"): "armtree.config.profile_sections",
+    ("armtree.maths.motion.start_contact", "leaving_run"): "armtree.maths.motion.penetration",
+    ("armtree.maths.motion.start_contact", "START_CONTACT_MM"): "armtree.maths.motion.penetration",
 }
 
 #: The last part of a dotted name that makes it a file name, not a module's attribute

@@ -31,8 +31,8 @@ import numpy as np
 from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, PlanningError, Unreachable
 from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.penetration import START_CONTACT_MM
 from armtree.maths.motion.scene import Scene
-from armtree.maths.motion.start_contact import START_CONTACT_MM
 from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
