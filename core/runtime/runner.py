@@ -638,4 +638,4 @@ def run(
     ).execute()
 
 
-__all__ = ["Run", "RunResult", "run"]
+__all__ = ["Run", "run"]

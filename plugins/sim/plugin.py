@@ -34,7 +34,7 @@ from .recording import Recorder, write_score
 from .scene import SceneSpec, body_error, parse_scene
 from .truth import scene_truth, world_truth
 from .view import scene_objects
-from .world import SHARED_KEY, World, WorldEvent, world_for
+from .world import World, WorldEvent, world_for
 
 
 class WorldStepper:
@@ -366,4 +366,4 @@ def score_line(score: dict[str, Any]) -> str:
     )
 
 
-__all__ = ["SHARED_KEY", "WorldStepper", "score_line"]
+__all__ = ["WorldStepper", "score_line"]

@@ -307,4 +307,4 @@ def as_list(xyz: np.ndarray) -> list[float]:
     return [round(float(v), 3) for v in np.asarray(xyz, dtype=float).reshape(-1)[:3]]
 
 
-__all__ = ["ActionFailed", "Process", "Skill", "SkillFailure", "as_list", "resolve_point"]
+__all__ = ["ActionFailed", "Process", "Skill", "as_list", "resolve_point"]
