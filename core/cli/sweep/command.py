@@ -33,6 +33,7 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from armtree.cli.commandline import add_tree_arguments
 from armtree.errors import ConfigError
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
@@ -51,9 +52,7 @@ CHECKPOINT_S = 300.0
 def configure(parser: argparse.ArgumentParser, manager: Any = None) -> None:
     """The sweep's options: TREE, --rig and --set as ``armtree check`` takes them, its own,
     and those the plugins of ``manager`` add (``armtree_sweep_options``)."""
-    from armtree.cli.builtin_commands import _tree_arguments
-
-    _tree_arguments(parser)
+    add_tree_arguments(parser)
     parser.add_argument("--seeds", required=True, metavar="A-B", help="seeds to run, e.g. 1-1000")
     parser.add_argument(
         "--workers",
