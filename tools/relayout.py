@@ -195,6 +195,8 @@ SYMBOLS: dict[tuple[str, str], str] = {
     ("armtree.runtime.watchdog", "DEFAULT_TICK_S"): "armtree.config.profile_sections",
     ("armtree.runtime.watchdog", "MAX_TICK_S"): "armtree.config.profile_sections",
     ("armtree.maths.motion.start_contact", "leaving_run"): "armtree.maths.motion.penetration",
+    ("armtree.api.outcomes.expect", "Expectation"): "armtree.api.outcomes.predicates",
+    ("armtree.loader.node_builder", "node_name"): "armtree.loader.node_names",
     ("armtree.maths.motion.start_contact", "START_CONTACT_MM"): "armtree.maths.motion.penetration",
 }
 

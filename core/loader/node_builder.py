@@ -13,7 +13,7 @@ import traceback as tb_module
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import py_trees
 
@@ -23,12 +23,10 @@ from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.plugin_manager import Registry
 
 from .load_context import LoadContext, LoadErrors
+from .node_names import node_name
 from .node_params import NodeParams, PendingNode
+from .subtree_include import SubtreeIncludes
 from .tree import NodeInfo
-from .tree_params import has_missing, substitute
-
-if TYPE_CHECKING:
-    from .subtree_include import SubtreeIncludes
 
 #: Most nodes one tree may build, its subtrees included (ten subtrees of ten subtrees
 #: of ... would otherwise multiply without bound).
@@ -90,30 +88,6 @@ _NOT_PLUGINS = tuple(
         sysconfig.get_paths()["stdlib"],
     )
 )
-
-
-def node_name(options: MarkedDict, ntype: str, ctx: LoadContext, errors: LoadErrors) -> str:
-    """The node's ``name`` option (popped from ``options``), checked; ``ntype`` without one."""
-    if "name" not in options:
-        return ntype
-    raw = options.pop("name")
-    value = substitute(raw, ctx.params)
-    if has_missing(value):
-        return ntype
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = str(value)
-    if not isinstance(value, str) or not value:
-        errors.error(
-            f"name: expected a non-empty string, got {shown(raw)}", options.value_mark("name"), ctx
-        )
-        return ntype
-    if "/" in value:
-        errors.error(
-            f"name: {shown(value)} may not contain '/' (it separates paths)",
-            options.value_mark("name"),
-            ctx,
-        )
-    return value
 
 
 @dataclass(kw_only=True)
