@@ -345,6 +345,12 @@ SPECIAL = [
     # the new-plugin templates moved with the scaffold into the cli package
     (re.compile(r'files\("armtree"\)(\s*/\s*"templates")'), r'files("armtree.cli")\1'),
 ]
+#: Applied once the cli package runs as a module (``python -m armtree.cli``, its
+#: __main__.py): the old ``-m armtree.cli`` first became ``-m armtree.cli.commandline``.
+MAIN_SPECIAL = [
+    (re.compile(r'(-m",\s*")armtree\.cli\.commandline(")'), r"\1armtree.cli\2"),
+    (re.compile(r"(-m )armtree\.cli\.commandline\b"), r"\1armtree.cli"),
+]
 
 
 def rewrite_text(text: str, p: Plan) -> str:
@@ -352,6 +358,9 @@ def rewrite_text(text: str, p: Plan) -> str:
     text = rewrite_paths(text, p)
     for pattern, repl in SPECIAL:
         text = pattern.sub(repl, text)
+    if (p.root / "core" / "cli" / "__main__.py").is_file():
+        for pattern, repl in MAIN_SPECIAL:
+            text = pattern.sub(repl, text)
     return text
 
 
