@@ -15,6 +15,7 @@ rather than ``lint-imports``.
 from __future__ import annotations
 
 import ast
+import importlib.util
 import tomllib
 from pathlib import Path
 
@@ -32,59 +33,19 @@ CONFIG = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlin
 TYPE_ONLY_IMPORTS_ALLOWED_IN = "armtree.hooks.hookspecs"
 
 
-def _module_name(path: Path) -> tuple[str, bool]:
-    parts = list(path.relative_to(ROOT).with_suffix("").parts)
-    prefix = ["armtree"] if parts[0] == "core" else ["armtree", "plugins"]
-    is_package = parts[-1] == "__init__"
-    names = prefix + parts[1:]
-    return ".".join(names[:-1] if is_package else names), is_package
+def _import_graph_tool():
+    spec = importlib.util.spec_from_file_location(
+        "import_graph", ROOT / "tools" / "import_graph.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def _sources() -> dict[str, tuple[Path, bool]]:
-    found = {}
-    for top in ("core", "plugins"):
-        for path in sorted((ROOT / top).rglob("*.py")):
-            if "templates" not in path.parts:  # new-plugin templates are text for others
-                name, is_package = _module_name(path)
-                found[name] = (path, is_package)
-    return found
-
-
-SOURCES = _sources()
-
-
-def _imports() -> list[tuple[str, str, int, str]]:
-    """(importer, imported module, line, statement) for every import of an armtree module."""
-    found = []
-    for module, (path, is_package) in SOURCES.items():
-        package = module if is_package else module.rsplit(".", 1)[0]
-        source = path.read_text()
-        lines = source.splitlines()
-        for node in ast.walk(ast.parse(source, str(path))):
-            if isinstance(node, ast.Import):
-                names = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    parts = package.split(".")
-                    base = ".".join(parts[: len(parts) - node.level + 1])
-                    base = f"{base}.{node.module}" if node.module else base
-                else:
-                    base = node.module or ""
-                names = [
-                    f"{base}.{a.name}" if f"{base}.{a.name}" in SOURCES else base
-                    for a in node.names
-                ]
-            else:
-                continue
-            for name in names:
-                while name and name not in SOURCES:
-                    name = name.rpartition(".")[0]
-                if name and name != module:
-                    found.append((module, name, node.lineno, lines[node.lineno - 1].strip()))
-    return found
-
-
-IMPORTS = _imports()
+_TOOL = _import_graph_tool()
+SOURCES = _TOOL.sources()
+#: Every import statement of the package, as tools/import_graph.py reads them.
+IMPORTS = _TOOL.imports()
 
 
 def _graph(extra: tuple[tuple[str, str], ...] = ()) -> grimp.ImportGraph:

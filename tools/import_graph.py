@@ -49,15 +49,16 @@ def _type_only(tree: ast.Module) -> set[int]:
     }
 
 
-def graph(type_only_allowed_in: str | None = None) -> nx.DiGraph:
-    """Module -> module it imports, for every import statement of the package (less the
-    type-only ones of ``type_only_allowed_in``, when given)."""
+def imports(type_only_allowed_in: str | None = None) -> list[tuple[str, str, int, str]]:
+    """(importer, imported module, line, statement) for every import of an armtree module
+    by the package (less the type-only ones of ``type_only_allowed_in``, when given)."""
     modules = sources()
-    g = nx.DiGraph()
-    g.add_nodes_from(modules)
+    found = []
     for module, (path, is_package) in modules.items():
         package = module if is_package else module.rsplit(".", 1)[0]
-        tree = ast.parse(path.read_text(), str(path))
+        source = path.read_text()
+        lines = source.splitlines()
+        tree = ast.parse(source, str(path))
         skip = _type_only(tree) if module == type_only_allowed_in else set()
         for node in ast.walk(tree):
             if id(node) in skip:
@@ -82,7 +83,15 @@ def graph(type_only_allowed_in: str | None = None) -> nx.DiGraph:
                 while target and target not in modules:
                     target = target.rpartition(".")[0]
                 if target and target != module:
-                    g.add_edge(module, target)
+                    found.append((module, target, node.lineno, lines[node.lineno - 1].strip()))
+    return found
+
+
+def graph(type_only_allowed_in: str | None = None) -> nx.DiGraph:
+    """Module -> module it imports, for every import statement of the package."""
+    g = nx.DiGraph()
+    g.add_nodes_from(sources())
+    g.add_edges_from((a, b) for a, b, _, _ in imports(type_only_allowed_in))
     return g
 
 
