@@ -40,6 +40,7 @@ OLD = {
         "import subprocess\n"
         'ARGS = ["-m", "armtree.cli", "check"]\n'
         'SCHEMA = "$schema=armtree.schema.json"\n'
+        'PLUGIN = "from armtree.runtime import EXIT_FAILURE\\n"\n'
     ),
     "docs/a.md": "See core/runtime.py, core/motion/ and `armtree.cli.main`.\n",
     "pyproject.toml": (
@@ -104,6 +105,8 @@ def test_it_moves_rewrites_and_then_does_nothing(checkout: Path):
     assert '"armtree.runtime.runner.time"' in plugin
     test = (checkout / "tests/test_x.py").read_text()
     assert '"armtree.cli.commandline"' in test and "armtree.schema.json" in test
+    # an import written inside a string is pointed at the defining module too
+    assert '"from armtree.runtime.failure_report import EXIT_FAILURE\\n"' in test
     assert (checkout / "docs/a.md").read_text() == (
         "See core/runtime/runner.py, core/maths/motion/ and `armtree.cli.commandline.main`.\n"
     )

@@ -204,8 +204,8 @@ SYMBOLS: dict[tuple[str, str], str] = {
 #: (``armtree.schema.json`` is the shipped schema file).
 FILE_SUFFIXES = {"json", "yaml", "yml", "md", "txt", "toml", "png", "html", "py", "csv", "stl"}
 
-#: The files this script must not rewrite: itself (its tables name the old modules).
-SELF = "tools/relayout.py"
+#: The files this script must not rewrite: itself and its test (they name old modules).
+SELF = {"tools/relayout.py", "tests/test_relayout.py"}
 
 DOTTED = re.compile(r"(?<![\w.])armtree((?:\.[A-Za-z_]\w*)+)")
 PATH = re.compile(r"(?<![\w./-])(core|armtree)/(\w+(?:\.\w+)*(?:/\w+(?:\.\w+)*)*/?)")
@@ -222,6 +222,8 @@ class Plan:
     moves: list[tuple[str, str]] = field(default_factory=list)
     #: old path -> new path of every tracked file under a moved path.
     file_moves: dict[str, str] = field(default_factory=dict)
+    #: What each core module binds, by its new name (see :func:`index_names`).
+    index: dict[str, Names] = field(default_factory=dict)
 
 
 def run(*args: str, root: Path, check: bool = True) -> str:
@@ -353,8 +355,34 @@ MAIN_SPECIAL = [
 ]
 
 
+#: A one-line ``from armtree... import a, b`` in text that is not parsed as Python:
+#: templates, docs, and strings in code (a test writing a plugin file).
+FROM_LINE = re.compile(
+    r"(?<![\w.])from (armtree(?:\.[A-Za-z_]\w*)+) import ([A-Za-z_]\w*(?:, [A-Za-z_]\w*)*)"
+)
+
+
+def rewrite_from_lines(text: str, p: Plan) -> str:
+    """Point such imports at the module that defines each name (as for parsed ones)."""
+
+    def one(m: re.Match) -> str:
+        groups: dict[str, list[str]] = {}
+        for name in m.group(2).split(", "):
+            module, real = origin(m.group(1), name, p.index)
+            groups.setdefault(module, []).append(name if real == name else f"{real} as {name}")
+        if list(groups) == [m.group(1)]:
+            return m.group(0)
+        line_start = text.rfind("\n", 0, m.start()) + 1
+        indent = text[line_start : m.start()]
+        joiner = "\n" + indent if indent.strip() == "" else "; "
+        return joiner.join(f"from {mod} import {', '.join(names)}" for mod, names in groups.items())
+
+    return FROM_LINE.sub(one, text)
+
+
 def rewrite_text(text: str, p: Plan) -> str:
     text = rewrite_dotted(text, p)
+    text = rewrite_from_lines(text, p)
     text = rewrite_paths(text, p)
     for pattern, repl in SPECIAL:
         text = pattern.sub(repl, text)
@@ -636,12 +664,13 @@ def main(argv: list[str] | None = None) -> int:
 
     sources: dict[str, str] = {}
     for path in run("git", "ls-files", root=root).splitlines():
-        if path == SELF or not (root / path).is_file():
+        if path in SELF or not (root / path).is_file():
             continue
         source = text_of(root / path)
         if source is not None:
             sources[path] = source
     index = index_names({k: v for k, v in sources.items() if k.endswith(".py")}, p)
+    p.index = index
     rewritten: dict[str, str] = {}
     for path, source in sources.items():
         dest = p.file_moves.get(path, path)
