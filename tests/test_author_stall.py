@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from plugin_author import run_tree, write
 
-from armtree.runtime.run_start import DEFAULT_SIM_TIMEOUT_S
 from armtree.config.profile_sections import DEFAULT_STALL_S
+from armtree.runtime.run_start import DEFAULT_SIM_TIMEOUT_S
 from armtree.runtime.stall_watch import MOTION_TOL, StallWatch
 
 SKILLS = """

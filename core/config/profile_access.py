@@ -47,3 +47,11 @@ def profile_error(profile: Any, path: str, message: str) -> ConfigError:
     if callable(error) and not isinstance(profile, Mapping):
         return error(path, message)
     return ConfigError(f"{path}: {message}", file=profile_source(profile))
+
+
+def component_config(profile: Any, key: str) -> Any:
+    """A component's config with declared defaults filled in when the Profile offers that."""
+    component = getattr(profile, "component", None)
+    if callable(component):
+        return component(key)
+    return profile_section(profile, key)

@@ -43,6 +43,7 @@ from typing import Any
 from armtree.api.rig import TagSpec
 from armtree.config.calibration import check_calibration
 from armtree.config.params import check_value
+from armtree.config.profile_access import component_config
 from armtree.config.profile_include import apply_includes
 from armtree.config.profile_sections import (
     COMPONENT_SECTIONS,
@@ -1041,3 +1042,19 @@ def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
         items.item_marks = [marks.get(f"{prefix}.{i}") for i in range(len(data))]
         return items
     return data
+
+
+def arm_grips(registry: Any, profile: Any) -> str | bool | None:
+    """What the profile's arm holds things with (its factory's ``grips_with(config)``):
+    ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
+    config = component_config(profile, "arm")
+    name = config.get("type") if isinstance(config, Mapping) else None
+    if not isinstance(name, str) or not registry.has("arm", name):
+        return True
+    grips = getattr(registry.get("arm", name).factory, "grips_with", None)
+    if not callable(grips):
+        return True
+    try:
+        return grips(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return True  # the profile's own checks report why

@@ -1,4 +1,4 @@
-"""The simulated world as ``expect:`` predicates read it (:class:`armtree.api.outcomes.WorldTruth`).
+"""The simulated world as ``expect:`` predicates read it (:class:`armtree.api.outcomes.truth.WorldTruth`).
 
 :func:`world_truth` reports a running world's ground truth at the end of a run;
 :func:`scene_truth` the nominal world a profile describes, for checking names

@@ -33,11 +33,12 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from armtree.api.sweep import Sweep
 from armtree.cli.commandline import add_tree_arguments
 from armtree.errors import ConfigError
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
-from .hooks import Sweep, SweepHooks, add_plugin_options, plugin_settings
+from .hooks import SweepHooks, add_plugin_options, plugin_settings
 from .options import check_address, parse_seeds
 from .report import summarise, write_report
 from .task import DIED, Outcome, RunTask
