@@ -248,10 +248,12 @@ class PtyEmulator(FirmwareEmulator):
                 self._drop_rate = float(options.get("rate", 0.0))
                 self._drop_count += int(options.get("count", 0))
             elif fault == "cut":
-                self.barrier.detach()
                 if options.get("silent"):
+                    # The handshake goes on: the driver then sees the run's time pass
+                    # without a reply and finds the link lost at the same tick every run.
                     self._silent = True
                 else:
+                    self.barrier.detach()
                     self._hang_up()
             elif fault == "missed_steps":
                 self.joints.miss_steps(int(options.get("joint", 0)), float(options["amount"]))
