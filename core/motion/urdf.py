@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import ConfigError, Unreachable
 from .kinematics import Joint, KinematicModel, LinkBox
+from .pan_pitch import PanPitch
 
 #: Attributes that must hold numbers, per element, and how many.
 _NUMBERS = {
@@ -51,6 +52,8 @@ _KINDS = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prisma
 #: Iterations of the damped least squares and how small an error counts as reached (mm).
 IK_ITERATIONS = 80
 IK_TOL_MM = 0.05
+#: How far off (mm, and weighted radians) a closed-form solution may be and still be polished.
+POLISH_MM = 5.0
 #: Weight of the tool-axis and orientation errors against the position's, mm per radian.
 AXIS_WEIGHT = 200.0
 
@@ -113,6 +116,8 @@ class UrdfModel(KinematicModel):
         self._axes = np.array([c.axis for c in self._moving]).reshape(-1, 3)
         self.boxes = tuple(boxes)
         self.self_collision_pairs = self._collision_pairs()
+        #: The closed form of a pan-and-three-pitches arm holding ``tool_axis``, when this is one.
+        self.closed_form = PanPitch.detect(self) if self.tool_axis is not None else None
         self._recent: dict[tuple, np.ndarray] = {}
         self._recent_lock = threading.Lock()
 
@@ -135,6 +140,12 @@ class UrdfModel(KinematicModel):
             out[:, k] = frame
         return out.reshape(*lead, len(self.chain) + 1, 4, 4)
 
+    def joint_axes(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each joint's axis direction and a point on it at one configuration ``q``,
+        ``(n, 3)`` each, base frame (mm)."""
+        frames = self.link_frames(np.asarray(q, dtype=float))[self._joint_frames]
+        return np.einsum("nij,nj->ni", frames[:, :3, :3], self._axes), frames[:, :3, 3].copy()
+
     # ------------------------------------------------------------------ IK
 
     def ik_all(self, target: np.ndarray, seeds: np.ndarray | None = None) -> np.ndarray:
@@ -156,6 +167,10 @@ class UrdfModel(KinematicModel):
         lead = target.shape[:-2] if full else target.shape[:-1]
         flat = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
         starts = self.seeds if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
+        if not full and self.closed_form is not None:
+            free = np.clip(starts[0], self.lower, self.upper)
+            found = self._polished(self.closed_form.solve(self, flat, self.tool_axis, free), flat)
+            return _distinct(found).reshape(*lead, found.shape[1], self.dof)
         n_s = starts.shape[0]
         q = np.tile(np.clip(starts, self.lower, self.upper), (flat.shape[0], 1))
         goals = np.repeat(flat, n_s, axis=0)
@@ -187,13 +202,38 @@ class UrdfModel(KinematicModel):
             )
         return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
 
+    def _polished(self, candidates: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Closed-form ``candidates`` ``(T, S, n)`` for position ``targets`` ``(T, 3)``: those
+        forward kinematics puts on the target (within the solver's tolerance) as they are,
+        those a few millimetres off (rounded figures) taken there by the solver; NaN else."""
+        flat = candidates.reshape(-1, self.dof).copy()
+        live = np.flatnonzero(np.isfinite(flat).all(axis=1))
+        if live.size == 0:
+            return candidates
+        goals = np.repeat(targets, candidates.shape[1], axis=0)[live]
+        err, _ = self._residual(flat[live], goals, False, jacobian=False)
+        miss = np.sqrt(np.einsum("mk,mk->m", err, err))
+        near = (miss >= IK_TOL_MM) & (miss < POLISH_MM)
+        if near.any():
+            start = np.clip(flat[live[near]], self.lower, self.upper)
+            flat[live[near]], miss[near] = self._solve(start, goals[near], False, 8)
+        flat[live[~((miss < IK_TOL_MM) & self.within_limits(flat[live]))]] = np.nan
+        return flat.reshape(candidates.shape)
+
     def _residual(
-        self, q: np.ndarray, goals: np.ndarray, full: bool
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, q: np.ndarray, goals: np.ndarray, full: bool, jacobian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Errors ``(M, k)`` (mm, and radians times :data:`AXIS_WEIGHT`) and their
-        Jacobian ``(M, k, n)`` per degree (or mm) of each joint."""
+        Jacobian ``(M, k, n)`` per degree (or mm) of each joint (None without ``jacobian``)."""
         frames = self.link_frames(q)
         tool = frames[:, -1]
+        if not jacobian:
+            errors = [(goals[:, :3, 3] if full else goals) - tool[:, :3, 3]]
+            if full:
+                errors.append(AXIS_WEIGHT * _rotation_error(tool[:, :3, :3], goals[:, :3, :3]))
+            elif self.tool_axis is not None:
+                errors.append(AXIS_WEIGHT * (self.tool_axis - tool[:, :3, 2]))
+            return np.concatenate(errors, axis=1), None
         tip = tool[:, :3, 3]
         at = frames[:, self._joint_frames]  # (M, n, 4, 4)
         axes = np.einsum("mnij,nj->mni", at[:, :, :3, :3], self._axes)  # world axes (M, n, 3)
@@ -212,7 +252,9 @@ class UrdfModel(KinematicModel):
         jac = np.concatenate(rows, axis=2).transpose(0, 2, 1)
         return np.concatenate(errors, axis=1), jac
 
-    def _solve(self, q: np.ndarray, goals: np.ndarray, full: bool) -> tuple[np.ndarray, np.ndarray]:
+    def _solve(
+        self, q: np.ndarray, goals: np.ndarray, full: bool, iterations: int = IK_ITERATIONS
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Levenberg-Marquardt steps on every problem at once, each clamped to the limits;
         returns the joints and each problem's remaining error (mm)."""
         damping = np.full(q.shape[0], 1.0)
@@ -220,14 +262,22 @@ class UrdfModel(KinematicModel):
         cost = np.einsum("mk,mk->m", err, err)
         live = np.ones(q.shape[0], dtype=bool)
         eye = np.eye(err.shape[1])
-        for _ in range(IK_ITERATIONS):
+        for _ in range(iterations):
             idx = np.flatnonzero(live)
             if idx.size == 0:
                 break
-            j, e = jac[idx], err[idx]
-            lhs = j @ j.transpose(0, 2, 1) + damping[idx, None, None] ** 2 * eye
-            step = np.einsum("mkn,mk->mn", j, np.linalg.solve(lhs, e[..., None])[..., 0])
-            trial = np.clip(q[idx] + step, self.lower, self.upper)
+            j, e, here = jac[idx], err[idx], q[idx]
+            step = _damped_step(j, e, damping[idx], eye)
+            # a joint at a limit that the step pushes further out is held there and the
+            # step taken with the others (else clipping leaves the rest stuck short of it)
+            held = ((here <= self.lower + 1e-9) & (step < 0)) | (
+                (here >= self.upper - 1e-9) & (step > 0)
+            )
+            if held.any():
+                rows = held.any(axis=1)
+                free = j[rows] * ~held[rows][:, None, :]
+                step[rows] = _damped_step(free, e[rows], damping[idx][rows], eye)
+            trial = np.clip(here + step, self.lower, self.upper)
             e2, j2 = self._residual(trial, goals[idx], full)
             c2 = np.einsum("mk,mk->m", e2, e2)
             better = c2 < cost[idx]
@@ -555,6 +605,14 @@ def _motion(part: ChainLink, values: np.ndarray) -> np.ndarray:
     out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = t * x * y + s * z, t * y * y + c, t * y * z - s * x
     out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = t * x * z - s * y, t * y * z + s * x, t * z * z + c
     return out
+
+
+def _damped_step(
+    jac: np.ndarray, err: np.ndarray, damping: np.ndarray, eye: np.ndarray
+) -> np.ndarray:
+    """Damped least-squares steps ``J^T (J J^T + damping^2 I)^-1 e``, one per problem."""
+    lhs = jac @ jac.transpose(0, 2, 1) + damping[:, None, None] ** 2 * eye
+    return np.einsum("mkn,mk->mn", jac, np.linalg.solve(lhs, err[..., None])[..., 0])
 
 
 def _rotation_error(current: np.ndarray, wanted: np.ndarray) -> np.ndarray:
