@@ -8,8 +8,12 @@ answers late and trips a servo's overload protection when asked.
 
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
 import time
 from contextlib import contextmanager
+from pathlib import Path
 
 import dynamixel_sdk as dxl
 import numpy as np
@@ -198,3 +202,36 @@ def test_an_overloaded_servo_drops_its_torque_and_says_so(bus, model, sdk):
             assert ph.ping(port, 1)[2] == 0  # its neighbours are fine
         finally:
             port.closePort()
+
+
+BIN = Path(sys.executable).parent
+
+
+@pytest.mark.skipif(
+    not (BIN / "armtree").exists(), reason="the armtree console script is not installed"
+)
+@pytest.mark.parametrize(("arm", "sdk", "model"), [("so101", scs, 777), ("koch", dxl, 1060)])
+def test_armtree_emulate_serves_the_arm_the_vendor_sdk_pings(arm, sdk, model):
+    proc = subprocess.Popen(
+        [str(BIN / "armtree"), "emulate", arm],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        path = proc.stdout.readline().strip()
+        assert path.startswith("/dev/pts/"), proc.stderr.read()
+        port = open_port(sdk, path)
+        ph = sdk.PacketHandler(0) if sdk is scs else sdk.PacketHandler(2.0)
+        try:
+            found = [ph.ping(port, i) for i in range(1, 7)]
+        finally:
+            port.closePort()
+        assert [f[1] for f in found] == [sdk.COMM_SUCCESS] * 6
+        assert found[0][0] == model  # the shoulder pan: an STS3215, or the Koch's XL430
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 130
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

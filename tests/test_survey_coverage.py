@@ -23,7 +23,7 @@ from armtree.plugins.skills.coverage import unseen
 from armtree.rig_builder import build_rig
 from armtree.workcell import workcell_of
 
-SIM_PROFILES = ("sim_dobot", "sim_magician", "sim_vicra", "sim_dh")
+SIM_PROFILES = ("sim_dobot", "sim_magician", "sim_vicra", "sim_dh", "sim_so101", "sim_koch")
 
 
 def region_points(spec: dict, z: float, step: float = 5.0) -> np.ndarray:

@@ -168,8 +168,13 @@ class UrdfModel(KinematicModel):
         flat = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
         starts = self.seeds if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
         if not full and self.closed_form is not None:
-            free = np.clip(starts[0], self.lower, self.upper)
-            found = self._polished(self.closed_form.solve(self, flat, self.tool_axis, free), flat)
+            found = np.concatenate(
+                [
+                    self._polished(self.closed_form.solve(self, flat, self.tool_axis, f), flat)
+                    for f in self._free_values(starts[0])
+                ],
+                axis=1,
+            )
             return _distinct(found).reshape(*lead, found.shape[1], self.dof)
         n_s = starts.shape[0]
         q = np.tile(np.clip(starts, self.lower, self.upper), (flat.shape[0], 1))
@@ -201,6 +206,22 @@ class UrdfModel(KinematicModel):
                 "or the joint limits"
             )
         return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
+
+    def _free_values(self, start: np.ndarray) -> list[np.ndarray]:
+        """The closed form's references: the free joints (a roll) as ``start`` has them and
+        the first turned half a turn (a tool centre beside the roll axis then reaches the
+        other way), the rest at home; each within the limits."""
+        free = list(self.closed_form.free) if self.closed_form is not None else []
+        out = []
+        for turn in (0.0, 180.0):
+            q = self.home.copy()
+            q[free] = start[free]
+            if free:
+                k = free[0]
+                q[k] = q[k] + turn if q[k] + turn <= self.upper[k] else q[k] - turn
+            if turn == 0.0 or self.within_limits(q):
+                out.append(np.clip(q, self.lower, self.upper))
+        return out
 
     def _polished(self, candidates: np.ndarray, targets: np.ndarray) -> np.ndarray:
         """Closed-form ``candidates`` ``(T, S, n)`` for position ``targets`` ``(T, 3)``: those
@@ -598,6 +619,16 @@ def _motion(part: ChainLink, values: np.ndarray) -> np.ndarray:
         return out
     angle = np.radians(values)
     c, s = np.cos(angle), np.sin(angle)
+    along = np.flatnonzero(np.abs(part.axis) == 1.0)
+    if along.size:
+        # about a frame axis (most joints): the other two axes turn, by the axis's sign
+        k = int(along[0])
+        i, j = (k + 1) % 3, (k + 2) % 3
+        s = s * part.axis[k]
+        out[:, k, k] = 1.0
+        out[:, i, i] = out[:, j, j] = c
+        out[:, i, j], out[:, j, i] = -s, s
+        return out
     x, y, z = part.axis
     t = 1.0 - c
     # Rodrigues' rotation about a unit axis

@@ -57,6 +57,8 @@ from .bus import Packet, PacketReader, decode_value, encode_value, ids_text
 from .spec import ArmSpec, ServoLink
 from .tables import TIME_BASED_PROFILE, ServoModel, model_name, protocol_for
 
+#: One count of a servo's encoder, degrees.
+COUNT_DEG = 360.0 / 4096
 #: Counts a servo may stay from its goal and still be there.
 ARRIVED_COUNTS = 3
 #: Seconds past a move's end a servo may take to arrive before the move fails.
@@ -172,6 +174,8 @@ class BusServoDriver(SerialArmDriver):
         self._current: _Request | None = None
         self._script: Iterator[_Request] | None = None
         self._ready = False
+        self._probing = False
+        self._torque_on = False
         self._setup_error: str | None = None
         self._next_poll = -math.inf
         self._polls = 0
@@ -308,6 +312,8 @@ class BusServoDriver(SerialArmDriver):
                 lambda w: codec.sync_read(address, size, w),
                 lambda p: self._check_model(p.id, decode_value(p.params, None)),
             )
+        if self._probing:
+            return
         yield self._write_all("torque_enable", 0)
         if self.spec.bus == "feetech":
             yield self._write_all("lock", 0)
@@ -319,6 +325,7 @@ class BusServoDriver(SerialArmDriver):
         yield self._status_read()
         if self.hold:
             yield self._hold_here()
+            self._torque_on = True
             yield self._write_all("torque_enable", 1)
             if self.spec.bus == "feetech":
                 yield self._write_all("lock", 1)
@@ -428,8 +435,14 @@ class BusServoDriver(SerialArmDriver):
             return 0
         if self.spec.bus == "dynamixel":
             return max(1, int(round(seconds * 1000.0)))
-        distance = abs(counts - self._goals.get(servo_id, counts))
-        return max(1, int(round(distance / seconds)))
+        # from the last goal, or from where it was last read when it lags behind that (a set
+        # point sent early on a busy host): a servo never crawls the last counts home
+        present = self.servos[servo_id].present
+        distance = max(
+            abs(counts - self._goals.get(servo_id, counts)),
+            0 if present is None else abs(counts - present),
+        )
+        return 0 if distance == 0 else max(1, int(round(distance / seconds)))
 
     def _goal_request(
         self, goals: dict[int, int], speeds: dict[int, int] | None = None
@@ -658,7 +671,14 @@ class BusServoDriver(SerialArmDriver):
         key = ("path", tuple(self._counts(checked[-1]).items()), round(float(speed), 3))
         if self.is_duplicate(key) and self._last_handle is not None and not self._last_handle.done:
             return self._last_handle
+        # a joint read a count past its limit (the goal was rounded to whole counts) starts
+        # from the limit
         start = self.joints()
+        start = np.where(
+            np.abs(start - np.clip(start, self.model.lower, self.model.upper)) < COUNT_DEG * 1.5,
+            np.clip(start, self.model.lower, self.model.upper),
+            start,
+        )
         try:
             trajectory = timed_path(
                 np.vstack([start, *checked]), self.trajectory_kind, self.checker, speed
@@ -759,6 +779,11 @@ class BusServoDriver(SerialArmDriver):
                 )
         return handle
 
+    def joint_counts(self) -> list[int | None]:
+        """Each arm joint's servo position as last read (counts, 4096 a turn), joint order."""
+        with self._lock:
+            return [self.servos[s.id].present for s in self.spec.joints]
+
     def present(self) -> dict[int, int | None]:
         """Every servo's present position as last read (counts), by id."""
         with self._lock:
@@ -771,8 +796,17 @@ class BusServoDriver(SerialArmDriver):
         if ser is not None and self._fault is None:
             self.write(request.packet([]))
 
+    def probe(self) -> None:
+        """Connect as far as the pings and model numbers, changing nothing (detect-port)."""
+        self._probing = True
+        try:
+            self.connect()
+        finally:
+            self._probing = False
+
     def close(self) -> None:
-        """Torque off on every servo, then release the port (on every way out)."""
-        if self._connected and self._fault is None:
+        """Torque off on every servo it turned on, then release the port (on every way out)."""
+        if self._torque_on and self._fault is None:
             self._torque_off()
+        self._torque_on = False
         super().close()
