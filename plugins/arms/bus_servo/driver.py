@@ -99,6 +99,8 @@ class _Request:
     attempts: int = 0
     sent_at: float = -math.inf
     sent_wall: float = -math.inf
+    first_at: float = -math.inf
+    first_wall: float = -math.inf
 
 
 @dataclass
@@ -241,8 +243,8 @@ class BusServoDriver(SerialArmDriver):
             request = self._current
             if request is not None and request.waiting and self._late(request, now):
                 self.lost_status += len(request.waiting)
-                if request.attempts > self.retries:
-                    failure = self._silent(request)
+                if self._given_up(request, now):
+                    failure = self._silent(request, now)
                     self._torque_off()
                 else:
                     out += self._send(request, now)
@@ -274,6 +276,7 @@ class BusServoDriver(SerialArmDriver):
         """The request's bytes: first to every servo it asks, then to those still silent."""
         if request.attempts == 0:
             request.waiting = list(request.ids)
+            request.first_at, request.first_wall = now, time.monotonic()
         request.attempts += 1
         request.sent_at, request.sent_wall = now, time.monotonic()
         return request.packet(list(request.waiting))
@@ -283,13 +286,25 @@ class BusServoDriver(SerialArmDriver):
             return time.monotonic() - request.sent_wall >= max(self.reply_timeout, SETUP_TIMEOUT_S)
         return now - request.sent_at >= self.reply_timeout - 1e-9
 
-    def _silent(self, request: _Request) -> str:
+    def _given_up(self, request: _Request, now: float) -> bool:
+        """The retry budget is spent: ``retries`` more asks and at least ``link_timeout`` of
+        silence (a host stalled for a moment is not a servo gone; while connecting, at
+        most half the time connecting may take)."""
+        if request.attempts <= self.retries:
+            return False
+        if not self._ready:
+            wait = min(self.link_timeout, 0.5 * self.connect_timeout)
+            return time.monotonic() - request.first_wall >= wait
+        return now - request.first_at >= self.link_timeout - 1e-9
+
+    def _silent(self, request: _Request, now: float) -> str:
         names = ", ".join(f"{i} ({self._joint_of.get(i, '?')})" for i in request.waiting)
         servo = "servo" if len(request.waiting) == 1 else "servos"
+        since = time.monotonic() - request.first_wall if not self._ready else now - request.first_at
         return (
-            f"{servo} {names} did not answer {request.what} {request.attempts} times "
-            f"({self.lost_status} status packets lost in all): check the servo's cable, power "
-            f"and id, and the baud rate ({self.baud:,})"
+            f"{servo} {names} did not answer {request.what} in {request.attempts} asks over "
+            f"{since:.2f} s ({self.lost_status} status packets lost in all): check the servo's "
+            f"cable, power and id, and the baud rate ({self.baud:,})"
         )
 
     def _no_answer_message(self) -> str:

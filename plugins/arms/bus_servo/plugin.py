@@ -184,11 +184,13 @@ def _factory(preset: str | None) -> Any:
     #: Faults the emulator takes (``world.faults``), besides every emulator's.
     factory.faults = (*FAULTS, *BUS_FAULTS)
     factory.PARAMS = _params(PRESETS.get(preset or "", {}))
-    factory.__doc__ = (
-        "Any URDF arm on Feetech or Dynamixel bus servos (port: sim for the emulator)."
-        if preset is None
-        else f"The {preset} arm on its bus servos (port: sim for the emulator)."
-    )
+    factory.__doc__ = {
+        None: "Any URDF arm on Feetech or Dynamixel bus servos (port: sim for the emulator).",
+        "so101": "The SO-101: six Feetech STS3215 bus servos, hardware/so101.urdf "
+        "(port: sim for the emulator).",
+        "koch": "The Koch v1.1: Dynamixel XL430 and XL330 servos (Protocol 2.0), "
+        "hardware/koch.urdf (port: sim for the emulator).",
+    }[preset]
     return factory
 
 
