@@ -165,13 +165,8 @@ def _factory(preset: str | None) -> Any:
         """The arm's servos, checked."""
         return arm_spec(_config(config, preset))
 
-    def validate(config: dict[str, Any], profile: Any) -> None:
-        """Load-time checks beyond the model's: every servo and its calibration."""
-        arm_spec(_config(config, preset))
-
     factory.model = model
     factory.spec = spec
-    factory.validate = validate
     factory.simulated = on_emulator
     factory.emulator = lambda config, clock, seed=0: emulator_for(config, clock, seed, preset)
     factory.calibrate_servos = lambda config, profile, **io: {
