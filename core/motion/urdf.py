@@ -30,10 +30,11 @@ import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, Unreachable
+from ..errors import ConfigError
 from .kinematics import Joint, KinematicModel, LinkBox
 from .pan_pitch import PanPitch
 
@@ -189,23 +190,10 @@ class UrdfModel(KinematicModel):
                     del self._recent[next(iter(self._recent))]
         return out
 
-    def ik(self, target: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
-        """One solution, the nearest to ``near`` (default: home), which is tried first."""
-        target = np.asarray(target, dtype=float)
-        if not np.isfinite(target).all():
-            raise Unreachable(f"{self.name}: target {target.tolist()} is not finite")
-        ref = (
-            self.home if near is None else np.clip(np.asarray(near, float), self.lower, self.upper)
-        )
-        sols = self.ik_all(target, seeds=np.vstack([ref, self.seeds]))
-        sols = sols[np.isfinite(sols).all(axis=-1)]
-        if len(sols) == 0:
-            shown = target[:3, 3] if target.shape == (4, 4) else target
-            raise Unreachable(
-                f"{self.name}: target {np.round(shown, 2).tolist()} mm is outside the workspace "
-                "or the joint limits"
-            )
-        return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
+    def ik_starts(self, near: np.ndarray) -> dict[str, Any]:
+        """``near`` (within the limits) tried first, then the model's seeds."""
+        ref = np.clip(np.asarray(near, dtype=float), self.lower, self.upper)
+        return {"seeds": np.vstack([ref, self.seeds])}
 
     def _free_values(self, start: np.ndarray) -> list[np.ndarray]:
         """The closed form's references: the free joints (a roll) as ``start`` has them and

@@ -73,6 +73,11 @@ GRIP_SPEED_DEG_S = 120.0
 TRAJECTORY_KINDS = ("cubic", "quintic")
 
 
+def _time_based(drive_mode: int) -> int | None:
+    """A Dynamixel's Drive Mode with the time-based profile bit set; None when it is."""
+    return None if drive_mode & TIME_BASED_PROFILE else drive_mode | TIME_BASED_PROFILE
+
+
 @dataclass
 class ServoState:
     """What a servo last reported: present position (counts), load (per mille of its
@@ -333,10 +338,13 @@ class BusServoDriver(SerialArmDriver):
         if self.spec.bus == "feetech":
             yield self._write_all("lock", 0)
         for link in self.spec.links:
+            offset = link.calibration.homing_offset
             if link.calibrated:
-                yield from self._offset(link)
+                yield from self._ensure(
+                    link, "homing_offset", lambda v, o=offset: None if v == o else o
+                )
             if self.spec.bus == "dynamixel":
-                yield from self._time_based(link)
+                yield from self._ensure(link, "drive_mode", _time_based)
         yield self._status_read()
         if self.hold:
             yield self._hold_here()
@@ -369,40 +377,26 @@ class BusServoDriver(SerialArmDriver):
                 f"arm.servos.{self._joint_of[servo_id]}.model"
             )
 
-    def _offset(self, link: ServoLink) -> Iterator[_Request]:
-        reg = link.model.register("homing_offset")
+    def _ensure(
+        self, link: ServoLink, register: str, wanted: Callable[[int], int | None]
+    ) -> Iterator[_Request]:
+        """Read ``register`` of ``link``'s servo, then write ``wanted(value)`` to it unless
+        that is None (the register already holds what it should)."""
+        reg = link.model.register(register)
         found: list[int] = []
         yield _Request(
-            "a read of its homing offset",
+            f"a read of its {register}",
             [link.id],
             lambda w: self.codec.read(link.id, reg.address, reg.size),
             lambda p: found.append(decode_value(p.params, reg.encoding, self.codec.byteorder)),
         )
-        if found and found[0] != link.calibration.homing_offset:
-            data = encode_value(
-                link.calibration.homing_offset, reg.size, reg.encoding, self.codec.byteorder
-            )
+        value = wanted(found[0]) if found else None
+        if value is not None:
+            data = encode_value(value, reg.size, reg.encoding, self.codec.byteorder)
             yield _Request(
-                "the write of its homing offset",
+                f"the write of its {register}",
                 [link.id],
                 lambda w: self.codec.write(link.id, reg.address, data),
-            )
-
-    def _time_based(self, link: ServoLink) -> Iterator[_Request]:
-        reg = link.model.register("drive_mode")
-        found: list[int] = []
-        yield _Request(
-            "a read of its drive mode",
-            [link.id],
-            lambda w: self.codec.read(link.id, reg.address, reg.size),
-            lambda p: found.append(p.params[0] if p.params else 0),
-        )
-        if found and not found[0] & TIME_BASED_PROFILE:
-            value = bytes((found[0] | TIME_BASED_PROFILE,))
-            yield _Request(
-                "the write of its drive mode",
-                [link.id],
-                lambda w: self.codec.write(link.id, reg.address, value),
             )
 
     def _write_all(self, register: str, value: int) -> _Request:
