@@ -65,6 +65,7 @@ ARRIVED_COUNTS = 3
 SETTLE_S = 1.0
 #: Wall seconds a reply may take while connecting (the run's clock may not move then).
 SETUP_TIMEOUT_S = 0.15
+SIM_SETUP_TIMEOUT_S = 0.4
 #: Polls between reads of the voltage and temperature, where they are read apart.
 HEALTH_EVERY = 10
 #: How fast the gripper servo turns, degrees a second.
@@ -100,6 +101,9 @@ class _Request:
     ids: list[int]
     packet: Callable[[list[int]], bytes]
     on_reply: Callable[[Packet], None] | None = None
+    #: Data bytes each awaited status packet carries (None: any); a packet of another
+    #: size is a late answer to an earlier request, not this one's.
+    size: int | None = None
     waiting: list[int] = field(default_factory=list)
     attempts: int = 0
     sent_at: float = -math.inf
@@ -171,6 +175,8 @@ class BusServoDriver(SerialArmDriver):
         self.guard = StatusGuard(model)
         #: Status packets that did not come when asked (each asked again, within the budget).
         self.lost_status = 0
+        #: Ids of the servos that have answered since the port opened.
+        self.servos_heard: set[int] = set()
         #: Every servo's last report, by id.
         self.servos: dict[int, ServoState] = {i: ServoState() for i in spec.ids}
         #: The newest trajectory followed and its start on the run clock (s).
@@ -217,6 +223,7 @@ class BusServoDriver(SerialArmDriver):
             self._current = None
             self._ready = False
             self._setup_error = None
+            self.servos_heard.clear()
             self.guard.reset()
             self._script = self._setup()
 
@@ -231,7 +238,10 @@ class BusServoDriver(SerialArmDriver):
                 request = self._current
                 if not packet.is_status or request is None or packet.id not in request.waiting:
                     continue
+                if request.size is not None and len(packet.params) != request.size:
+                    continue
                 request.waiting.remove(packet.id)
+                self.servos_heard.add(packet.id)
                 self.mark_alive()
                 if packet.error and self._status_error(packet):
                     return
@@ -288,7 +298,10 @@ class BusServoDriver(SerialArmDriver):
 
     def _late(self, request: _Request, now: float) -> bool:
         if not self._ready:
-            return time.monotonic() - request.sent_wall >= max(self.reply_timeout, SETUP_TIMEOUT_S)
+            # an emulator stepped with the run (a barrier) answers as soon as it is pumped:
+            # what has not come by then is lost, unless the machine is very busy
+            wait = SIM_SETUP_TIMEOUT_S if self.barrier is not None else SETUP_TIMEOUT_S
+            return time.monotonic() - request.sent_wall >= max(self.reply_timeout, wait)
         return now - request.sent_at >= self.reply_timeout - 1e-9
 
     def _given_up(self, request: _Request, now: float) -> bool:
@@ -315,6 +328,14 @@ class BusServoDriver(SerialArmDriver):
     def _no_answer_message(self) -> str:
         if self._setup_error is not None or self._fault is not None:
             return f"the {self.spec.bus} servos did not all come up as configured"
+        request = self._current
+        if request is not None and request.waiting and self.servos_heard:
+            names = ", ".join(f"{i} ({self._joint_of.get(i, '?')})" for i in request.waiting)
+            return (
+                f"the {self.spec.bus} servos did not all come up within "
+                f"{self.connect_timeout:g} s: {names} still silent to {request.what} "
+                f"(the others answered): check the servo's cable, power and id"
+            )
         return super()._no_answer_message()
 
     # ------------------------------------------------------------------ connecting
@@ -323,7 +344,13 @@ class BusServoDriver(SerialArmDriver):
         """The requests that bring the bus up, each after the one before has its answers."""
         codec, ids = self.codec, self.spec.ids
         for servo_id in ids:
-            yield _Request("a ping", [servo_id], lambda w, i=servo_id: codec.ping(i), self._on_ping)
+            yield _Request(
+                "a ping",
+                [servo_id],
+                lambda w, i=servo_id: codec.ping(i),
+                self._on_ping,
+                size=len(codec.ping_reply(0, 0)),
+            )
         if self.spec.bus == "feetech":  # a Feetech ping carries no model number
             address, size = self.spec.links[0].model.span("model_number", "model_number")
             yield _Request(
@@ -331,6 +358,7 @@ class BusServoDriver(SerialArmDriver):
                 ids,
                 lambda w: codec.sync_read(address, size, w),
                 lambda p: self._check_model(p.id, decode_value(p.params, None)),
+                size=size,
             )
         if self._probing:
             return
@@ -389,6 +417,7 @@ class BusServoDriver(SerialArmDriver):
             [link.id],
             lambda w: self.codec.read(link.id, reg.address, reg.size),
             lambda p: found.append(decode_value(p.params, reg.encoding, self.codec.byteorder)),
+            size=reg.size,
         )
         value = wanted(found[0]) if found else None
         if value is not None:
@@ -397,6 +426,7 @@ class BusServoDriver(SerialArmDriver):
                 f"the write of its {register}",
                 [link.id],
                 lambda w: self.codec.write(link.id, reg.address, data),
+                size=0,
             )
 
     def _write_all(self, register: str, value: int) -> _Request:
@@ -485,6 +515,7 @@ class BusServoDriver(SerialArmDriver):
             list(self.spec.ids),
             lambda w: self.codec.sync_read(address, length, w),
             self._on_status,
+            size=length,
         )
 
     def _health_read(self) -> _Request:
@@ -494,6 +525,7 @@ class BusServoDriver(SerialArmDriver):
             list(self.spec.ids),
             lambda w: self.codec.sync_read(address, length, w),
             lambda p: self._store(p, address),
+            size=length,
         )
 
     def _on_status(self, packet: Packet) -> None:
@@ -590,6 +622,7 @@ class BusServoDriver(SerialArmDriver):
                             servo,
                             dynamixel.error_names(dynamixel.ALERT, p.params[0] if p.params else 0),
                         ),
+                        size=reg.size,
                     )
                 )
                 if not names:
@@ -784,6 +817,7 @@ class BusServoDriver(SerialArmDriver):
                         [servo_id],
                         lambda w, i=servo_id, d=data, a=reg.address: self.codec.write(i, a, d),
                         (lambda p: handle.update(MotionStatus.DONE)) if last else None,
+                        size=0,
                     )
                 )
         return handle
