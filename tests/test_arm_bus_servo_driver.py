@@ -182,3 +182,16 @@ def test_dynamixel_servos_move_in_a_time_based_profile():
         assert all(s.get("drive_mode") & 4 == 0 for s in sim.emu.servos.values())
         connected(sim)
         assert all(s.get("drive_mode") & 4 for s in sim.emu.servos.values())
+
+
+@pytest.mark.parametrize("name", ["so101", "koch"])
+def test_two_runs_exchange_the_same_bytes_at_the_same_times(name):
+    def run():
+        with Sim(name) as sim:
+            sim.emu.inject("lost_replies", rate=0.05)
+            connected(sim)
+            sim.until(sim.arm.move_to(np.array([120.0, -60.0, 45.0])))
+            return sim.arm.lost_status, list(sim.emu.transcript)
+
+    first = run()
+    assert first[0] > 0 and first == run()

@@ -37,7 +37,7 @@ def fractions(n: int):
     return st.lists(st.floats(0.0, 1.0), min_size=n, max_size=n)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=25, deadline=None)
 @given(f=fractions(5))
 def test_forward_kinematics_is_yourdfpys(arm, f):
     model, reference = arm
@@ -54,7 +54,7 @@ def test_forward_kinematics_is_yourdfpys(arm, f):
     np.testing.assert_allclose(batch[1], model.link_frames(q))
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=25, deadline=None)
 @given(f=fractions(5), nudge=fractions(5))
 def test_inverse_kinematics_finds_a_pose_forward_kinematics_gave(arm, f, nudge):
     model, _ = arm

@@ -154,12 +154,6 @@ class UrdfModel(KinematicModel):
         ``(..., S, n)`` degrees, one row per start, NaN where it did not converge within the
         limits; a solution found from two starts is given once."""
         target = np.asarray(target, dtype=float)
-        key = None
-        if target.size <= 16 and seeds is None:
-            key = (target.shape, target.tobytes())
-            with self._recent_lock:
-                if key in self._recent:
-                    return self._recent[key].copy()
         full = target.shape[-2:] == (4, 4)
         if not full and target.shape[-1] != 3:
             raise ValueError(
@@ -168,7 +162,16 @@ class UrdfModel(KinematicModel):
         lead = target.shape[:-2] if full else target.shape[:-1]
         flat = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
         starts = self.seeds if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
-        if not full and self.closed_form is not None:
+        closed = not full and self.closed_form is not None
+        key = None
+        if target.size <= 16 and (seeds is None or closed):
+            # the closed form depends on the first start's free joints only
+            free = list(self.closed_form.free) if closed else []
+            key = (target.shape, target.tobytes(), starts[0][free].tobytes() if closed else b"")
+            with self._recent_lock:
+                if key in self._recent:
+                    return self._recent[key].copy()
+        if closed:
             found = np.concatenate(
                 [
                     self._polished(self.closed_form.solve(self, flat, self.tool_axis, f), flat)
@@ -176,17 +179,23 @@ class UrdfModel(KinematicModel):
                 ],
                 axis=1,
             )
-            return _distinct(found).reshape(*lead, found.shape[1], self.dof)
+            out = _distinct(found).reshape(*lead, found.shape[1], self.dof)
+            return self._remembered(key, out)
         n_s = starts.shape[0]
         q = np.tile(np.clip(starts, self.lower, self.upper), (flat.shape[0], 1))
         goals = np.repeat(flat, n_s, axis=0)
         q, err = self._solve(q, goals, full)
         q[~((err < IK_TOL_MM) & self.within_limits(q))] = np.nan
         out = _distinct(q.reshape(flat.shape[0], n_s, self.dof)).reshape(*lead, n_s, self.dof)
+        return self._remembered(key, out)
+
+    def _remembered(self, key: tuple | None, out: np.ndarray) -> np.ndarray:
+        """``out``, kept under ``key`` for the next question about the same target (skills
+        ask whether a point is reachable and then for its solution)."""
         if key is not None:
             with self._recent_lock:
                 self._recent[key] = out.copy()
-                while len(self._recent) > 8:
+                while len(self._recent) > 16:
                     del self._recent[next(iter(self._recent))]
         return out
 
