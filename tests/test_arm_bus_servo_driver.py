@@ -195,3 +195,15 @@ def test_two_runs_exchange_the_same_bytes_at_the_same_times(name):
 
     first = run()
     assert first[0] > 0 and first == run()
+
+
+def test_a_joint_a_count_past_its_limit_reads_at_the_limit():
+    with Sim("so101") as sim:
+        connected(sim)
+        wrist = sim.arm.spec.joints[3]
+        upper = sim.arm.model.upper[3]
+        limit_counts = int(np.floor(wrist.calibration.counts(upper)))
+        sim.arm.servos[wrist.id].present = limit_counts + 1  # the goal rounded up
+        assert sim.arm.joints()[3] == upper
+        sim.arm.servos[wrist.id].present = limit_counts + 3  # no rounding: past it
+        assert sim.arm.joints()[3] > upper + 0.1

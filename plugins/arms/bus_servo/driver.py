@@ -597,12 +597,16 @@ class BusServoDriver(SerialArmDriver):
         present = [self.servos[s.id].present for s in self.spec.joints]
         if any(p is None for p in present):
             return None
-        return np.array(
+        q = np.array(
             [
                 float(s.calibration.degrees(p))
                 for s, p in zip(self.spec.joints, present, strict=True)
             ]
         )
+        # A joint sent to its limit reads up to a count past it (goals are whole counts):
+        # it is at the limit, and a plan from there must not be refused for it.
+        inside = np.clip(q, self.model.lower, self.model.upper)
+        return np.where(np.abs(q - inside) < COUNT_DEG * 1.5, inside, q)
 
     def _status_error(self, packet: Packet) -> bool:
         """Act on a status packet's error byte; True when the arm was stopped."""
@@ -713,14 +717,7 @@ class BusServoDriver(SerialArmDriver):
         key = ("path", tuple(self._counts(checked[-1]).items()), round(float(speed), 3))
         if self.is_duplicate(key) and self._last_handle is not None and not self._last_handle.done:
             return self._last_handle
-        # a joint read a count past its limit (the goal was rounded to whole counts) starts
-        # from the limit
         start = self.joints()
-        start = np.where(
-            np.abs(start - np.clip(start, self.model.lower, self.model.upper)) < COUNT_DEG * 1.5,
-            np.clip(start, self.model.lower, self.model.upper),
-            start,
-        )
         try:
             trajectory = timed_path(
                 np.vstack([start, *checked]), self.trajectory_kind, self.checker, speed
