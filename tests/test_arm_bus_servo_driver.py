@@ -207,3 +207,18 @@ def test_a_joint_a_count_past_its_limit_reads_at_the_limit():
         assert sim.arm.joints()[3] == upper
         sim.arm.servos[wrist.id].present = limit_counts + 3  # no rounding: past it
         assert sim.arm.joints()[3] > upper + 0.1
+
+
+@pytest.mark.slow
+def test_one_seed_runs_the_same_run_however_long_the_ticks_take(tmp_path):
+    # a tick's skills take wall time (IK, images): the bus must not move meanwhile
+    from armtree.runtime import Run
+
+    logs = []
+    for k in range(2):
+        tree = armtree.load_tree("load_ducky.yaml", rig="sim_so101")
+        Run(tree, None, seed=82, record=tmp_path / str(k), max_ticks=300, quiet=True,
+            handle_signals=False, stop_key=False).execute()  # fmt: skip
+        lines = (tmp_path / str(k) / "run.jsonl").read_text().splitlines()
+        logs.append([x for x in lines if '"kind": "status"' in x or '"kind": "event"' in x])
+    assert len(logs[0]) > 50 and logs[0] == logs[1]

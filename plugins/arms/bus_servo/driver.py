@@ -125,9 +125,13 @@ class _Move:
 
 @dataclass
 class _Stream:
+    """A trajectory being followed; its set points are timed from the poll that sends the
+    first (``stream`` is made then)."""
+
     handle: MotionHandle
-    stream: TrajectoryStream
+    trajectory: Trajectory
     start: np.ndarray
+    stream: TrajectoryStream | None = None
 
 
 class BusServoDriver(SerialArmDriver):
@@ -191,6 +195,8 @@ class BusServoDriver(SerialArmDriver):
         self._torque_on = False
         self._setup_error: str | None = None
         self._next_poll = -math.inf
+        self._acted_at = -math.inf
+        self._heard = False
         self._polls = 0
         self._goals: dict[int, int] = {}
         self._stream: _Stream | None = None
@@ -234,6 +240,7 @@ class BusServoDriver(SerialArmDriver):
     def on_data(self, data: bytes) -> None:
         """Status packets: to the request waiting for them; anything else is noise."""
         with self._lock:
+            self._heard = True
             for packet in self._reader.feed(data):
                 request = self._current
                 if not packet.is_status or request is None or packet.id not in request.waiting:
@@ -254,6 +261,12 @@ class BusServoDriver(SerialArmDriver):
         """Retry or give up a late reply, poll when due, send what is next in line."""
         failure = None
         with self._lock:
+            # On a virtual clock only a new tick or a reply moves the bus, never a read
+            # timing out between ticks: two runs of one seed send the same bytes.
+            stepped = self.barrier is not None and self.barrier.attached
+            if self._ready and stepped and now == self._acted_at and not self._heard:
+                return
+            self._acted_at, self._heard = now, False
             out = bytearray()
             request = self._current
             if request is not None and request.waiting and self._late(request, now):
@@ -652,6 +665,9 @@ class BusServoDriver(SerialArmDriver):
     def _stream_step(self, now: float) -> tuple[dict[int, int], dict[int, float]]:
         """The set point due at ``now`` as goal counts and arrival times per servo."""
         active = self._stream
+        if active is not None and active.stream is None:
+            active.stream = TrajectoryStream(active.trajectory, now, self.stream_period)
+            self.last_trajectory = (now, active.trajectory)
         if active is None or not active.stream.due(now):
             if active is not None:
                 active.handle.update(MotionStatus.RUNNING, progress=active.stream.progress(now))
@@ -732,10 +748,8 @@ class BusServoDriver(SerialArmDriver):
             for move in self._moves:
                 move.handle.update(MotionStatus.STOPPED)
             self._moves.clear()
-            self._stream = _Stream(
-                handle, TrajectoryStream(trajectory, now, self.stream_period), start
-            )
-            self._next_poll = now  # the first set point goes at the next turn
+            # the first set point goes with the next poll, which times the rest
+            self._stream = _Stream(handle, trajectory, start)
         self.last_trajectory = (now, trajectory)
         handle.update(MotionStatus.RUNNING, progress=0.0)
         self.remember_sent(key)
@@ -770,7 +784,6 @@ class BusServoDriver(SerialArmDriver):
             seconds = self._grip_time(link, counts)
             self._gripper_goal = float(opening)
             self._moves.append(_Move(handle, {}, now + seconds + 0.1, self.joints(), self.joints()))
-            self._next_poll = now
         self.remember_sent(None)
         return handle
 
