@@ -30,7 +30,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import armtree
 from armtree.cli import plugin_manager_for
@@ -148,6 +150,19 @@ class SocketPage:
             self._thread.join(30)
 
 
+def execute_paced(run: Run, watch: Callable[[], None] | None) -> tuple[Any, float]:
+    """Execute ``run`` with ``watch`` on a thread (it resumes the paused run once its
+    client is up), or paced to real time without one; the result and the process CPU
+    seconds it took."""
+    if watch is not None:
+        threading.Thread(target=watch, daemon=True).start()
+    else:
+        run.control.speed = 1.0
+    cpu0 = cpu_seconds()
+    result = run.execute()
+    return result, cpu_seconds() - cpu0
+
+
 def one_run(tree_name: str, seed: int, monitored: bool, browser: bool) -> dict:
     manager = plugin_manager_for(None, None)
     times = TickTimes()
@@ -171,12 +186,7 @@ def one_run(tree_name: str, seed: int, monitored: bool, browser: bool) -> dict:
             time.sleep(1.0)
             run.control.resume()
 
-        threading.Thread(target=watch, daemon=True).start()
-    else:
-        run.control.speed = 1.0
-    cpu0 = cpu_seconds()
-    result = run.execute()
-    cpu = cpu_seconds() - cpu0
+    result, cpu = execute_paced(run, watch if monitored else None)
     manager.pm.unregister(times)
     if page is not None:
         page.close()
@@ -207,6 +217,13 @@ def cost(tree: str, rounds: int, browser: bool) -> None:
                 f"overruns {res['overruns']}, camera frames on the page {res['frames']}",
                 flush=True,
             )
+    print_cost(tree, rounds, results)
+    report_latency(f"{tree}, with the camera stream", results[True])
+
+
+def print_cost(tree: str, rounds: int, results: dict[bool, list[dict]]) -> None:
+    """The medians of runs without (``results[False]``) and with (``results[True]``):
+    tick work and process CPU per tick, and the difference as a share of the tick."""
     period_ms = 1000 / results[True][0]["tick_hz"]
     base_work = statistics.median(r["tick_ms"] for r in results[False])
     mon_work = statistics.median(r["tick_ms"] for r in results[True])
@@ -215,14 +232,13 @@ def cost(tree: str, rounds: int, browser: bool) -> None:
     print(f"tree {tree}, {rounds} rounds each, medians; tick period {period_ms:.0f} ms")
     print(
         f"tick work on the run thread: {base_work:.2f} ms without, {mon_work:.2f} ms with: "
-        f"+{mon_work - base_work:.2f} ms = {100 * (mon_work - base_work) / period_ms:.1f} % of "
+        f"{mon_work - base_work:+.2f} ms = {100 * (mon_work - base_work) / period_ms:.1f} % of "
         f"the tick ({100 * (mon_work - base_work) / base_work:.1f} % of the work)"
     )
     print(
         f"process CPU per tick: {base_cpu:.2f} ms without, {mon_cpu:.2f} ms with: "
-        f"+{mon_cpu - base_cpu:.2f} ms = {100 * (mon_cpu - base_cpu) / period_ms:.1f} % of the tick"
+        f"{mon_cpu - base_cpu:+.2f} ms = {100 * (mon_cpu - base_cpu) / period_ms:.1f} % of the tick"
     )
-    report_latency(f"{tree}, with the camera stream", results[True])
 
 
 #: A tree whose statuses change every tick, for the latency figure (15 s at 20 Hz).

@@ -1,7 +1,9 @@
 """armtree: behaviour trees in YAML for low-cost, vision-guided robot arms.
 
 Public names (outside tests rely on them): :data:`hookimpl`, :data:`hookspec`,
-:class:`ConfigError`, :func:`load_tree`, :func:`load_profile`, :func:`run`.
+:class:`ConfigError`, :func:`load_tree`, :func:`load_profile`, :func:`run`; for
+plugins :class:`Behaviour`, :class:`Param`, and :data:`TagRole`, :data:`Place` and
+:data:`Position` for ``typing.Annotated`` parameters of plain py_trees behaviours.
 
 They are imported on first use (PEP 562): ``import armtree`` itself is cheap, so
 the command line can take over Ctrl-C before numpy, OpenCV and py_trees load.
@@ -19,7 +21,7 @@ if TYPE_CHECKING:
     from .behaviour import Behaviour
     from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
     from .hookspecs import hookimpl, hookspec
-    from .params import REQUIRED, Binding, Param
+    from .params import REQUIRED, Binding, Param, ParamKind, Place, Position, TagRole
     from .profile import Profile, load_profile
     from .runtime import Run, RunResult, run
     from .tree import Tree
@@ -39,6 +41,10 @@ _LAZY = {
     "REQUIRED": "params",
     "Binding": "params",
     "Param": "params",
+    "ParamKind": "params",
+    "Place": "params",
+    "Position": "params",
+    "TagRole": "params",
     "Profile": "profile",
     "load_profile": "profile",
     "Run": "runtime",
@@ -75,11 +81,15 @@ __all__ = [
     "ConfigError",
     "HardwareFault",
     "Param",
+    "ParamKind",
+    "Place",
     "PlanningError",
+    "Position",
     "Profile",
     "Tree",
     "Run",
     "RunResult",
+    "TagRole",
     "Unreachable",
     "hookimpl",
     "hookspec",

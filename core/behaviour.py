@@ -38,6 +38,9 @@ class Behaviour(py_trees.behaviour.Behaviour):
     PARAMS: tuple[Param, ...] = ()
     #: Exclusive resources commanded while RUNNING: ``"arm"``, ``"tool"``, ``"head"``.
     RESOURCES: tuple[str, ...] = ()
+    #: True for a check: it answers within the tick and moves nothing (exported to
+    #: BehaviorTree.CPP as a Condition rather than an Action).
+    CONDITION: bool = False
 
     def __init__(self, name: str, **params: Any) -> None:
         super().__init__(name)

@@ -324,8 +324,13 @@ class Plugins:
             print(f"note: {note}")
         for problem in problems:
             print(problem.error().format())
-        if problems:
-            print(f"{len(problems)} problem(s) found")
+        # Installed plugins left out (each warned of once): problems here.
+        left_out = [f"{why}" for why in manager.broken.values()]
+        left_out += [error.format() for error in manager.refused.values()]
+        for text in left_out:
+            print(text)
+        if problems or left_out:
+            print(f"{len(problems) + len(left_out)} problem(s) found")
             return 2
         print("ok: every component fits its interface")
         return 0

@@ -78,6 +78,18 @@ def add_set_option(parser: argparse.ArgumentParser, help: str) -> None:  # noqa:
     )
 
 
+def seed_value(text: str) -> int:
+    """An argparse ``type`` for ``--seed``: an integer >= 0 (numpy's generators take no
+    negative seed); anything else is a usage error, exit 2."""
+    try:
+        seed = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a seed: give an integer >= 0") from None
+    if seed < 0:
+        raise argparse.ArgumentTypeError(f"{seed} is not a seed: give an integer >= 0")
+    return seed
+
+
 def blocked_names(values: Sequence[str] | None) -> list[str]:
     """The plugin names of ``-p no:NAME`` options; anything else is a usage error."""
     names = []
@@ -101,7 +113,13 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
     try:
         return action()
     except ConfigError as exc:
+        raised = [e.traceback for e in exc.errors if e.traceback]
+        if debug:
+            for text in raised:
+                print(text, file=sys.stderr, end="")
         print(exc.format(), file=sys.stderr)
+        if raised and not debug:
+            print("(run again with --debug for the traceback)", file=sys.stderr)
         return EXIT_USAGE
     except HardwareFault as exc:
         if debug:
@@ -111,16 +129,32 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except Exception as exc:  # noqa: BLE001 - the user gets a line, --debug the traceback
+    except OSError as exc:
+        if exc.filename is None:
+            return _unexpected(exc, debug)
+        # A path the user gave that cannot be read or written (-o, --record, --out).
         if debug:
             traceback.print_exc()
-            print(f"error: {type(exc).__name__}: {exc}", file=sys.stderr)
-        else:
-            print(
-                f"error: {type(exc).__name__}: {exc} (run again with --debug for the traceback)",
-                file=sys.stderr,
-            )
-        return EXIT_FAILURE
+        print(
+            f"{exc.filename}: {exc.strerror or exc}; give a path that exists and you may use",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - the user gets a line, --debug the traceback
+        return _unexpected(exc, debug)
+
+
+def _unexpected(exc: Exception, debug: bool) -> int:
+    """An error armtree did not foresee: one line, the traceback with ``debug``; exit 1."""
+    if debug:
+        traceback.print_exc()
+        print(f"error: {type(exc).__name__}: {exc}", file=sys.stderr)
+    else:
+        print(
+            f"error: {type(exc).__name__}: {exc} (run again with --debug for the traceback)",
+            file=sys.stderr,
+        )
+    return EXIT_FAILURE
 
 
 # ---------------------------------------------------------------------------
@@ -141,7 +175,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
         metavar="KEY=VALUE",
         help="override a profile key, tree parameter or blackboard value (YAML-typed)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the simulation (default 0)")
+    parser.add_argument(
+        "--seed", type=seed_value, default=0, help="seed of the simulation (default 0)"
+    )
     parser.add_argument(
         "--realtime", action="store_true", help="tick on the wall clock (hardware always does)"
     )
@@ -149,7 +185,10 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
         "--record", metavar="DIR", help="write the run log to DIR (default runs/<tree>-<time>/)"
     )
     parser.add_argument(
-        "--timeout", type=float, metavar="SECONDS", help="fail after SECONDS on the run clock"
+        "--timeout",
+        type=float,
+        metavar="SECONDS",
+        help="fail after SECONDS on the run clock (default on the simulation: 600; inf: none)",
     )
     parser.add_argument("--max-ticks", type=int, metavar="N", help="fail after N ticks")
     parser.add_argument("--quiet", action="store_true", help="no live view")
@@ -160,22 +199,28 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
 def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
     """Load, validate and run the tree the options name; return the exit code."""
     from .display import print_summary
+    from .run_start import default_timeout
     from .runtime import run
     from .tree_loader import load_tree
 
-    if args.timeout is not None and args.timeout <= 0:
-        raise ConfigError(f"--timeout {args.timeout:g}: give a positive number of seconds")
+    if args.timeout is not None and not args.timeout > 0:
+        raise ConfigError(
+            f"--timeout {args.timeout:g}: give a positive number of seconds (inf: no limit)"
+        )
     if args.max_ticks is not None and args.max_ticks <= 0:
         raise ConfigError(f"--max-ticks {args.max_ticks}: give a positive number of ticks")
     if manager is None:
         manager = plugin_manager_for(getattr(args, "plugin", None), getattr(args, "block", None))
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
+    timeout = args.timeout
+    if timeout is None:
+        timeout = default_timeout(tree.profile, args.realtime, manager)
     result = run(
         tree,
         seed=args.seed,
         realtime=args.realtime,
         record=args.record,
-        timeout=args.timeout,
+        timeout=timeout,
         max_ticks=args.max_ticks,
         quiet=args.quiet,
         manager=manager,
@@ -270,6 +315,17 @@ def _commands(manager: Any) -> dict[str, Any]:
     return commands
 
 
+def configure_command(command: Any, parser: argparse.ArgumentParser, manager: Any) -> None:
+    """``command.configure(parser)``, handing it the plugin manager when its ``configure``
+    takes one (``configure(parser, manager)``: its options may come from plugins)."""
+    import inspect  # loaded with the plugins already
+
+    if "manager" in inspect.signature(command.configure).parameters:
+        command.configure(parser, manager=manager)
+    else:
+        command.configure(parser)
+
+
 def _asks_version(argv: Sequence[str]) -> bool:
     """True when ``--version`` comes before the subcommand (after options only)."""
     if "--version" not in argv:
@@ -316,7 +372,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         summary = getattr(command, "help", "") or ""
         child = sub.add_parser(name, help=summary, description=summary)
         plugin_options(child, suppress=True)
-        command.configure(child)
+        configure_command(command, child, manager)
     args = parser.parse_args(argv)
     args.manager = manager
     debug = bool(getattr(args, "debug", False))

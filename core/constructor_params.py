@@ -6,7 +6,10 @@ from its ``__init__``: every keyword a tree may give is a named parameter, a
 default makes it optional, and an annotation gives its type (``str``, ``int``,
 ``float``, ``bool``, lists, mappings, ``Literal[...]`` choices, ``X | None``);
 an unannotated parameter, or one whose annotation has no YAML form, accepts
-any value. ``name`` (and a decorator's ``child``, a composite's ``children``)
+any value. ``typing.Annotated`` with :data:`armtree.TagRole`, :data:`armtree.Place`
+or :data:`armtree.Position` says what a value names (``tag: Annotated[str,
+TagRole]``), so ``armtree check`` resolves it against the profile as it does a
+``Param(kind=...)``. ``name`` (and a decorator's ``child``, a composite's ``children``)
 is filled in by the loader. A description of each parameter is taken from the
 docstring's ``Args:`` section or ``:param x:`` lines, when present.
 
@@ -25,7 +28,7 @@ from typing import Any
 
 import py_trees
 
-from .params import REQUIRED, Param
+from .params import REQUIRED, Param, ParamKind
 
 #: Constructor arguments the loader fills in itself, never given in YAML.
 FILLED_BY_LOADER = ("self", "name", "child", "children")
@@ -91,9 +94,28 @@ def constructor_params(cls: type) -> tuple[Param, ...]:
         if choices and default is not REQUIRED and default not in choices and default is not None:
             choices = ()
         out.append(
-            Param(pname, type_name, default, doc=docs.get(pname, ""), choices=tuple(choices))
+            Param(
+                pname,
+                type_name,
+                default,
+                doc=docs.get(pname, ""),
+                choices=tuple(choices),
+                kind=param_kind(annotation),
+            )
         )
     return tuple(out)
+
+
+def param_kind(annotation: Any) -> str:
+    """The :data:`armtree.params.KINDS` entry an ``Annotated[..., TagRole]`` (also inside
+    ``X | None``) gives; ``""`` for none."""
+    if typing.get_origin(annotation) is typing.Annotated:
+        found = [m.kind for m in annotation.__metadata__ if isinstance(m, ParamKind)]
+        return found[-1] if found else param_kind(typing.get_args(annotation)[0])
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        kinds = {param_kind(a) for a in typing.get_args(annotation)} - {""}
+        return kinds.pop() if len(kinds) == 1 else ""
+    return ""
 
 
 def name_argument(cls: type) -> str | None:
@@ -119,9 +141,10 @@ def _signature(cls: type) -> inspect.Signature | None:
 
 
 def _hints(function: Any) -> dict[str, Any]:
-    """Resolved annotations; an annotation that does not resolve is left to the raw signature."""
+    """Resolved annotations (``Annotated`` kept); one that does not resolve is left to the
+    raw signature."""
     try:
-        return typing.get_type_hints(function)
+        return typing.get_type_hints(function, include_extras=True)
     except Exception:  # noqa: BLE001 - a forward reference that does not resolve means "any"
         return {}
 
@@ -135,6 +158,8 @@ def yaml_type(annotation: Any) -> tuple[str, tuple[Any, ...]]:
     if annotation is inspect.Parameter.empty or annotation is Any or isinstance(annotation, str):
         return "any", ()
     origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return yaml_type(typing.get_args(annotation)[0])
     args = typing.get_args(annotation)
     if origin in (typing.Union, types.UnionType):
         rest = [a for a in args if a is not type(None)]
@@ -195,6 +220,7 @@ __all__ = [
     "constructor_params",
     "declared_params",
     "param_docs",
+    "param_kind",
     "name_argument",
     "takes_signature_params",
     "yaml_type",

@@ -13,6 +13,8 @@ class ConfigError(ValueError):
     Carries ``file``, ``line`` and ``column`` (1-based; ``None`` when unknown) so the
     CLI can print ``FILE:LINE:COL: message``. ``errors`` holds every problem found in
     one file when several were collected; ``str()`` of the exception lists them all.
+    ``traceback`` is the text of the traceback behind a problem a plugin's code raised
+    (a behaviour's constructor), which the CLI shows with ``--debug``.
     Nothing moves before a tree and its profile validate.
     """
 
@@ -23,6 +25,8 @@ class ConfigError(ValueError):
         line: int | None = None,
         column: int | None = None,
         errors: list[ConfigError] | None = None,
+        *,
+        traceback: str | None = None,
     ) -> None:
         super().__init__(message)
         self.message = message
@@ -30,9 +34,12 @@ class ConfigError(ValueError):
         self.line = line
         self.column = column
         self.errors: list[ConfigError] = errors if errors else [self]
+        self.traceback = traceback
 
     def location(self) -> str:
-        """Return ``FILE:LINE:COL`` (or as much of it as is known)."""
+        """Return ``FILE:LINE:COL`` (or as much of it as is known; ``""`` for none)."""
+        if self.file is None and self.line is None:
+            return ""
         parts = [self.file or "<input>"]
         if self.line is not None:
             parts.append(str(self.line))
@@ -41,8 +48,11 @@ class ConfigError(ValueError):
         return ":".join(parts)
 
     def format(self) -> str:
-        """Every collected error as ``FILE:LINE:COL: message``, one per line."""
-        return "\n".join(f"{e.location()}: {e.message}" for e in self.errors)
+        """Every collected error as ``FILE:LINE:COL: message``, one per line (the message
+        alone when it has no position: a command-line value, a plugin's own word)."""
+        return "\n".join(
+            f"{e.location()}: {e.message}" if e.location() else e.message for e in self.errors
+        )
 
     def __str__(self) -> str:
         return self.format()
@@ -101,6 +111,28 @@ class _Shown(reprlib.Repr):
 
 
 _SHOWN = _Shown()
+
+
+def yaml_kind(value: Any) -> str:
+    """What ``value`` is in a YAML file's words (``a list``, ``a mapping``, ``a number``),
+    never a Python class name: messages about a file's values name what the user wrote."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, (bytes, bytearray)):
+        return "binary data"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    return "a value"
 
 
 def shown(value: Any) -> str:

@@ -18,6 +18,7 @@ from .halting import Halter
 from .interrupts import EXIT_INTERRUPTED, Interrupts
 from .node_index import NodeIndex
 from .runlog import RunLog
+from .status_guard import BadStatus
 
 EXIT_SUCCESS = 0
 EXIT_FAILURE = 1
@@ -108,12 +109,17 @@ class FailureReport:
     def behaviour_exception(self, tick: int, exc: BaseException, phase: str) -> End:
         """A behaviour raised in ``phase`` (setup, tick): FAILURE naming the node and its
         YAML position, exit 3 for a hardware fault."""
-        node = _raising_behaviour(exc)
+        node = exc.behaviour if isinstance(exc, BadStatus) else _raising_behaviour(exc)
         self.traceback = "".join(tb_module.format_exception(exc))
         where = self.index.where(node) if node is not None else "the tree"
         self.failed_node = self.index.path_of(node) if node is not None else None
         self.halter.raiser = node
-        message = f"{type(exc).__name__} in {phase} of {where}: {exc}"
+        if isinstance(exc, BadStatus):
+            # The plugin's mistake, said in full: no traceback adds to it.
+            self.traceback = None
+            message = f"bad status at {where}: {exc}"
+        else:
+            message = f"{type(exc).__name__} in {phase} of {where}: {exc}"
         self.log.event(
             tick,
             self.clock.now(),

@@ -24,6 +24,7 @@ import pluggy
 
 if TYPE_CHECKING:
     import argparse
+    from pathlib import Path
 
     from .errors import ConfigError
     from .outcomes import WorldTruth
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
     from .profile_sections import ProfileSection
     from .rig import Rig, RigContext
     from .runtime import Run, RunResult
+    from .sweep.hooks import Sweep
     from .worldview import SceneObject
 
 hookspec = pluggy.HookspecMarker("armtree")
@@ -132,8 +134,10 @@ def armtree_commands() -> dict[str, Any]:
 
     :return: ``{name: command}``; ``command.help`` is a one-line summary,
         ``command.configure(parser)`` adds arguments to an
-        :class:`argparse.ArgumentParser` and ``command.run(args)`` returns the
-        exit code (0 ok, 1 failed, 2 bad input, 3 hardware fault).
+        :class:`argparse.ArgumentParser` (``configure(parser, manager)`` is also
+        handed the plugin manager, for options that plugins add) and
+        ``command.run(args)`` returns the exit code (0 ok, 1 failed, 2 bad input,
+        3 hardware fault).
     """
 
 
@@ -156,6 +160,31 @@ def armtree_profile_sections() -> dict[str, ProfileSection]:
 
     :return: ``{section_name: ProfileSection}`` (:class:`armtree.profile_sections.ProfileSection`).
         A name armtree or another plugin already uses is an error naming both.
+    """
+
+
+# ---------------------------------------------------------------------------
+# Tree formats: a tree file in a format other than YAML.
+# ---------------------------------------------------------------------------
+
+
+@hookspec(firstresult=True)
+def armtree_read_tree(path: Path) -> Any | None:
+    """Read a tree file that is not YAML into the data a YAML tree file gives.
+
+    :param path: the tree file (its suffix is not ``.yaml`` or ``.yml``). A path
+        whose name ends in ``#ID`` (``tree.xml#search``) asks for the tree ``ID``
+        of a file that holds several; a ``subtree:`` node names one with
+        ``file: "#ID"`` (in the including file) or ``file: "other.xml#ID"``.
+    :return: the tree file's top-level mapping as :func:`armtree.yamlio.load_yaml`
+        gives it (:class:`~armtree.yamlio.MarkedDict` and
+        :class:`~armtree.yamlio.MarkedList` carrying the position of every key and
+        value in ``path``), or None when this plugin does not read the format (the
+        file is then read as YAML). The first answer that is not None is used.
+        Every check and positioned error of the loader applies to it unchanged.
+
+    Raise :class:`armtree.ConfigError` (with file, line and column) for a file
+    that cannot be read. Must not open ports or devices.
     """
 
 
@@ -200,8 +229,11 @@ def armtree_rig_ready(rig: Rig, context: RigContext) -> None:
     :param context: the :class:`armtree.rig.RigContext` its factories shared;
         append to ``context.steppers`` to be advanced every tick.
 
-    The built-in simulation uses it to put the emulated arm into its world.
-    Called before any behaviour is set up and before the run starts.
+    The built-in simulation uses it to put the emulated arm into its world. A
+    plugin that drives a tool of its own (a gripper on a separate servo controller)
+    sets ``rig.tool`` to its :class:`armtree.rig.Tool` here; a rig left without one
+    gets the arm's own (:class:`armtree.rig.ArmTool`). Called before any behaviour
+    is set up and before the run starts.
     """
 
 
@@ -345,4 +377,56 @@ def armtree_scene_objects(run: Run) -> list[SceneObject] | None:
     This is what people look at, never what a skill decides on: the built-in
     simulation answers with its ground truth. Called from the run's thread at
     most a few times per second; must not block.
+    """
+
+
+# ---------------------------------------------------------------------------
+# Sweeps: for plugins that take part in ``armtree sweep`` (a dataset that
+# collects every run). Called in the sweep's own process; the runs happen in
+# child processes, where the run hooks above are called as for any run.
+# ---------------------------------------------------------------------------
+
+
+@hookspec
+def armtree_sweep_options(parser: argparse.ArgumentParser) -> None:
+    """Add options to ``armtree sweep``.
+
+    :param parser: the sweep command's :class:`argparse.ArgumentParser`. The parsed
+        values reach the sweep's hooks as ``sweep.settings`` (keyed by ``dest``) and
+        each run of the sweep as ``run.settings``. Use option names of your own.
+    """
+
+
+@hookspec
+def armtree_sweep_started(sweep: Sweep) -> None:
+    """A sweep has checked its options and loaded its tree; no run has started.
+
+    :param sweep: the :class:`armtree.sweep.hooks.Sweep` (tree, seeds, out folder,
+        settings, closers). What ``sweep.settings`` holds after this hook is what
+        every run gets in ``run.settings`` (with the run's ``tree``, ``rig``,
+        ``overrides``, ``seed`` and ``sweep_run_dir``, its own folder).
+
+    Raising :class:`armtree.ConfigError` refuses the sweep: the CLI prints it and
+    exits 2, and no run starts. Register clean-up in ``sweep.closers``.
+    """
+
+
+@hookspec
+def armtree_sweep_run_finished(sweep: Sweep, outcome: dict[str, Any]) -> None:
+    """One run of the sweep has ended, in the sweep's process, in the order runs end.
+
+    :param outcome: what ``sweep.json`` keeps of the run: ``seed``, ``status``,
+        ``verdict``, ``reason``, ``run_dir`` (the run's folder), ...
+
+    Keep it short or hand the work to a thread: the sweep starts the next run
+    when it returns. An exception is reported and the sweep goes on.
+    """
+
+
+@hookspec
+def armtree_sweep_finished(sweep: Sweep, outcomes: list[dict[str, Any]], interrupted: bool) -> None:
+    """Every run has ended (``interrupted``: the sweep was stopped before the last).
+
+    Called before the sweep prints its summary and returns; the place to finish
+    work still under way. An exception is reported and the sweep goes on.
     """

@@ -6,15 +6,20 @@ then the py_trees behaviour constructed and its :class:`NodeInfo` recorded."""
 
 from __future__ import annotations
 
+import inspect
+import os
+import sysconfig
+import traceback as tb_module
 from collections import Counter
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import py_trees
 
 from .builtin_behaviours import COMPOSITE, DECORATOR, LEAF
 from .constructor_params import name_argument, takes_signature_params
-from .errors import Mark, shown
+from .errors import ConfigError, Mark, shown
 from .load_context import LoadContext, LoadErrors
 from .node_params import NodeParams, PendingNode
 from .plugin_manager import Registry, did_you_mean
@@ -61,6 +66,56 @@ def construct(factory: Any, name: str, params: dict[str, Any]) -> py_trees.behav
     behaviour = factory(**params)
     behaviour.name = name
     return behaviour
+
+
+def constructor_failure(component: Any, exc: BaseException) -> str:
+    """What a behaviour's constructor raised, for the node's error: the exception's type
+    and text, the class, and the plugin's file and line it was raised at."""
+    factory = component.factory
+    what = getattr(factory, "__qualname__", None) or type(factory).__name__
+    file, line = raised_at(exc, factory)
+    where = f" at {file}:{line}" if file else ""
+    return (
+        f"the constructor of {what} (plugin {component.plugin!r}) raised "
+        f"{type(exc).__name__}{where}: {exc}"
+    )
+
+
+def raised_at(exc: BaseException, factory: Any) -> tuple[str | None, int | None]:
+    """Where in a plugin's code ``exc`` was raised: the innermost frame in ``factory``'s
+    file, else the innermost outside armtree's core and Python's own library, else where
+    ``factory`` is defined."""
+    own = _source_file(factory)
+    frames = tb_module.extract_tb(exc.__traceback__)
+    mine = [f for f in frames if own is not None and f.filename == own]
+    if not mine:
+        mine = [f for f in frames if not f.filename.startswith(_NOT_PLUGINS)]
+    if mine:
+        return mine[-1].filename, mine[-1].lineno
+    if own is None:
+        return None, None
+    try:
+        return own, inspect.getsourcelines(factory)[1]
+    except (OSError, TypeError):
+        return own, None
+
+
+def _source_file(factory: Any) -> str | None:
+    try:
+        return inspect.getsourcefile(factory)
+    except TypeError:
+        return None
+
+
+#: Folders whose frames are not a plugin's code: armtree's core, py_trees, Python's library.
+_NOT_PLUGINS = tuple(
+    str(folder) + os.sep
+    for folder in (
+        Path(__file__).resolve().parent,
+        Path(py_trees.__file__).resolve().parent,
+        sysconfig.get_paths()["stdlib"],
+    )
+)
 
 
 def node_name(options: MarkedDict, ntype: str, ctx: LoadContext, errors: LoadErrors) -> str:
@@ -148,14 +203,16 @@ class NodeBuilder:
             return root if included.ok else None
         if not isinstance(ntype, str) or not self.registry.has("behaviour", ntype):
             options = self.registry.names("behaviour") + ["subtree"]
+            why = self.registry.why_unknown("behaviour", str(ntype))
             error(
-                f"unknown node type {shown(ntype)}{did_you_mean(str(ntype), options)}",
+                f"unknown node type {shown(ntype)}{did_you_mean(str(ntype), options)}{why}",
                 type_mark,
                 ctx,
             )
             self._check_orphans(spec, spec_mark, ctx, parent)
             return None
-        factory = self.registry.get("behaviour", ntype).factory
+        component = self.registry.get("behaviour", ntype)
+        factory = component.factory
         kind = node_kind(factory)
         split = self._split(ntype, kind, spec, spec_mark, ctx)
         if split is None:
@@ -183,8 +240,12 @@ class NodeBuilder:
             params["child"] = built_children
         try:
             behaviour = construct(factory, own_name, params)
+        except ConfigError as exc:  # the behaviour's own word on its parameters
+            error(f"{ntype} {shown(own_name)}: {exc.message}", type_mark, ctx)
+            return None
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor error is shown at the node
-            error(f"{ntype} {shown(own_name)}: {exc}", type_mark, ctx)
+            text = f"{ntype} {shown(own_name)}: {constructor_failure(component, exc)}"
+            error(text, type_mark, ctx, traceback="".join(tb_module.format_exception(exc)))
             return None
         given = {k: v for k, v in params.items() if k not in ("children", "child")}
         self.nodes[behaviour.id] = NodeInfo(path, ntype, type_mark, given)

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import shown
+from .errors import shown, yaml_kind
 
 
 class _Required:
@@ -46,6 +46,32 @@ KINDS: dict[str, str] = {
     "tag_role": "a tag role from the profile's tags: (empty: none)",
     "position": "an [x, y, z] position (mm) in the arm's base frame that the arm must reach",
 }
+
+
+@dataclass(frozen=True)
+class ParamKind:
+    """What a plain py_trees behaviour's parameter names, as ``typing.Annotated`` metadata.
+
+    ``tag: Annotated[str, TagRole]`` and ``at: Annotated[str, Place]`` in a
+    constructor's signature give the parameter the :data:`KINDS` entry ``kind``,
+    so ``armtree check`` resolves its value against the profile as it does for
+    ``Param(kind=...)``.
+    """
+
+    kind: str
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS or not self.kind:
+            raise ValueError(f"kind must be one of {', '.join(repr(k) for k in KINDS if k)}")
+
+
+#: ``Annotated[str, TagRole]``: a tag role from the profile's ``tags:``.
+TagRole = ParamKind("tag_role")
+#: ``Annotated[str, Place]``: a place name from the profile's ``places:`` (or, with a
+#: list type, an ``[x, y, z]`` position in mm) the arm must reach.
+Place = ParamKind("place")
+#: ``Annotated[list[float], Position]``: an ``[x, y, z]`` position (mm) the arm must reach.
+Position = ParamKind("position")
 
 
 @dataclass(frozen=True)
@@ -267,4 +293,4 @@ def _finite(v: float) -> bool:
 def _kind(value: Any) -> str:
     if value is None:
         return "null"
-    return f"{type(value).__name__} {shown(value)}"
+    return f"{yaml_kind(value)} {shown(value)}"

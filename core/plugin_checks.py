@@ -150,6 +150,79 @@ def _armtree_requirements(distribution: str) -> list[str]:
 
 
 # ---------------------------------------------------------------------------
+# Hook names (before registering)
+# ---------------------------------------------------------------------------
+
+#: The attribute ``@armtree.hookimpl`` sets on what it marks.
+HOOKIMPL_ATTRIBUTE = "armtree_impl"
+#: How alike a plain function's name must be to a hook's to be taken for a misspelling.
+NEAR_HOOK = 0.85
+
+
+def hook_name_problems(plugin: Any, name: str, hooks: Any) -> list[ConfigError]:
+    """A misspelt hook in ``plugin`` (registered as ``name``), each at its ``def`` line.
+
+    A function marked ``@armtree.hookimpl`` or named ``armtree_*`` that is no hook of
+    ``hooks`` (the hook names), or an unmarked one whose name is nearly a hook's
+    (``armtre_behaviours``): pluggy would ignore the last and refuse the others
+    after the tree already failed on what the hook should have registered.
+    """
+    import difflib
+
+    hooks = sorted(hooks)
+    problems = []
+    for attribute in dir(plugin):
+        if attribute in hooks or attribute.startswith("__"):
+            continue
+        try:
+            found = inspect.getattr_static(plugin, attribute)
+        except AttributeError:
+            continue
+        function = getattr(found, "__func__", found)
+        if not inspect.isfunction(function) or not _defined_by(plugin, function):
+            continue
+        marked = hasattr(function, HOOKIMPL_ATTRIBUTE)
+        close = difflib.get_close_matches(attribute, hooks, n=1, cutoff=0.6)
+        # Unmarked and unprefixed, only a name that nearly is a hook's: "armtre_behaviours".
+        near = attribute.startswith("arm") and difflib.get_close_matches(
+            attribute, hooks, n=1, cutoff=NEAR_HOOK
+        )
+        if not (marked or attribute.startswith("armtree_") or near):
+            continue
+        hint = f"did you mean {close[0]!r}?" if close else "see armtree.hookspecs"
+        file, line = _def_line(function)
+        problems.append(
+            ConfigError(
+                f"plugin {name!r}: {attribute}() is not an armtree hook; {hint} (the hooks: "
+                f"`armtree hooks`; or skip the plugin with -p no:{name})",
+                file=file,
+                line=line,
+            )
+        )
+    return sorted(problems, key=lambda e: (e.file or "", e.line or 0))
+
+
+def _defined_by(plugin: Any, function: Any) -> bool:
+    """True for a function the plugin defines itself (not one a module imported)."""
+    if inspect.ismodule(plugin):
+        return function.__module__ == plugin.__name__
+    return True
+
+
+def _def_line(function: Any) -> tuple[str | None, int | None]:
+    """The file and the ``def`` line of ``function`` (past its decorators)."""
+    try:
+        file = inspect.getsourcefile(function)
+        lines, first = inspect.getsourcelines(function)
+    except (OSError, TypeError):
+        return None, None
+    for offset, text in enumerate(lines):
+        if text.lstrip().startswith(("def ", "async def ")):
+            return file, first + offset
+    return file, first
+
+
+# ---------------------------------------------------------------------------
 # Interfaces (at load)
 # ---------------------------------------------------------------------------
 
@@ -271,6 +344,16 @@ def _check_behaviour(factory: Any, report: _Reporter, params_ok: bool) -> None:
             "a subclass of py_trees.behaviour.Behaviour (or armtree.Behaviour)",
         )
         return
+    abstract = sorted(getattr(factory, "__abstractmethods__", ()) or ())
+    if abstract:
+        report.add(
+            factory,
+            "class",
+            f"{factory.__name__} leaves {', '.join(m + '()' for m in abstract)} undefined",
+            "a behaviour that defines "
+            + ", ".join(f"{m}()" for m in abstract)
+            + " (py_trees cannot build it otherwise)",
+        )
     for method, args, kwargs, call in LIFECYCLE:
         function = getattr(factory, method, None)
         if function is None:
@@ -465,7 +548,62 @@ def _check_model(component: Any, report: _Reporter, notes: list[str]) -> None:
         )
         return
     for member, found, expected in model_problems(model):
-        report.add(type(model), member, found, expected)
+        report.add(model_member(model, member), member, found, expected)
+
+
+def model_member(model: Any, member: str) -> Any:
+    """What a problem's ``member`` names in the model's code, for its file and line: the
+    method (``ik_all(...)``, ``workspace_shape()``), else the constructor that sets the
+    attribute (``home``, ``joints[...]``, ``boxes[...]``)."""
+    name = member.split("(")[0].split("[")[0].strip()
+    found = getattr(type(model), name, None)
+    if callable(found) and not isinstance(found, type):
+        return found
+    return type(model).__init__ if "__init__" in vars(type(model)) else type(model)
+
+
+def rig_problems(profile: Any) -> list[ConfigError]:
+    """``armtree plugins --check``'s checks on the arm ``profile`` names, its kinematic
+    model built from the profile's own ``arm:`` section (limits, home, link frames and
+    boxes, the inverse kinematics' round trip, the workspace it describes).
+
+    Each error is at the plugin's source line, and names the profile's ``arm.type``
+    line; nothing is reported for an arm the profile's own checks already refuse.
+    """
+    manager = getattr(profile, "manager", None)
+    config = profile.component("arm") if hasattr(profile, "component") else None
+    if manager is None or not config or not isinstance(config.get("type"), str):
+        return []
+    registry = manager.registry
+    if not registry.has("arm", config["type"]):
+        return []
+    component = registry.get("arm", config["type"])
+    make = getattr(component.factory, "model", None)
+    if not callable(make):
+        return []
+    report = _Reporter(component.plugin, f"arm {component.name!r}")
+    try:
+        model = make(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return []  # the profile's checks say what is wrong with its arm: section
+    except Exception as exc:  # noqa: BLE001 - reported as the plugin's problem
+        report.add(make, "factory.model(config)", f"raised {type(exc).__name__}: {exc}", "a model")
+        model = None
+    from .motion.kinematics import KinematicModel
+
+    if isinstance(model, KinematicModel):
+        for member, found, expected in model_problems(model):
+            report.add(model_member(model, member), member, found, expected)
+    mark = profile.mark("arm.type") if hasattr(profile, "mark") else None
+    built = f" (the model built from the profile's arm: at {mark})" if mark else ""
+    return [
+        ConfigError(
+            problem.message.replace(". Fix the plugin,", f"{built}. Fix the plugin,", 1),
+            file=problem.file,
+            line=problem.line,
+        )
+        for problem in report.problems
+    ]
 
 
 def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
@@ -473,8 +611,11 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
 
     Joints with ``lower < upper``, a home pose of the right length inside the
     limits, finite link frames, link boxes on existing frames with positive
-    sizes, and ``ik_all(position(home))`` containing home within ``tol``
-    (degrees / mm), so planners, the workspace tool and the simulation work.
+    sizes, ``ik_all(position(home))`` containing home within ``tol``
+    (degrees / mm), and, for a model that describes its workspace
+    (``workspace_shape()``), finite bounds and the tool positions of home and of
+    configurations within the limits inside it, so planners, the workspace tool
+    and the simulation work.
     """
     out: list[tuple[str, str, str]] = []
     n = len(model.joints)
@@ -518,6 +659,7 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
     position = _call(out, "position(home)", lambda: np.asarray(model.position(home), dtype=float))
     if position is None or position.shape != (3,) or not np.all(np.isfinite(position)):
         return out
+    out.extend(_workspace_problems(model, home, tol))
     solutions = _call(out, "ik_all(position(home))", lambda: np.asarray(model.ik_all(position)))
     if solutions is None:
         return out
@@ -536,6 +678,45 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
                     "fk(ik(p)) == p",
                 )
             )
+    return out
+
+
+#: Configurations within the limits whose tool positions must lie in the described workspace.
+WORKSPACE_SAMPLES = 64
+
+
+def _workspace_problems(model: Any, home: np.ndarray, tol: float) -> list[tuple[str, str, str]]:
+    """The workspace a model describes against where its forward kinematics puts the tool."""
+    from .motion.workspace import ArmWorkspace
+
+    out: list[tuple[str, str, str]] = []
+    workspace = _call(out, "workspace_shape()", lambda: ArmWorkspace(model))
+    if workspace is None or workspace.kind != "model" or workspace.bounds is None:
+        return out
+    lower, upper = workspace.bounds
+    if lower.shape != (3,) or upper.shape != (3,) or not np.all(lower < upper):
+        return [("workspace_shape()", f"bounds {lower} to {upper}", "finite lower < upper (mm)")]
+    rng = np.random.default_rng(0)  # the same configurations every time
+    lo, hi = model.lower, model.upper
+    samples = np.vstack([home, lo + (hi - lo) * rng.random((WORKSPACE_SAMPLES, len(home)))])
+    samples = samples[np.asarray(model.within_limits(samples), dtype=bool)]
+    reached = _call(out, "position(q)", lambda: np.asarray(model.position(samples), dtype=float))
+    if reached is None or not len(samples):
+        return out
+    inside = _call(out, "workspace_shape()", lambda: workspace.reachable(reached, tol=tol))
+    if inside is None:
+        return out
+    outside = np.flatnonzero(~np.asarray(inside, dtype=bool))
+    if len(outside):
+        q, p = samples[outside[0]], reached[outside[0]]
+        out.append(
+            (
+                "workspace_shape()",
+                f"the tool at {np.round(p, 2).tolist()} mm (joints {np.round(q, 2).tolist()}, "
+                f"within the limits) outside it, {len(outside)} of {len(samples)} such",
+                "every position the arm reaches inside its workspace",
+            )
+        )
     return out
 
 
@@ -564,11 +745,15 @@ def _name(function: Any) -> str:
 
 
 __all__ = [
+    "HOOKIMPL_ATTRIBUTE",
     "Problem",
     "REQUIRES_ATTRIBUTE",
     "installed_version",
     "deep_problems",
+    "hook_name_problems",
     "interface_problems",
+    "model_member",
     "model_problems",
+    "rig_problems",
     "version_problem",
 ]

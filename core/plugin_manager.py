@@ -23,7 +23,7 @@ from . import hookspecs
 from .constructor_params import declared_params
 from .errors import ConfigError, Mark
 from .hook_calls import attributing, plugin_of, type_name
-from .plugin_checks import interface_problems, version_problem
+from .plugin_checks import hook_name_problems, interface_problems, version_problem
 
 ENTRY_POINT_GROUP = "armtree"
 DISABLE_AUTOLOAD_ENV = "ARMTREE_DISABLE_PLUGIN_AUTOLOAD"
@@ -40,6 +40,12 @@ KINDS: dict[str, str] = {
     "predicate": "armtree_predicates",
     "profile_section": "armtree_profile_sections",
 }
+#: Every hook a plugin may implement.
+HOOK_NAMES = frozenset(
+    name
+    for name in dir(hookspecs)
+    if name.startswith("armtree_") and callable(getattr(hookspecs, name))
+)
 #: Hooks whose results must name the plugin behind them (in errors and ``armtree plugins``).
 ATTRIBUTED_HOOKS = frozenset({*KINDS.values(), "armtree_validate_profile"})
 
@@ -105,6 +111,13 @@ class PluginManager:
     ``blocked`` names plugins not to load (``-p no:NAME``); ``autoload=False``
     (or the environment variable ``ARMTREE_DISABLE_PLUGIN_AUTOLOAD``) skips
     entry points of other distributions, keeping armtree's own built-ins.
+
+    An installed plugin (an entry point) that is broken (it does not import, a
+    hook's name is misspelt, a component misses its interface) blocks only what
+    needs it: it is left out with a one-line warning (:attr:`warnings`, printed to
+    stderr), and a tree or profile that names a component it would have provided
+    is refused with the reason. A plugin given by ``--plugin`` or a ``plugins:``
+    list is the user's choice for this run: its problems are errors.
     """
 
     def __init__(self, blocked: Iterable[str] = (), autoload: bool | None = None) -> None:
@@ -121,6 +134,31 @@ class PluginManager:
         self.specs: list[str] = []
         #: True for managers shared through :func:`get_plugin_manager` (never mutated).
         self.shared = False
+        #: The plugins registered from entry points (installed distributions).
+        self.installed: set[str] = set()
+        #: Installed plugins left out, with why: ``{name: message}``.
+        self.broken: dict[str, str] = {}
+        #: Components of installed plugins left out: ``{(kind, name): error}``.
+        self.refused: dict[tuple[str, str], ConfigError] = {}
+        #: The warnings given about broken installed plugins, in order.
+        self.warnings: list[str] = []
+
+    def warn(self, text: str) -> None:
+        """Note ``text`` in :attr:`warnings` and print it as one line on stderr (once a
+        process: every manager of a process loads the same entry points)."""
+        self.warnings.append(text)
+        if text not in _WARNED:
+            _WARNED.add(text)
+            print(f"warning: {text}", file=sys.stderr, flush=True)
+
+    def _left_out(self, name: str, error: ConfigError) -> None:
+        where = f"{error.file}:{error.line}: " if error.file and error.line else ""
+        self.broken[name] = f"{where}{error.message}"
+        first = error.message.split(". ")[0]
+        self.warn(
+            f"installed plugin {name!r} is left out: {where}{first} (trees that use it are "
+            f"refused; -p no:{name} skips it)"
+        )
 
     @property
     def hook(self) -> Any:
@@ -130,11 +168,9 @@ class PluginManager:
     def load_entry_points(self) -> None:
         """Load every ``armtree`` entry point one by one.
 
-        Every entry point that fails to import or to validate is named, with its
-        distribution and the fix, in one :class:`ConfigError` raised after the
-        others have been loaded.
+        One that fails to import or to validate is left out with a warning naming
+        it, its distribution and the fix (:attr:`broken`); the others load.
         """
-        failures: list[ConfigError] = []
         for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
             dist = ep.dist.name if ep.dist is not None else None
             if ep.name in self.blocked or self.pm.has_plugin(ep.name):
@@ -144,22 +180,23 @@ class PluginManager:
             try:
                 plugin = ep.load()
             except Exception as exc:  # noqa: BLE001 - any import failure is reported the same way
-                failures.append(
+                self._left_out(
+                    ep.name,
                     ConfigError(
                         f"plugin {ep.name!r} (entry point {ep.value!r} of distribution "
                         f"{dist or 'unknown'}) failed to import: {type(exc).__name__}: {exc}. "
                         f"Fix or reinstall {dist or 'the distribution'}, or skip it with "
                         f"-p no:{ep.name}",
                         file=f"entry point {ep.name}",
-                    )
+                    ),
                 )
                 continue
             try:
                 self.register(plugin, ep.name, dist)
             except ConfigError as exc:
-                failures.append(exc)
-        if failures:
-            raise ConfigError(failures[0].message, file=failures[0].file, errors=failures)
+                self._left_out(ep.name, exc)
+                continue
+            self.installed.add(ep.name)
 
     def load(self, spec: str, where: Mark | None = None) -> None:
         """Load a plugin given as a module name or a ``.py`` file path."""
@@ -219,6 +256,10 @@ class PluginManager:
         mismatch = version_problem(plugin, name, distribution)
         if mismatch is not None:
             raise mismatch
+        misspelt = hook_name_problems(plugin, name, HOOK_NAMES)
+        if misspelt:
+            first = misspelt[0]
+            raise ConfigError(first.message, first.file, first.line, errors=misspelt)
         try:
             self.pm.register(plugin, name=name)
             self.pm.check_pending()
@@ -259,16 +300,30 @@ class PluginManager:
 
     def _checked(self, kinds: Iterable[str]) -> Registry:
         components = self._collect(kinds)
-        problems = [
-            problem.error()
-            for found in components.values()
-            for component in found.values()
-            for problem in interface_problems(component)
-        ]
+        problems = []
+        for found in components.values():
+            for name, component in list(found.items()):
+                errors = [problem.error() for problem in interface_problems(component)]
+                if not errors:
+                    continue
+                if component.plugin not in self.installed:
+                    problems.extend(errors)
+                    continue
+                # An installed plugin's misfit blocks only the trees that name it.
+                del found[name]
+                key = (component.kind, name)
+                if key not in self.refused:
+                    self.refused[key] = errors[0]
+                    self.warn(
+                        f"{component.kind} {name!r} of installed plugin {component.plugin!r} is "
+                        f"left out: {errors[0].format().split('. ')[0]}"
+                    )
         if problems:
             first = problems[0]
             raise ConfigError(first.message, file=first.file, line=first.line, errors=problems)
-        return Registry({kind: components.get(kind, {}) for kind in KINDS})
+        return Registry(
+            {kind: components.get(kind, {}) for kind in KINDS}, self.refused, self.broken
+        )
 
     def _collect(self, kinds: Iterable[str]) -> dict[str, dict[str, Component]]:
         """The registration hooks of ``kinds`` called through pluggy; each dict names its plugin."""
@@ -299,10 +354,33 @@ class PluginManager:
 
 
 class Registry:
-    """Lookup of registered components by kind and name, with did-you-mean errors."""
+    """Lookup of registered components by kind and name, with did-you-mean errors.
 
-    def __init__(self, components: dict[str, dict[str, Component]]) -> None:
+    ``refused`` holds the components of installed plugins left out for missing
+    their interface, ``broken`` the installed plugins left out whole (``{name:
+    why}``): a name that is unknown says why it may be (:meth:`why_unknown`).
+    """
+
+    def __init__(
+        self,
+        components: dict[str, dict[str, Component]],
+        refused: dict[tuple[str, str], ConfigError] | None = None,
+        broken: dict[str, str] | None = None,
+    ) -> None:
         self._components = components
+        self._refused = dict(refused or {})
+        self._broken = dict(broken or {})
+
+    def why_unknown(self, kind: str, name: str) -> str:
+        """Why ``name`` is no ``kind`` here, when a broken installed plugin may be why:
+        ``"; ..."`` to append to the message, else ``""``."""
+        refused = self._refused.get((kind, name))
+        if refused is not None:
+            return f"; it is left out: {refused.format()}"
+        if not self._broken:
+            return ""
+        plugins = "; ".join(f"{plugin!r}: {why}" for plugin, why in self._broken.items())
+        return f"; an installed plugin that may provide it did not load ({plugins})"
 
     def names(self, kind: str) -> list[str]:
         """Sorted names registered for ``kind``."""
@@ -340,7 +418,8 @@ class Registry:
             return self._components[kind][name]
         except KeyError:
             raise ConfigError(
-                f"unknown {kind} {name!r}{did_you_mean(name, self.names(kind))}",
+                f"unknown {kind} {name!r}{did_you_mean(name, self.names(kind))}"
+                f"{self.why_unknown(kind, name)}",
                 file=where.file if where else None,
                 line=where.line if where else None,
                 column=where.column if where else None,
@@ -364,6 +443,8 @@ def did_you_mean(name: str, options: Iterable[str]) -> str:
 #: the one piece of global state: loading entry points once per process keeps
 #: repeated loads (tests, benchmarks, includes) cheap.
 _SHARED: dict[tuple[tuple[str, ...], tuple[str, ...], bool], PluginManager] = {}
+#: The warnings about broken installed plugins printed so far, so each is printed once.
+_WARNED: set[str] = set()
 
 
 def get_plugin_manager(
@@ -394,8 +475,10 @@ def get_plugin_manager(
 
 
 def clear_plugin_managers() -> None:
-    """Forget the shared managers (for tests that install or change plugins)."""
+    """Forget the shared managers and the warnings given (for tests that install or change
+    plugins)."""
     _SHARED.clear()
+    _WARNED.clear()
 
 
 def make_plugin_manager(

@@ -9,7 +9,8 @@ the whole file before returning, collecting every problem into one
 * ``arm``/``camera``/``tracker``/``planner``: a mapping with a ``type`` that a
   plugin registered (did-you-mean); when the factory declares ``PARAMS`` the
   other keys are checked against them (unknown keys, types, required ones);
-* ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0}``, no id used twice;
+* ``tags``: ``role: {id: N | ids: [N, ...], size_mm: > 0, family_ids: {FAMILY: N | [N, ...]}}``,
+  no id used twice (the trackers plugin checks the ids against their families);
 * ``places``: ``name: [x, y, z]`` in mm; ``obstacles``: a list of shapes
   (``box: {center, size}`` in mm, ``cylinder``, ``sphere``, ``mesh: {file}``);
   ``table: {z: MM}`` (or ``table: MM``): the table top in the arm's base frame;
@@ -17,8 +18,9 @@ the whole file before returning, collecting every problem into one
 * then the planning scene these make (:meth:`armtree.motion.scene.Scene.from_profile`):
   meshes that fail to load, places inside an obstacle or under the table;
 * ``plugins`` is a list of modules or ``.py`` files loaded before validation;
-  ``watchdog: {tick_s: S}`` is the longest a tick may take (wall seconds,
-  default 120) before the run ends with exit 3;
+  ``watchdog: {tick_s: S, stall_s: S}``: the longest a tick may take (wall
+  seconds, default 120) before the run ends with exit 3, and how long a run may
+  make no progress (run seconds, default 60) before it is reported as a stall;
 * sections plugins register (``armtree_profile_sections``, such as the built-in
   simulation's ``world:``): their value's type, then each section's own check;
 * last, every plugin's ``armtree_validate_profile`` hook, its errors reported
@@ -43,10 +45,12 @@ from .errors import ConfigError, Mark, shown
 from .hook_calls import call_isolated, plugin_of
 from .motion.scene import Scene
 from .params import check_value
+from .plugin_checks import rig_problems
 from .plugin_manager import PluginManager, did_you_mean, get_plugin_manager
 from .profile_include import apply_includes
 from .resolve import available, resolve
 from .rig import TagSpec
+from .stall_watch import DEFAULT_STALL_S, MAX_STALL_S
 from .watchdog import DEFAULT_TICK_S, MAX_TICK_S
 from .workcell import check_workcell
 from .yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
@@ -282,8 +286,7 @@ class Profile:
         """Marker roles by name."""
         out: dict[str, TagSpec] = {}
         for role, spec in (self.section("tags") or {}).items():
-            ids = (spec["id"],) if "id" in spec else tuple(spec["ids"])
-            out[str(role)] = TagSpec(str(role), tuple(int(i) for i in ids), float(spec["size_mm"]))
+            out[str(role)] = tag_spec(str(role), spec)
         return out
 
     def places(self) -> dict[str, list[float]]:
@@ -433,6 +436,10 @@ def _finish(
             and getattr(node, "swapped_from", None)
         },
     )
+    if "arm" not in invalid:
+        # The arm's model as plugins --check checks it, built from this profile: a home
+        # outside the limits or an IK with a sign error is the plugin's, reported first.
+        errors[:0] = rig_problems(profile)
     if not invalid & SCENE_SECTIONS:
         errors.extend(_check_scene(profile))
     errors.extend(_component_checks(profile, manager))
@@ -691,7 +698,8 @@ def _check_component(
     if not registry.has(kind, ctype):
         errors.append(
             error_at(
-                f"{section}: unknown {kind} type {shown(ctype)}{did_you_mean(ctype, registry.names(kind))}",
+                f"{section}: unknown {kind} type {shown(ctype)}"
+                f"{did_you_mean(ctype, registry.names(kind))}{registry.why_unknown(kind, ctype)}",
                 config.value_mark("type"),
             )
         )
@@ -750,6 +758,20 @@ def _is_id(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
 
 
+#: The keys of one ``tags:`` entry.
+TAG_KEYS = ("id", "ids", "size_mm", "family_ids")
+
+
+def tag_spec(role: str, spec: Mapping[str, Any]) -> TagSpec:
+    """One checked ``tags:`` entry as a :class:`TagSpec`, its ``family_ids`` as tuples."""
+    ids = (spec["id"],) if "id" in spec else tuple(spec.get("ids", ()))
+    family_ids = {
+        str(family): tuple(int(i) for i in (value if isinstance(value, (list, tuple)) else [value]))
+        for family, value in (spec.get("family_ids") or {}).items()
+    }
+    return TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]), family_ids)
+
+
 def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
     tags = data.get("tags")
     if tags is None:
@@ -766,10 +788,10 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
             errors.append(error_at(f"tags.{role}: expected {{id: N, size_mm: S}}", where))
             continue
         for key in spec:
-            if key not in ("id", "ids", "size_mm", "family"):
+            if key not in TAG_KEYS:
                 errors.append(
                     error_at(
-                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), ['id', 'ids', 'size_mm', 'family'])}",
+                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), TAG_KEYS)}",
                         spec.key_mark(key),
                     )
                 )
@@ -828,6 +850,53 @@ def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
                     spec.value_mark("size_mm"),
                 )
             )
+        if "family_ids" in spec:
+            _check_family_ids(str(role), spec, errors)
+
+
+def _check_family_ids(role: str, spec: MarkedDict, errors: list[ConfigError]) -> None:
+    """``family_ids``: the role's ids in other marker families, shaped as its ``id`` / ``ids``.
+
+    Which families exist and which ids they have is the trackers' to say
+    (their ``armtree_validate_profile``); here only the shape is checked.
+    """
+    given = spec["family_ids"]
+    if not isinstance(given, MarkedDict) or not given:
+        errors.append(
+            error_at(
+                f"tags.{role}.family_ids: expected a mapping of marker family: id, "
+                "e.g. {hamming: 69937}",
+                spec.value_mark("family_ids"),
+            )
+        )
+        return
+    many = "ids" in spec and isinstance(spec["ids"], list)
+    for family, value in given.items():
+        where = given.value_mark(family)
+        path = f"tags.{role}.family_ids.{family}"
+        if not many:
+            if not _is_id(value):
+                errors.append(
+                    error_at(f"{path}: expected one marker id >= 0, got {shown(value)}", where)
+                )
+            continue
+        count = len(spec["ids"])
+        if not isinstance(value, MarkedList) or len(value) != count:
+            errors.append(
+                error_at(
+                    f"{path}: expected a list of {count} marker ids, one for each of "
+                    f"tags.{role}.ids, got {shown(value)}",
+                    where,
+                )
+            )
+            continue
+        for i, v in enumerate(value):
+            if not _is_id(v):
+                errors.append(
+                    error_at(
+                        f"{path}: expected marker ids >= 0, got {shown(v)}", value.item_mark(i)
+                    )
+                )
 
 
 def _vector(value: Any, n: int = 3) -> bool:
@@ -887,36 +956,46 @@ def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
         )
 
 
+#: ``watchdog:`` keys: (default, largest, what it bounds).
+WATCHDOG_KEYS = {
+    "tick_s": (DEFAULT_TICK_S, MAX_TICK_S, "the longest one tick may take"),
+    "stall_s": (DEFAULT_STALL_S, MAX_STALL_S, "how long a run may make no progress"),
+}
+
+
 def _check_watchdog(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """``watchdog: {tick_s: S}``: the longest a tick may take on the wall clock."""
+    """``watchdog: {tick_s: S, stall_s: S}``: the longest a tick may take on the wall
+    clock, and the run time without progress that is reported as a stall."""
     section = data.get("watchdog")
     if section is None:
         return
     if not isinstance(section, MarkedDict):
         errors.append(
             error_at(
-                "watchdog: expected {tick_s: SECONDS} (the longest one tick may take)",
+                "watchdog: expected a mapping {tick_s: SECONDS, stall_s: SECONDS} (the longest "
+                "one tick may take, how long a run may make no progress)",
                 data.value_mark("watchdog"),
             )
         )
         return
     for key in section:
-        if key != "tick_s":
+        if key not in WATCHDOG_KEYS:
             errors.append(
                 error_at(
-                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), ['tick_s'])}",
+                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), WATCHDOG_KEYS)}",
                     section.key_mark(key),
                 )
             )
-    value = section.get("tick_s", DEFAULT_TICK_S)
-    if not _is_number(value) or not 0 < value <= MAX_TICK_S:
-        errors.append(
-            error_at(
-                f"watchdog.tick_s: expected a number of seconds > 0 and <= {MAX_TICK_S:g}, "
-                f"got {shown(value)}",
-                section.value_mark("tick_s"),
+    for key, (default, largest, _) in WATCHDOG_KEYS.items():
+        value = section.get(key, default)
+        if not _is_number(value) or not 0 < value <= largest:
+            errors.append(
+                error_at(
+                    f"watchdog.{key}: expected a number of seconds > 0 and <= {largest:g}, "
+                    f"got {shown(value)}",
+                    section.value_mark(key),
+                )
             )
-        )
 
 
 def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:

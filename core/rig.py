@@ -12,7 +12,7 @@ import enum
 import math
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,8 +40,12 @@ class MotionStatus(enum.Enum):
 class MotionHandle:
     """Progress of one command to an arm, updated by the driver's thread.
 
-    A behaviour polls it from ``update()``; it never blocks. ``error`` holds the
-    :class:`HardwareFault` or refusal that ended a FAILED motion.
+    A behaviour polls it from ``update()``; it never blocks. :attr:`done` is True
+    once the command ended in any way, DONE, FAILED or STOPPED alike: a failed
+    motion is ``done`` too, so test :attr:`status` for ``MotionStatus.DONE`` to know
+    it succeeded. ``error`` holds the :class:`HardwareFault` or refusal (an
+    :class:`~armtree.errors.Unreachable` for a target refused before a byte was
+    sent) that ended a FAILED motion.
     """
 
     def __init__(self, description: str, target: np.ndarray | None = None) -> None:
@@ -67,7 +71,7 @@ class MotionHandle:
 
     @property
     def done(self) -> bool:
-        """True once the motion ended in any way."""
+        """True once the motion ended in any way: DONE, FAILED or STOPPED (not success)."""
         return self._finished.is_set()
 
     def update(
@@ -119,6 +123,13 @@ class ArmDriver(ABC):
     #: SSC-32): the host times the motion, so a planner's whole path goes to
     #: :meth:`follow_path` as one trajectory instead of one :meth:`move_joints` per waypoint.
     interpolates: bool = True
+    #: What the arm holds things with, for :class:`ArmTool`: ``"suction"`` (the pump,
+    #: :meth:`set_suction`) or ``"gripper"`` (:meth:`set_gripper` to :attr:`grip_closed`
+    #: and :attr:`grip_open`).
+    tool_kind: str = "suction"
+    #: The gripper openings (degrees of its servo, or mm) that hold and that let go.
+    grip_closed: float = 0.0
+    grip_open: float = 90.0
 
     @abstractmethod
     def connect(self) -> None:
@@ -159,7 +170,10 @@ class ArmDriver(ABC):
 
     @abstractmethod
     def set_suction(self, on: bool) -> MotionHandle:
-        """Switch the suction pump; DONE when the arm has acknowledged it."""
+        """Switch the suction pump; DONE when the arm has acknowledged it.
+
+        Skills grip through ``rig.tool`` (:class:`ArmTool` calls this or
+        :meth:`set_gripper` as :attr:`tool_kind` says), which works on every rig."""
 
     @abstractmethod
     def stop(self) -> None:
@@ -203,6 +217,80 @@ class ArmDriver(ABC):
     def fault(self) -> HardwareFault | None:
         """The fault that stopped the link, if any."""
         return None
+
+
+# ---------------------------------------------------------------------------
+# The tool
+# ---------------------------------------------------------------------------
+
+
+class Tool(ABC):
+    """What holds things at the end of the arm: a suction cup, a gripper, a plugin's own.
+
+    A skill grips through ``rig.tool`` whatever the rig has, so one tree runs on
+    every rig: :meth:`grip` and :meth:`release` return a :class:`MotionHandle`
+    to poll from ``update()`` (DONE when the tool reports it, FAILED with the
+    reason otherwise), and :attr:`holding` says whether the tool reports that it
+    grips (a pump on, a gripper nearer closed than open). Whether an object is in
+    it is for the camera to check. The built-in arms drive their own tool
+    (:class:`ArmTool`); a plugin with a separate one (a gripper on its own servo
+    controller) subclasses this and sets ``rig.tool`` in ``armtree_rig_ready``.
+    """
+
+    #: ``"suction"``, ``"gripper"``, or the plugin's own word for its tool.
+    kind: str = ""
+
+    @abstractmethod
+    def grip(self) -> MotionHandle:
+        """Take hold (pump on, gripper closed); never blocks."""
+
+    @abstractmethod
+    def release(self) -> MotionHandle:
+        """Let go (pump off, gripper open); never blocks."""
+
+    @property
+    @abstractmethod
+    def holding(self) -> bool:
+        """True when the tool reports that it grips."""
+
+
+class ArmTool(Tool):
+    """The tool an arm's driver drives: its pump (``tool_kind`` ``"suction"``) or its
+    gripper, closed to ``grip_closed`` and opened to ``grip_open``."""
+
+    def __init__(self, arm: ArmDriver) -> None:
+        self.arm = arm
+
+    @property
+    def kind(self) -> str:  # type: ignore[override]
+        """The driver's ``tool_kind``."""
+        return str(getattr(self.arm, "tool_kind", "suction"))
+
+    def grip(self) -> MotionHandle:
+        """Pump on, or the gripper to ``grip_closed``."""
+        if self.kind == "gripper":
+            return self.arm.set_gripper(float(getattr(self.arm, "grip_closed", 0.0)))
+        return self.arm.set_suction(True)
+
+    def release(self) -> MotionHandle:
+        """Pump off, or the gripper to ``grip_open``."""
+        if self.kind == "gripper":
+            return self.arm.set_gripper(float(getattr(self.arm, "grip_open", 90.0)))
+        return self.arm.set_suction(False)
+
+    @property
+    def holding(self) -> bool:
+        """Suction on, or a gripper reported nearer closed than open.
+
+        A tool state's ``gripper`` field alone is no sign of a gripper: the Dobot
+        V1.0 reports a gripper angle in every status frame whatever is mounted.
+        """
+        state = self.arm.tool
+        if self.kind == "gripper" and state.gripper is not None:
+            closed = float(getattr(self.arm, "grip_closed", 0.0))
+            opened = float(getattr(self.arm, "grip_open", 90.0))
+            return abs(state.gripper - closed) < abs(state.gripper - opened)
+        return bool(state.suction)
 
 
 # ---------------------------------------------------------------------------
@@ -285,7 +373,21 @@ def frame_index(now: float, fps: float) -> int:
 
 
 class Tracker(ABC):
-    """Finds markers in a frame."""
+    """Finds markers in a frame.
+
+    ``marker_family`` names the markers it reads (``"hamming"``, or an ArUco
+    dictionary such as ``"4x4_50"`` or ``"apriltag_36h11"``): the rig gives it
+    the profile's tag ids for that family (``tags: ROLE: family_ids:``).
+    ``unread`` is how many marker-like shapes of the last :meth:`detect`'s frame
+    (a dark square border around light and dark cells, apart from every marker
+    reported) decoded as nothing in that family: markers of another family, or
+    ones too blurred to read. Skills word a failed search with it.
+    """
+
+    #: The marker family read; None when it has no name tags could use.
+    marker_family: str | None = None
+    #: Marker-like shapes in the last frame that decoded as nothing in the family.
+    unread: int = 0
 
     def start(self) -> None:  # noqa: B027 - optional: trackers with nothing to prepare
         """Prepare for the first frame (load or compile what detection needs); the rig calls it."""
@@ -343,11 +445,22 @@ class Planner(ABC):
 
 @dataclass(frozen=True)
 class TagSpec:
-    """A marker role from the profile's ``tags:`` section."""
+    """A marker role from the profile's ``tags:`` section.
+
+    ``ids`` are the role's markers; ``family_ids`` the same markers in marker
+    families that number them otherwise (``{"hamming": (69937,)}``), keyed by
+    the family name a tracker gives as :attr:`Tracker.marker_family`.
+    """
 
     role: str
     ids: tuple[int, ...]
     size_mm: float
+    family_ids: Mapping[str, tuple[int, ...]] = field(default_factory=dict, hash=False)
+
+    def in_family(self, family: str | None) -> TagSpec:
+        """This role as a tracker of marker family ``family`` reads it: ``ids`` are its ids there."""
+        ids = self.family_ids.get(family, self.ids) if family else self.ids
+        return TagSpec(self.role, tuple(ids), self.size_mm, self.family_ids)
 
 
 @dataclass
@@ -401,9 +514,10 @@ class Rig:
 
     A fault while starting closes what was built, in the same order, before
     it propagates; :meth:`close` never raises and is safe to call twice.
-    ``tool`` and ``head`` are slots for plugins that drive a separate end
-    effector or a camera head (set them in ``armtree_rig_ready``); the
-    built-in arms drive their end effector themselves.
+    ``tool`` is what skills grip with (a :class:`Tool`): a rig built with an arm
+    gets the arm's own (:class:`ArmTool`) unless a plugin set another in
+    ``armtree_rig_ready`` or the arm has none; ``head`` is a slot for a plugin's
+    camera head.
     """
 
     profile: Any
@@ -412,7 +526,7 @@ class Rig:
     camera: Camera | None = None
     tracker: Tracker | None = None
     planner: Planner | None = None
-    tool: Any = None
+    tool: Tool | None = None
     head: Any = None
     #: A measuring device outside the arm (:class:`armtree.measuring.MeasuringDevice`):
     #: the ground truth of calibrations and accuracy experiments; the simulation sets
@@ -427,6 +541,10 @@ class Rig:
     closers: list[Callable[[], None]] = field(default_factory=list)
     #: Names of the components :meth:`start` has started (or tried to), in order.
     started: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.tool is None and self.arm is not None:
+            self.tool = ArmTool(self.arm)
 
     def role_of(self, marker_id: int) -> TagSpec | None:
         """The tag spec whose ids include ``marker_id``."""

@@ -5,8 +5,9 @@ context)`` for the arm, camera and tracker, ``factory(config, context, model,
 scene)`` for the planner (``model`` is the arm driver's kinematic model,
 ``scene`` what :mod:`armtree.motion.scene` makes of the profile's obstacles, or the raw
 ``obstacles`` list when that module is absent). Then the ``armtree_rig_ready``
-hook lets plugins wire components together, the context's steppers and closers
-move into the rig, and :meth:`Rig.start` starts the components in
+hook lets plugins wire components together (a plugin may set ``rig.tool``; else
+the arm's own :class:`~armtree.rig.ArmTool`, when it has a tool), the context's
+steppers and closers move into the rig, and :meth:`Rig.start` starts the components in
 :data:`armtree.rig.START_ORDER` (the arm connects, the camera opens). If
 anything fails, whatever was built is closed (:meth:`Rig.close`: components in
 reverse start order, then the closers) before the error propagates.
@@ -22,8 +23,8 @@ from typing import Any
 from .clock import Clock
 from .errors import ConfigError, HardwareFault
 from .plugin_manager import get_plugin_manager
-from .profile import profile_section, profile_source
-from .rig import Rig, RigContext, TagSpec
+from .profile import profile_section, profile_source, tag_spec
+from .rig import ArmTool, Rig, RigContext, TagSpec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
@@ -81,17 +82,17 @@ def make_scene(profile: Any) -> Any:
     return obstacles
 
 
-def parse_tags(tags: Any, file: str | None = None) -> dict[str, TagSpec]:
-    """``tags:`` of a profile (``{role: {id: N | ids: [...], size_mm: S}}``) as TagSpecs."""
+def parse_tags(tags: Any, file: str | None = None, family: str | None = None) -> dict[str, TagSpec]:
+    """``tags:`` of a profile (``{role: {id: N | ids: [...], size_mm: S}}``) as TagSpecs,
+    their ``ids`` those of marker family ``family`` (``family_ids``) where the profile gives them."""
     found: dict[str, TagSpec] = {}
     for role, spec in (tags or {}).items():
         if isinstance(spec, TagSpec):
-            found[role] = spec
+            found[role] = spec.in_family(family)
             continue
         if not isinstance(spec, Mapping) or "size_mm" not in spec:
             raise ConfigError(f"tags.{role}: give id or ids, and size_mm", file=file)
-        ids = spec.get("ids", [spec["id"]] if "id" in spec else [])
-        found[role] = TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]))
+        found[role] = tag_spec(str(role), spec).in_family(family)
     return found
 
 
@@ -128,9 +129,14 @@ def build_rig(
             factory = _factory(registry, "planner", planner_config, file)
             model = rig.arm.model if rig.arm is not None else None
             rig.planner = factory(dict(planner_config), context, model, make_scene(profile))
-        rig.tags = parse_tags(profile_section(profile, "tags"), file)
+        # the ids skills and calibrations act on are those of the markers the tracker reads
+        # (a tracker that does not subclass Tracker names no family)
+        family = getattr(rig.tracker, "marker_family", None)
+        rig.tags = parse_tags(profile_section(profile, "tags"), file, family)
         rig.places = {k: list(v) for k, v in (profile_section(profile, "places") or {}).items()}
         manager.hook.armtree_rig_ready(rig=rig, context=context)
+        if rig.tool is None and rig.arm is not None and arm_grips(registry, profile) is not None:
+            rig.tool = ArmTool(rig.arm)
         rig.steppers.extend(context.steppers)
         rig.closers.extend(context.closers)
         context.steppers = rig.steppers
@@ -141,6 +147,22 @@ def build_rig(
         raise
     rig.start()
     return rig
+
+
+def arm_grips(registry: Any, profile: Any) -> str | bool | None:
+    """What the profile's arm holds things with (its factory's ``grips_with(config)``):
+    ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
+    config = component_config(profile, "arm")
+    name = config.get("type") if isinstance(config, Mapping) else None
+    if not isinstance(name, str) or not registry.has("arm", name):
+        return True
+    grips = getattr(registry.get("arm", name).factory, "grips_with", None)
+    if not callable(grips):
+        return True
+    try:
+        return grips(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return True  # the profile's own checks report why
 
 
 def _factory(registry: Any, kind: str, config: Any, file: str | None) -> Any:

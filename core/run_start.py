@@ -22,6 +22,20 @@ def choose_clock(profile: Any, realtime: bool, manager: Any) -> Clock:
     return VirtualClock()
 
 
+#: ``run-tree``'s ``--timeout`` for a run on the virtual clock (the simulation) when none
+#: is given, seconds of run time: five times the longest a shipped tree's run takes
+#: (docs/benchmarks.md, "run time"), so a tree that makes no progress ends on its own.
+DEFAULT_SIM_TIMEOUT_S = 600.0
+
+
+def default_timeout(profile: Any, realtime: bool, manager: Any) -> float | None:
+    """:data:`DEFAULT_SIM_TIMEOUT_S` for a run on the virtual clock; None (no limit) on
+    the wall clock (``realtime``, or a profile naming real hardware)."""
+    if not choose_clock(profile, realtime, manager).virtual:
+        return None
+    return DEFAULT_SIM_TIMEOUT_S
+
+
 def plugin_manager(tree: Any) -> Any:
     """The plugin manager of ``tree``'s profile, else one for the tree's ``plugins:``."""
     manager = getattr(getattr(tree, "profile", None), "manager", None)

@@ -74,6 +74,8 @@ from .run_hooks import RunHooks
 from .run_start import choose_clock, choose_record_dir, open_log, plugin_manager
 from .run_watchdog import RunWatchdog, profile_tick_limit
 from .runlog import RunLog
+from .stall_watch import StallWatch, profile_stall_limit
+from .status_guard import guard_statuses
 from .status_tracking import StatusTracker
 from .tree_replacement import TreeReplacement
 from .watchdog import TickAbandoned
@@ -194,6 +196,8 @@ class Run:
         #: Notable events components reported, for the summary (the log has them all).
         self.events = self.report.events
         self.tick_limit = tick_limit if tick_limit is not None else profile_tick_limit(profile)
+        #: Whether the tree still makes progress (a stall is reported, the run goes on).
+        self.stall = StallWatch(profile_stall_limit(profile))
         #: The tick watchdog and the forced exit of a stop that hangs.
         self.watchdog = RunWatchdog(
             limit_s=self.tick_limit,
@@ -373,6 +377,8 @@ class Run:
         self.report.log = self.log
 
     def _setup(self, bt: py_trees.trees.BehaviourTree) -> None:
+        # An update() that returns no status ends the run at that tick (not a spin).
+        guard_statuses(bt.root)
         try:
             bt.setup(rig=self.rig, clock=self.clock, runtime=self)
         except Exception as exc:  # noqa: BLE001 - reported with the node it came from
@@ -381,6 +387,7 @@ class Run:
     def _index_nodes(self) -> None:
         self.status.reset(self.root)
         self.feedback.reset(self.status.nodes, self.status.paths)
+        self.stall.start(self.clock.now(), self.status.nodes, getattr(self.rig, "arm", None))
 
     def _loop(self, stop_key: StopKey | None) -> End:
         clock, root, rig = self.clock, self.root, self.rig
@@ -399,7 +406,7 @@ class Run:
             if report.fail_reason is not None:
                 return report.component_failed(self.tick_count)
             if timeout is not None and clock.now() >= timeout - 1e-9:
-                return End("FAILURE", f"timeout: {timeout:g} s on the run clock reached")
+                return self._timed_out(timeout)
             if max_ticks is not None and self.tick_count >= max_ticks:
                 return End("FAILURE", f"max ticks: {max_ticks} ticks reached")
             if pause.due(rig):
@@ -435,6 +442,8 @@ class Run:
                 return report.behaviour_exception(self.tick_count, exc, "tick")
             watchdog.end()
             self._track(now, logging)
+            if self.stall.observe(now, self.status.last, bool(self.blackboard.writes)):
+                self._stalled(now)
             if tick_hooks:
                 self.hooks.notify("armtree_tick", run=self)
             wall = time.monotonic()
@@ -456,6 +465,26 @@ class Run:
                     return self._interrupted()
                 return report.tree_failed(rig)
             pacer.advance(self.tick_count, self.control.speed)
+
+    def _stalled(self, now: float) -> None:
+        running = self.index.running_leaves()
+        quiet = now - self.stall.quiet_since
+        where = f" while {', '.join(running)} ran" if running else ""
+        self.report.event(
+            self.tick_count,
+            "stall",
+            f"stall: no progress for {quiet:g} s (no status change, motion, blackboard write "
+            f"or feedback change){where}",
+            seconds=round(quiet, 3),
+            since=round(self.stall.quiet_since, 3),
+            running=running,
+        )
+
+    def _timed_out(self, timeout: float) -> End:
+        message = f"timeout: {timeout:g} s on the run clock reached"
+        if self.stall.stalled:
+            message += f"; no progress since t={self.stall.quiet_since:.2f} s (a stall)"
+        return End("FAILURE", message)
 
     def _paused(self, paused: bool) -> None:
         if paused:

@@ -73,13 +73,14 @@ class KindSpec:
 SPECS: dict[str, KindSpec] = {
     "skill": KindSpec(
         registry_kind="behaviour",
-        summary="${title}: an armtree skill that finds a tag with the camera and hovers the tool above it.",
+        summary="${title}: an armtree skill that finds a tag with the camera, hovers the tool above "
+        "it and picks it up with the rig's tool.",
         modules=("plugin.py",),
         files="- `src/${package}/plugin.py`: the skill (a behaviour) and its registration.",
         imports=("import numpy as np", "from armtree.runlog import read_log"),
         tree="skill/tree.yaml.tmpl",
         world_check="skill/world_check.tmpl",
-        tree_summary="the skill hovers over the ducky it finds with the camera, then the arm goes home",
+        tree_summary="the skill picks up the ducky it finds with the camera, then the arm goes home",
     ),
     "arm": KindSpec(
         registry_kind="arm",
@@ -100,6 +101,7 @@ SPECS: dict[str, KindSpec] = {
             "from hypothesis import given, settings",
             "from hypothesis import strategies as st",
             "from armtree.clock import WallClock",
+            "from armtree.motion.workspace import ArmWorkspace",
         ),
         own_imports=("from ${package}.plugin import emulator, model",),
         section=("arm", " {type: ${name}, port: sim}   # sim: the firmware emulator on a pty"),

@@ -20,6 +20,7 @@ from .outcomes import BUILTIN_PREDICATES, Predicate
 from .params import Param
 from .plugin_manager import Registry
 from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
+from .stall_watch import MAX_STALL_S
 from .subtree_include import SUBTREE_KEYS
 from .watchdog import MAX_TICK_S
 from .workcell import workcell_schema
@@ -137,6 +138,11 @@ def tree_definitions(registry: Registry) -> dict[str, Any]:
         "properties": {
             "tree": {"type": "string", "description": "the tree's name"},
             "description": {"type": "string"},
+            "task": {
+                "type": "string",
+                "description": "the instruction a dataset episode of this tree is labelled with "
+                "(LeRobot's task; default: the tree's name)",
+            },
             "rig": {"type": "string", "description": "default hardware profile"},
             "tick_hz": {"type": "number", "exclusiveMinimum": 0, "description": "ticks per second"},
             "plugins": {"type": "array", "items": {"type": "string"}},
@@ -219,7 +225,15 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
             "id": marker_id,
             "ids": {"type": "array", "items": marker_id, "minItems": 1},
             "size_mm": {"type": "number", "exclusiveMinimum": 0, "description": "marker side (mm)"},
-            "family": {"type": "string"},
+            "family_ids": {
+                "type": "object",
+                "description": "the same markers' ids in another marker family (hamming, "
+                "an ArUco dictionary such as 4x4_50 or apriltag_36h11), shaped as id or ids",
+                "additionalProperties": {
+                    "anyOf": [marker_id, {"type": "array", "items": marker_id, "minItems": 1}]
+                },
+                "minProperties": 1,
+            },
         },
         "required": ["size_mm"],
         "oneOf": [{"required": ["id"]}, {"required": ["ids"]}],
@@ -260,9 +274,11 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
         "plugins": {"type": "array", "items": {"type": "string"}},
         "watchdog": {
             "type": "object",
-            "description": "the longest one tick may take on the wall clock",
+            "description": "the longest one tick may take on the wall clock (tick_s); how long "
+            "a run may make no progress before it is reported as a stall (stall_s, run time)",
             "properties": {
-                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S}
+                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S},
+                "stall_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_STALL_S},
             },
             "additionalProperties": False,
         },

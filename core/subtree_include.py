@@ -133,8 +133,19 @@ class SubtreeIncludes:
         return Included(data["root"], data.value_mark("root"), inner, name, ok)
 
     def _find(self, file: str, mark: Mark | None, ctx: LoadContext) -> Path | None:
-        """The file to include, or None after an error: not found, a cycle, too deep."""
-        path = resolve(file, "tree", ctx.file.parent, base_first=True)
+        """The file to include, or None after an error: not found, a cycle, too deep.
+
+        ``FILE#ID`` names tree ``ID`` of a file holding several (BehaviorTree.CPP
+        XML); ``#ID`` one of the including file. Its path is the file's with ``#ID``
+        appended to the name, which the plugin that reads the format understands.
+        """
+        name, fragment, tree_id = file.partition("#")
+        if name:
+            path = resolve(name, "tree", ctx.file.parent, base_first=True)
+        else:
+            path = ctx.file.with_name(ctx.file.name.partition("#")[0])
+        if path is not None and fragment:
+            path = path.with_name(f"{path.name}#{tree_id}")
         if path is None:
             self.errors.error(
                 f"subtree file {shown(file)} not found next to {ctx.file.name}, in the working "

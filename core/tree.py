@@ -34,7 +34,8 @@ class Tree:
     (``None`` when the tree needs no rig); ``blackboard`` holds the initial
     values (the file's plus ``--set`` overrides); ``tick_hz`` is the tick rate;
     ``expect`` the outcomes the file declares (:class:`armtree.outcomes.Expectation`),
-    judged on the world at the end of every run.
+    judged on the world at the end of every run; ``task`` the instruction the file
+    gives (``task:``), what a dataset episode of the run is labelled with ("" for none).
     """
 
     name: str
@@ -48,6 +49,7 @@ class Tree:
     plugins: list[str] = field(default_factory=list)
     manager: Any = None
     expect: list[Any] = field(default_factory=list)
+    task: str = ""
 
     def info(self, behaviour: py_trees.behaviour.Behaviour) -> NodeInfo | None:
         """The source information of one behaviour of this tree."""

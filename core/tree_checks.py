@@ -30,6 +30,7 @@ import numpy as np
 
 from .errors import ConfigError, Mark, shown
 from .plugin_manager import did_you_mean
+from .rig_builder import arm_grips
 from .workcell import workcell_of
 from .yamlio import error_at
 
@@ -189,14 +190,10 @@ class RigChecks:
 
     def _grips_with(self) -> str | bool | None:
         """What the arm holds things with; True when the arm plugin does not say."""
-        factory = self._factory()
-        grips = getattr(factory, "grips_with", None)
-        if not callable(grips):
+        manager = self.profile.manager
+        if manager is None or self.profile.section("arm") is None:
             return True
-        try:
-            return grips(self.profile.component("arm") or {})
-        except (ConfigError, ValueError, TypeError, KeyError):
-            return True  # reported by the profile's own checks
+        return arm_grips(manager.registry, self.profile)
 
     def _reaches(self, xyz: Any) -> bool | None:
         """True/False when the arm's model says; None when no model can judge."""

@@ -1,4 +1,4 @@
-"""A tree file's top-level keys: each checked (``tree:``, ``description:``, ``rig:``,
+"""A tree file's top-level keys: each checked (``tree:``, ``description:``, ``task:``, ``rig:``,
 ``tick_hz:``, ``plugins:``, ``blackboard:``, ``expect:``, unknown keys with
 did-you-mean) and read into what the load needs: the plugins to load, the profile,
 the tick rate, the initial blackboard and the expectations. ``params:`` is
@@ -23,6 +23,7 @@ from .yamlio import MarkedDict, MarkedList, plain
 TREE_KEYS = (
     "tree",
     "description",
+    "task",
     "rig",
     "tick_hz",
     "plugins",
@@ -54,7 +55,7 @@ class TreeKeys:
         """Unknown keys (with did-you-mean) and the types of the plain ones."""
         error = self._errors.error
         self._errors.unknown_keys(data, TREE_KEYS, "unknown tree key", ctx)
-        for key in ("tree", "description", "rig"):
+        for key in ("tree", "description", "task", "rig"):
             if data.get(key) is not None and not isinstance(data[key], str):
                 error(
                     f"{key}: expected a string, got {shown(data[key])}", data.value_mark(key), ctx
@@ -89,7 +90,7 @@ class TreeKeys:
         try:
             return manager.extended(resolved, where)
         except ConfigError as exc:
-            self._errors.extend(exc.errors)
+            self._errors.extend(exc.errors, first=True)
             return manager
 
     def profile(

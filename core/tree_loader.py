@@ -151,7 +151,7 @@ class _Loader:
     def __init__(self, manager: PluginManager) -> None:
         self.manager = manager
         self.errors = LoadErrors()
-        self.files = TreeFiles(self.errors)
+        self.files = TreeFiles(self.errors, read=self.read_other_format)
         self.nodes: dict[Any, NodeInfo] = {}
         #: The blackboard keys the tree reads and writes, and those --set gives.
         self.keys = BlackboardUse()
@@ -161,6 +161,10 @@ class _Loader:
         self.tree_keys = TreeKeys(self.errors, self.keys, self.blackboard)
         #: Made once the registry and the profile are known.
         self.builder: NodeBuilder | None = None
+
+    def read_other_format(self, path: Path) -> Any:
+        """A tree file a plugin reads (``armtree_read_tree``), or None to read it as YAML."""
+        return self.manager.hook.armtree_read_tree(path=path)
 
     def fail(self) -> ConfigError:
         """One error listing all, ordered by file (as loaded), line and column."""
@@ -228,6 +232,7 @@ class _Loader:
             source=path,
             tick_hz=tick_hz,
             description=str(data.get("description") or ""),
+            task=str(data.get("task") or ""),
             blackboard=self.blackboard,
             nodes=self.nodes,
             profile=profile,

@@ -44,8 +44,9 @@ class TreeReplacement:
             return None
         if arm.busy():
             return "the arm is moving"
+        tool = getattr(self._run.rig, "tool", None)
         try:
-            holding = bool(arm.tool.suction)
+            holding = tool is not None and bool(tool.holding)
         except Exception:  # noqa: BLE001 - no reading: take it as holding
             holding = True
         if holding and "tool" not in getattr(_first_leaf(tree.root), "RESOURCES", ()):

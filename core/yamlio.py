@@ -181,6 +181,13 @@ def load_yaml_file(path: Path) -> Any:
     bad byte).
     """
     file = str(path)
+    return load_yaml(decode(read_bounded(path), file), file)
+
+
+def read_bounded(path: Path) -> bytes:
+    """The bytes of a tree or profile file; :class:`ConfigError` when it cannot be read
+    or is larger than :data:`MAX_BYTES` (then it is not read past the limit)."""
+    file = str(path)
     try:
         with open(path, "rb") as stream:
             raw = stream.read(MAX_BYTES + 1)
@@ -192,7 +199,7 @@ def load_yaml_file(path: Path) -> Any:
             "or profile; split it or leave out what it does not need",
             file=file,
         )
-    return load_yaml(decode(raw, file), file)
+    return raw
 
 
 def decode(raw: bytes, file: str) -> str:

@@ -344,6 +344,16 @@ PROFILES: list[Case] = [
         },
     ),
     Case(
+        "a stall limit that is no number",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="watchdog.stall_s: expected a number of seconds > 0 and <= 86400, got 'long'",
+        where="p.yaml:2:32",
+        files={
+            "t.yaml": "root: {success: {}}\n",
+            "p.yaml": "arm: {type: dobot_v1, port: sim}\nwatchdog: {tick_s: 1, stall_s: long}\n",
+        },
+    ),
+    Case(
         "the planner's cache folder in YAML",
         ("t.yaml", "--rig", "p.yaml"),
         message="no parameter 'cache_dir'",

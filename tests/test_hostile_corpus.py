@@ -10,8 +10,13 @@ from hostile_corpus import CASES, Case
 
 from armtree import cli
 
-#: Text that must never reach a user: a traceback or a raw exception's name.
-RAW = re.compile(r"Traceback|^error: [A-Za-z]+(Error|Exception)\b", re.M)
+#: Text that must never reach a user: a traceback, a raw exception's name, or Python's name
+#: for a value's type (a file's values are named in YAML's words: a list, a mapping).
+RAW = re.compile(
+    r"Traceback|^error: [A-Za-z]+(Error|Exception)\b|\bMarked(List|Dict)\b|\bNoneType\b"
+    r"|<class '|\bgot (str|int|float|bool|list|dict|tuple)\b",
+    re.M,
+)
 
 
 def check(case: Case, folder: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:

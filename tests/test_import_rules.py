@@ -1,7 +1,8 @@
 """The layers of docs/architecture.md, enforced on every import statement of the package
 (module level or inside a function): core never imports a plugin, a skill never imports
 an arm, camera, tracker or planner, the shared maths imports no framework, and the plugin
-packages do not import each other (the sim takes its marker images from the trackers)."""
+packages do not import each other (the sim takes its marker images and the marker
+families' rules from the trackers)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: and ``armtree calibrate camera`` keeps the trackers' board calibration and image inputs.
 ALLOWED_ACROSS = {
     ("sim", "armtree.plugins.trackers.markers"),
+    ("sim", "armtree.plugins.trackers.families"),
     ("calibration", "armtree.plugins.skills."),
     ("calibration", "armtree.plugins.trackers.calibration"),
     ("calibration", "armtree.plugins.trackers.commands"),

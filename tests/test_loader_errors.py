@@ -69,7 +69,7 @@ CASES = [
             duration: "3"
         """,
         (3, 15),
-        "tick_counter.duration: expected an integer, got str '3'",
+        "tick_counter.duration: expected an integer, got a string '3'",
     ),
     (
         "bad choice",
@@ -310,7 +310,7 @@ def test_constructor_errors_of_a_plugin_behaviour_are_shown_at_the_node(tmp_path
 
         def __init__(self, name, **params):
             if params["size"] % 2:
-                raise ValueError("size must be even")
+                raise ValueError("size must be even")  # raised here
             super().__init__(name, **params)
 
         def update(self):
@@ -322,10 +322,19 @@ def test_constructor_errors_of_a_plugin_behaviour_are_shown_at_the_node(tmp_path
             return {"picky": Picky}
 
     path = write(tmp_path, "t.yaml", "root:\n  sequence:\n    - picky: {size: 3}\n")
+    raised = next(
+        i
+        for i, line in enumerate(Path(__file__).read_text().splitlines(), 1)
+        if "# raised here" in line
+    )
     with pytest.raises(armtree.ConfigError) as info:
         armtree.load_tree(path, manager=core_manager(Plugin()))
     assert (info.value.line, info.value.column) == (3, 7)
-    assert "picky 'picky': size must be even" in info.value.message
+    assert info.value.message.startswith("picky 'picky': the constructor of ")
+    assert info.value.message.endswith(
+        f"Picky (plugin 'test_plugin_0') raised ValueError at {__file__}:{raised}: "
+        "size must be even"
+    )
 
 
 def test_output_parameter_needs_a_binding(tmp_path):

@@ -8,6 +8,7 @@ import types
 from pathlib import Path
 
 import numpy as np
+import py_trees
 import pytest
 
 import armtree
@@ -41,16 +42,23 @@ class WrongUpdate(armtree.Behaviour):
         return None
 
 
-class NotParams(armtree.Behaviour):
+class Updates(armtree.Behaviour):
+    """Defines update(), so each class below misses its interface in one way only."""
+
+    def update(self):
+        return py_trees.common.Status.SUCCESS
+
+
+class NotParams(Updates):
     PARAMS = ({"name": "speed", "type": "float"},)
 
 
-class NoKwargsSetup(armtree.Behaviour):
+class NoKwargsSetup(Updates):
     def setup(self, timeout):
         return None
 
 
-class NarrowInit(armtree.Behaviour):
+class NarrowInit(Updates):
     PARAMS = (armtree.Param("speed", "float", 1.0),)
 
     def __init__(self, name):

@@ -97,10 +97,10 @@ PROBE = textwrap.dedent(
     own = [ep.name for ep in entry_points(group="armtree")
            if ep.dist.name == "armtree" and not ep.name.startswith("core_")]
     out = {}
-    try:
-        make_plugin_manager(blocked=own)
-    except armtree.ConfigError as exc:
-        out["error"] = exc.format()
+    manager = make_plugin_manager(blocked=own)
+    out["error"] = manager.broken.get("broken", "")
+    out["warnings"] = manager.warnings
+    out["with_broken"] = manager.registry.has("behaviour", "hello")
     registry = make_plugin_manager(blocked=[*own, "broken"]).registry
     hello = registry.get("behaviour", "hello")
     out["hello"] = [hello.plugin, hello.distribution, hello.summary]
@@ -121,11 +121,16 @@ def test_entry_points_of_an_installed_distribution(installed):
     )
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
-    assert "Traceback" not in out["error"]
-    assert out["error"].startswith("entry point broken: plugin 'broken'")
+    # The broken entry point is left out with a one-line warning; the others load.
+    assert "Traceback" not in out["error"] + proc.stderr
+    assert out["error"].startswith("plugin 'broken' (entry point 'armtree_broken' of distribution")
     assert "distribution armtree-extras" in out["error"]
     assert "ImportError: needs libfoo" in out["error"]
     assert "-p no:broken" in out["error"]
+    assert out["with_broken"] is True
+    (warning,) = out["warnings"]
+    assert proc.stderr == f"warning: {warning}\n"
+    assert warning.startswith("installed plugin 'broken' is left out: plugin 'broken'")
     assert out["hello"] == ["hello", "armtree-extras", "Greets from an installed distribution."]
     assert out["blocked"] is False
     assert out["autoload_off"] == [False, True]
@@ -163,8 +168,11 @@ def test_unknown_hook_name_is_a_clear_error():
     manager = private()
     with pytest.raises(armtree.ConfigError) as info:
         manager.register(Typo(), "typo")
-    assert "plugin 'typo' is invalid" in info.value.message
-    assert "armtree_behaviors" in info.value.message
+    assert info.value.message.startswith(
+        "plugin 'typo': armtree_behaviors() is not an armtree hook; did you mean "
+        "'armtree_behaviours'?"
+    )
+    assert info.value.line is not None and info.value.file == __file__
     assert "-p no:typo" in info.value.message
     assert not manager.pm.has_plugin("typo")
 

@@ -134,8 +134,12 @@ def test_a_constructor_without_a_name_still_gets_the_node_name(tmp_path, plugin)
     [
         ("wave: {mark: m, tims: 2}", "tims", "wave has no parameter 'tims'; did you mean 'times'?"),
         ("wave: {times: 2}", "wave", "wave needs parameter 'mark' (what is written on the flag)"),
-        ("wave: {mark: m, times: two}", "two", "wave.times: expected an integer, got str 'two'"),
-        ("wave: {mark: 7}", "7", "wave.mark: expected a string, got int 7"),
+        (
+            "wave: {mark: m, times: two}",
+            "two",
+            "wave.times: expected an integer, got a string 'two'",
+        ),
+        ("wave: {mark: 7}", "7", "wave.mark: expected a string, got an integer 7"),
         ("wave: {mark: m, hand: up}", "up", "wave.hand: 'up' is not one of 'left', 'right'"),
         ("wave: {mark: m, colours: [1]}", "[1]", "wave.colours: expected a list of strings"),
     ],

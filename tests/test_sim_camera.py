@@ -221,9 +221,9 @@ def test_hamming_marker_read_by_the_hamming_tracker(rig, camera_profile):
     profile["tracker"] = {"type": "hamming"}
     profile["tags"] = {
         "ducky": {"id": 1234567, "size_mm": 25},
-        "trash": {"ids": [42], "size_mm": 25},
+        "trash": {"ids": [70026], "size_mm": 25},
     }
     clock, world, emu, camera = rig(dict(C270), profile=profile)
     frame = camera.read()
     found = {d.id for d in HammingTracker().detect(frame)}
-    assert {1234567, 42} <= found
+    assert {1234567, 70026} <= found

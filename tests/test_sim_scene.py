@@ -78,7 +78,7 @@ def test_marker_id_outside_the_dictionary(with_world):
     profile["tracker"]["dictionary"] = "4x4_50"
     profile["tags"]["trash"]["ids"] = [2, 77]
     profile["world"]["objects"]["trash_b"]["marker"] = {"id": 77}
-    with pytest.raises(ConfigError, match="outside ArUco 4x4_50"):
+    with pytest.raises(ConfigError, match="4x4_50 has ids 0 to 49, not 77"):
         parse_scene(profile)
 
 

@@ -1,4 +1,5 @@
-"""tool_engaged: what the arm reports about its tool, read the way the mounted tool means it.
+"""ArmTool.holding (what skills read as rig.tool.holding): what the arm reports about its
+tool, read the way the mounted tool means it.
 
 Issue 12's loose end: a Dobot V1.0 reports a gripper angle in every status frame
 whatever is mounted, so a suction-cup V1 reading gripper 0.0 with the pump off
@@ -6,8 +7,6 @@ was taken for a closed gripper ("engaged").
 """
 
 from __future__ import annotations
-
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -19,7 +18,7 @@ from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
 from armtree.plugins.arms.dobot_v1 import codec
 from armtree.plugins.arms.dobot_v1.driver import DobotV1Driver
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
-from armtree.plugins.skills.manipulation import tool_engaged
+from armtree.rig import ArmTool
 
 
 def v1_reporting(is_grab: float, gripper: float) -> DobotV1Driver:
@@ -36,8 +35,8 @@ def v1_reporting(is_grab: float, gripper: float) -> DobotV1Driver:
 
 
 def test_a_v1_suction_cup_reading_gripper_zero_with_the_pump_off_is_not_engaged() -> None:
-    assert not tool_engaged(SimpleNamespace(arm=v1_reporting(is_grab=0.0, gripper=0.0)))
-    assert tool_engaged(SimpleNamespace(arm=v1_reporting(is_grab=1.0, gripper=0.0)))
+    assert not ArmTool(v1_reporting(is_grab=0.0, gripper=0.0)).holding
+    assert ArmTool(v1_reporting(is_grab=1.0, gripper=0.0)).holding
 
 
 def test_a_gripper_is_engaged_when_nearer_closed_than_open() -> None:
@@ -50,4 +49,4 @@ def test_a_gripper_is_engaged_when_nearer_closed_than_open() -> None:
     assert driver.tool_kind == "gripper"
     for reading, engaged in ((5.0, True), (50.0, False)):
         driver._gripper_readback = reading
-        assert tool_engaged(SimpleNamespace(arm=driver)) is engaged
+        assert ArmTool(driver).holding is engaged

@@ -381,6 +381,8 @@ def test_ctrl_c_halts_the_runs_and_writes_a_partial_report(work):
             "2",
             "--out",
             "out",
+            "--timeout",  # seed 7 runs until stopped (else 600 s of its virtual clock)
+            "inf",
         ],
         cwd=work,
         stdout=subprocess.PIPE,

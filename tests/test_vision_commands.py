@@ -18,6 +18,8 @@ from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.rig import Frame
 
 K = syn.nominal_camera()
+#: Valid Hampy ids (a unique orientation; the shipped profiles' ducky, duckybot and a trash).
+H1, H2, H3 = 69937, 69975, 70026
 
 
 def parse(command, argv):
@@ -69,7 +71,16 @@ def test_sheets_png_and_pdf(tmp_path):
     assert (
         run(
             MarkersCommand(),
-            ["--family", "hamming", "--sheet", "1-30", "--size-mm", "30", "-o", str(pdf)],
+            [
+                "--family",
+                "hamming",
+                "--sheet",
+                f"{H1},{H2},{H3}",
+                "--size-mm",
+                "30",
+                "-o",
+                str(pdf),
+            ],
         )
         == 0
     )
@@ -99,11 +110,11 @@ def test_sheets_png_and_pdf(tmp_path):
         ),
         (["--family", "aruco", "--id", "50", "-o", "m.png"], "ids 0 to 49"),
         (["--family", "hamming", "--id", str(2**28), "-o", "m.png"], "2\\*\\*28"),
-        (["--family", "hamming", "--id", "1", "-o", "m.jpg"], ".png"),
+        (["--family", "hamming", "--id", str(H1), "-o", "m.jpg"], ".png"),
         (["--family", "hamming", "-o", "m.png"], "--id N"),
         (["--family", "hamming", "--sheet", "5-1", "-o", "m.pdf"], "ids like"),
         (
-            ["--family", "hamming", "--sheet", "0-40", "--size-mm", "30", "-o", "m.png"],
+            ["--family", "aruco", "--sheet", "0-40", "--size-mm", "30", "-o", "m.png"],
             "write a .pdf",
         ),
     ],
@@ -119,7 +130,7 @@ def frames_dir(tmp_path):
     placements = []
     for i, (x, y) in enumerate([(-60.0, -20.0), (0.0, 30.0), (60.0, -20.0)]):
         rvec, tvec = syn.look_at_pose(300.0, 10.0 * i, 40.0 * i, (x, y))
-        placements.append(syn.Placement(i + 1, 25.0, rvec, tvec))
+        placements.append(syn.Placement((H1, H2, H3)[i], 25.0, rvec, tvec))
     image, truth = syn.render_markers("hamming", placements, K)
     cv2.imwrite(str(tmp_path / "three.png"), image)
     cv2.imwrite(str(tmp_path / "none.png"), np.full((480, 640), 200, np.uint8))
@@ -135,7 +146,7 @@ def test_detect_json_with_poses_and_annotations(frames_dir, capsys):
     records = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [r["path"] for r in records] == [str(folder / "three.png"), str(folder / "none.png")]
     dets = {d["id"]: d for d in records[0]["detections"]}
-    assert set(dets) == {1, 2, 3} and records[1]["detections"] == []
+    assert set(dets) == {H1, H2, H3} and records[1]["detections"] == []
     for marker_id, d in dets.items():
         assert np.abs(np.array(d["corners"]) - truth[marker_id]).max() < 0.5
         assert d["tvec"][2] == pytest.approx(300.0, abs=5.0) and len(d["rvec"]) == 3
@@ -148,7 +159,7 @@ def test_detect_plain_text(frames_dir, capsys):
     folder, _ = frames_dir
     assert run(DetectCommand(), [str(folder / "three.png"), "--tracker", "hamming"]) == 0
     out = capsys.readouterr().out
-    assert "3 marker(s)" in out and "id 2" in out
+    assert "3 marker(s)" in out and f"id {H2}" in out
 
 
 @pytest.mark.parametrize(
@@ -158,7 +169,8 @@ def test_detect_plain_text(frames_dir, capsys):
         (["empty.png"], [], "empty file"),
         (["text.png"], [], "cannot read as an image"),
         (["."], [], "folder"),
-        (["three.png"], ["--tracker", "hamming", "--dictionary", "4x4_50"], "aruco tracker"),
+        (["three.png"], ["--tracker", "hamming", "--dictionary", "4x4_50"], "aruco and apriltag"),
+        (["three.png"], ["--tracker", "apriltag", "--dictionary", "37h11"], "16h5, 25h9"),
         (["three.png"], ["--dictionary", "4x4_5O"], "did you mean '4x4_50'"),
         (["three.png"], ["--tracker", "hamm"], "did you mean 'hamming'"),
         (["three.png"], ["--size-mm", "0"], "positive"),
@@ -199,13 +211,13 @@ def test_detect_rate_on_a_video(tmp_path, capsys):
 
 def test_detection_rate_function_counts_one_marker():
     rvec, tvec = syn.look_at_pose(300.0)
-    image, _ = syn.render_markers("hamming", [syn.Placement(9, 25.0, rvec, tvec)], K)
+    image, _ = syn.render_markers("hamming", [syn.Placement(H1, 25.0, rvec, tvec)], K)
     frames = [Frame(image, 0.0, K, np.zeros(5))] * 3 + [
         Frame(np.full_like(image, 90), 0.0, K, np.zeros(5))
     ]
-    rate = marker_detection_rate(HammingTracker(), frames, 20.0, marker_id=9)
+    rate = marker_detection_rate(HammingTracker(), frames, 20.0, marker_id=H1)
     assert (rate.frames, rate.detections, rate.rate) == (4, 3, 15.0)
-    assert marker_detection_rate(HammingTracker(), frames, 20.0, marker_id=8).rate == 0.0
+    assert marker_detection_rate(HammingTracker(), frames, 20.0, marker_id=H2).rate == 0.0
     with pytest.raises(ValueError):
         marker_detection_rate(HammingTracker(), frames, 0.0)
 
@@ -238,16 +250,16 @@ def test_detect_takes_tracker_and_tags_from_a_profile(frames_dir, capsys):
         "profile: rig\n"
         "arm: {type: dobot_v1, port: sim}\n"
         "tracker: {type: hamming, preprocess: {adaptive: true}}\n"
-        "tags: {ducky: {id: 1, size_mm: 25}, trash: {ids: [3], size_mm: 30}}\n"
+        f"tags: {{ducky: {{id: {H1}, size_mm: 25}}, trash: {{ids: [{H3}], size_mm: 30}}}}\n"
     )
     argv = [str(folder / "three.png"), "--rig", str(profile), "--tracker", "hamming", "--json",
             "--intrinsics", f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}"]  # fmt: skip
     assert run(DetectCommand(), argv) == 0
     dets = {d["id"]: d for d in json.loads(capsys.readouterr().out)["detections"]}
-    assert (dets[1]["role"], dets[1]["size_mm"]) == ("ducky", 25.0)
-    assert (dets[3]["role"], dets[3]["size_mm"]) == ("trash", 30.0)
-    assert dets[2]["role"] == "unknown" and dets[2]["tvec"] is None
-    assert dets[3]["tvec"][2] == pytest.approx(360.0, abs=6.0), "a 25 mm marker taken as 30 mm"
+    assert (dets[H1]["role"], dets[H1]["size_mm"]) == ("ducky", 25.0)
+    assert (dets[H3]["role"], dets[H3]["size_mm"]) == ("trash", 30.0)
+    assert dets[H2]["role"] == "unknown" and dets[H2]["tvec"] is None
+    assert dets[H3]["tvec"][2] == pytest.approx(360.0, abs=6.0), "a 25 mm marker taken as 30 mm"
 
 
 @pytest.mark.parametrize("scale", [1, 2])
@@ -266,12 +278,12 @@ def test_detect_with_a_rig_takes_the_profiles_camera_intrinsics(
         "camera: {type: sim, width: 640, height: 480,\n"
         f"         intrinsics: {{fx: {K[0, 0]}, fy: {K[1, 1]}, cx: {K[0, 2]}, cy: {K[1, 2]}}}}}\n"
         "tracker: {type: hamming}\n"
-        "tags: {ducky: {ids: [1, 2, 3], size_mm: 25}}\n"
+        f"tags: {{ducky: {{ids: [{H1}, {H2}, {H3}], size_mm: 25}}}}\n"
     )
     argv = [str(tmp_path / "shot.png"), "--rig", str(profile), "--tracker", "hamming", "--json"]
     assert run(DetectCommand(), argv) == 0
     dets = json.loads(capsys.readouterr().out)["detections"]
-    assert {d["id"] for d in dets} == {1, 2, 3}
+    assert {d["id"] for d in dets} == {H1, H2, H3}
     for d in dets:
         assert d["tvec"] is not None, "the profile's intrinsics give every marker a pose"
         assert d["tvec"][2] == pytest.approx(300.0, abs=8.0)

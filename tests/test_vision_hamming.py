@@ -142,26 +142,68 @@ def flip_cells(marker_id, cells):
     return grid
 
 
+def smudge_cells(marker_id, cells, right=()):
+    """The marker's cells as grey levels (black 30, white 230, the quiet zone 200) with
+    ``cells`` (row, column of the data grid) grey enough that, sharpened against their
+    neighbours as the tracker reads them, they land just on the wrong side of its
+    threshold (115, midway between the black border and the quiet zone): noise, not a
+    clearly wrong cell; ``right`` cells just on the right side."""
+    grid = hc.marker_grid(marker_id) * 200.0 + 30.0
+    padded = np.pad(grid, 1, constant_values=200.0)
+    for (r, c), wrong in [*((cell, True) for cell in cells), *((cell, False) for cell in right)]:
+        y, x = r + 2, c + 2
+        around = 0.25 * (padded[y - 1, x] + padded[y + 1, x] + padded[y, x - 1] + padded[y, x + 1])
+        white = grid[r + 1, c + 1] > 115.0
+        target = 105.0 if white == wrong else 125.0
+        grid[r + 1, c + 1] = (target + 1.5 * around) / 2.5  # sharpened: 2.5 g - 1.5 around
+    return grid
+
+
 def render_grid(grid, side=180):
     import cv2
 
     img = np.full((480, 640), 200, np.uint8)
-    square = cv2.resize(grid * np.uint8(200) + 30, (side, side), interpolation=cv2.INTER_NEAREST)
+    grid = np.asarray(grid, float)
+    levels = np.round(grid if grid.max() > 1 else grid * 200 + 30).astype(np.uint8)
+    square = cv2.resize(levels, (side, side), interpolation=cv2.INTER_NEAREST)
     img[100 : 100 + side, 200 : 200 + side] = square
     return Frame(img, 0.0, K, np.zeros(5))
 
 
 def test_single_bit_errors_are_corrected_and_counted():
     marker_id = 228337701
-    frame = render_grid(flip_cells(marker_id, [(0, 3), (5, 6)]))
+    frame = render_grid(smudge_cells(marker_id, [(0, 3), (5, 6)]))
     dets = HammingTracker().detect(frame)
     assert [(d.id, d.quality) for d in dets] == [(marker_id, 2.0)]
 
 
 def test_too_many_errors_are_rejected():
-    frame = render_grid(flip_cells(228337701, [(0, 3), (2, 2), (5, 6)]))
-    assert HammingTracker().detect(frame) == []
+    frame = render_grid(smudge_cells(228337701, [(0, 3), (2, 2), (5, 6)]))
+    tracker = HammingTracker()
+    assert tracker.detect(frame) == [] and tracker.unread == 1
     assert len(HammingTracker(max_corrected_bits=3).detect(frame)) == 1
+
+
+def test_a_clearly_wrong_cell_is_not_corrected():
+    # a cell printed (or covered) the other colour reads as sure as the right ones: the
+    # format's code cannot tell damage from another marker, so no correction flips it
+    tracker = HammingTracker(max_corrected_bits=9)
+    assert tracker.detect(render_grid(flip_cells(228337701, [(0, 3)]))) == []
+    assert tracker.unread == 1
+
+
+def test_a_row_nearly_as_close_to_two_code_words_is_not_read():
+    # three cells of a row in doubt, where its code word and another one differ: two read
+    # as the other's, one as its own. The other code word is one doubtful flip away, the
+    # right one two: either would be a guess.
+    marker_id, row = 228337701, 1
+    own = hc.encode_id(marker_id)[row]
+    other = next(w for w in hc.CODEWORDS if int((w != own).sum()) == 3)
+    cells = [(row, int(c)) for c in np.flatnonzero(other != own)]
+    frame = render_grid(smudge_cells(marker_id, cells[:2], right=cells[2:]))
+    assert HammingTracker(max_corrected_bits=9).detect(frame) == []
+    dets = HammingTracker(max_corrected_bits=9, min_row_gap=0.0).detect(frame)
+    assert [(d.id, d.quality) for d in dets] != [], "read, as a guess, without the gap"
 
 
 def test_plain_squares_and_noise_give_nothing():
@@ -219,8 +261,9 @@ def test_wrong_image_type_is_a_value_error():
 
 
 def test_registered_id_wins_over_an_upside_down_reading():
-    # id 1 turned 180 degrees is one bit away from 3 << 24; with this cell flipped the
-    # upside-down reading is exact while the right one needs a correction.
+    # id 1 (not a valid id: hamming_code.id_problem) turned 180 degrees is one bit away
+    # from 3 << 24; with this cell in doubt the upside-down reading is exact while the
+    # right one needs a correction.
     marker_id, alias = 1, 3 << 24
     for r in range(7):
         for c in range(7):
@@ -232,7 +275,7 @@ def test_registered_id_wins_over_an_upside_down_reading():
         else:
             continue
         break
-    frame = render_grid(grid)
+    frame = render_grid(smudge_cells(marker_id, [(r, c)]))
     assert [d.id for d in HammingTracker().detect(frame)] == [alias], "as hampy would read it"
     roles = TagRoles({marker_id: TagSpec("ducky", (marker_id,), 25.0)})
     dets = HammingTracker(roles=roles).detect(frame)
@@ -248,7 +291,7 @@ def test_profile_errors_point_at_the_value(tmp_path):
         "arm: {type: dobot_v1, port: sim}\n"
         "tracker: {type: hamming, preprocess: {blur: 4}}\n"
         "tags:\n"
-        "  ducky: {id: 1, size_mm: 25}\n"
+        "  ducky: {id: 69937, size_mm: 25}\n"
     )
     # The tracker's own checks run while the profile loads (armtree check), at the value.
     with pytest.raises(ConfigError) as err:
@@ -258,7 +301,7 @@ def test_profile_errors_point_at_the_value(tmp_path):
     path.write_text(path.read_text().replace("blur: 4", "blur: 3"))
     profile = load_profile(str(path))
     good = hamming_factory({"type": "hamming"}, context(profile))
-    assert good.roles.describe(1) == ("ducky", 25.0)
+    assert good.roles.describe(69937) == ("ducky", 25.0)
 
 
 def test_dark_blobs_and_all_black_insides_are_not_markers():

@@ -35,6 +35,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from ..errors import ConfigError
 from ..interrupts import EXIT_INTERRUPTED
+from .hooks import Sweep, SweepHooks, add_plugin_options, plugin_settings
 from .options import check_address, parse_seeds
 from .report import summarise, write_report
 from .task import DIED, Outcome, RunTask
@@ -46,8 +47,9 @@ SWEEP_FILES = ("sweep.json", "report.md", "runs")
 CHECKPOINT_S = 300.0
 
 
-def configure(parser: argparse.ArgumentParser) -> None:
-    """The sweep's options: TREE, --rig and --set as ``armtree check`` takes them, and its own."""
+def configure(parser: argparse.ArgumentParser, manager: Any = None) -> None:
+    """The sweep's options: TREE, --rig and --set as ``armtree check`` takes them, its own,
+    and those the plugins of ``manager`` add (``armtree_sweep_options``)."""
     from ..builtin_commands import _tree_arguments
 
     _tree_arguments(parser)
@@ -79,8 +81,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--timeout",
         type=float,
         metavar="SECONDS",
-        help="each run fails after SECONDS on its own clock (as run-tree --timeout)",
+        help="each run fails after SECONDS on its own clock (as run-tree --timeout: 600 on "
+        "the simulation unless given)",
     )
+    add_plugin_options(parser, manager)
 
 
 def _reference(value: str | None) -> str | None:
@@ -179,9 +183,9 @@ class SweepCommand:
 
     help = "run a tree over many seeds in parallel (local processes or a Dask cluster) and report"
 
-    def configure(self, parser: argparse.ArgumentParser) -> None:
-        """Add the sweep's options."""
-        configure(parser)
+    def configure(self, parser: argparse.ArgumentParser, manager: Any = None) -> None:
+        """Add the sweep's options, and those of ``manager``'s plugins."""
+        configure(parser, manager)
 
     def run(self, args: argparse.Namespace) -> int:
         """Validate, run every seed, write the report; the exit code."""
@@ -209,6 +213,24 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
     )
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
     out = _out_dir(args.out, tree.name, args.overwrite).resolve()
+    sweep = Sweep(tree=tree, seeds=seeds, out=out, settings=plugin_settings(args))
+    hooks = SweepHooks(manager)
+    try:
+        hooks.started(sweep)
+        return _run(args, console, argv, sweep, hooks, manager)
+    finally:
+        sweep.close()
+
+
+def _run(
+    args: argparse.Namespace,
+    console: Console,
+    argv: Sequence[str],
+    plugged: Sweep,
+    hooks: SweepHooks,
+    manager: Any,
+) -> int:
+    tree, seeds, out = plugged.tree, plugged.seeds, plugged.out
     profile = getattr(tree, "profile", None)
     plugins = tuple(getattr(args, "plugin", None) or ())
     blocked = tuple(getattr(manager, "blocked", ()) or ())
@@ -219,6 +241,7 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
         plugins=plugins,
         blocked=blocked,
         timeout=args.timeout,
+        settings=dict(plugged.settings),
     )
     tasks = [RunTask(seed=s, run_dir=str(out / "runs" / f"seed-{s}"), **template) for s in seeds]
     workers = args.workers or os.cpu_count() or 1
@@ -265,7 +288,13 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
         partial["where"] = pool.describe()
         write_report(out, summarise(partial, done))
 
-    outcomes, interrupted = _with_progress(pool, tasks, console, tree.name, checkpoint)
+    def finished(outcome: Outcome) -> None:
+        hooks.notify("armtree_sweep_run_finished", sweep=plugged, outcome=outcome)
+
+    outcomes, interrupted = _with_progress(pool, tasks, console, tree.name, checkpoint, finished)
+    hooks.notify(
+        "armtree_sweep_finished", sweep=plugged, outcomes=list(outcomes), interrupted=interrupted
+    )
     sweep["wall_seconds"] = time.monotonic() - started
     sweep["interrupted"] = interrupted
     sweep["where"] = pool.describe()
@@ -290,10 +319,11 @@ def _with_progress(
     console: Console,
     name: str,
     checkpoint: Callable[[list[Outcome]], None],
+    finished: Callable[[Outcome], None] = lambda outcome: None,
 ) -> tuple[list[Outcome], bool]:
     failed = 0
     started = time.monotonic()
-    finished: list[Outcome] = []
+    ended: list[Outcome] = []
     last_checkpoint = started
     columns = (
         TextColumn("[bold]{task.description}"),
@@ -314,15 +344,16 @@ def _with_progress(
         def done(outcome: Outcome) -> None:
             nonlocal failed, last_checkpoint
             failed += outcome["verdict"] != "success"
-            finished.append(outcome)
+            ended.append(outcome)
+            finished(outcome)
             now = time.monotonic()
-            rate = len(finished) / max(1e-9, now - started) * 60
+            rate = len(ended) / max(1e-9, now - started) * 60
             progress.update(bar, advance=1, failed=failed, rate=f"{rate:.1f} runs/min")
             if now - last_checkpoint >= CHECKPOINT_S:
                 # A long sweep that is killed outright still leaves a report of what finished.
                 last_checkpoint = now
                 with contextlib.suppress(Exception):
-                    checkpoint(list(finished))
+                    checkpoint(list(ended))
 
         try:
             return drive(

@@ -28,7 +28,8 @@ class RunTask:
     """One seed of a sweep: the tree and its options, and the folder its run writes to.
 
     ``timeout`` is the run's own limit on the run clock (``--timeout``), ``attempt``
-    counts retries after a run's process died.
+    counts retries after a run's process died, ``settings`` the values of the options
+    plugins added to the sweep (the run gets them in ``run.settings``).
     """
 
     tree: str
@@ -40,6 +41,7 @@ class RunTask:
     blocked: tuple[str, ...] = ()
     timeout: float | None = None
     attempt: int = 1
+    settings: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def to_json(self) -> str:
         """The task as one line of JSON."""
@@ -51,6 +53,7 @@ class RunTask:
         data = json.loads(text)
         for key in ("overrides", "plugins", "blocked"):
             data[key] = tuple(data.get(key) or ())
+        data["settings"] = dict(data.get("settings") or {})
         return cls(**data)
 
     @property
@@ -70,22 +73,42 @@ def run_task(task: RunTask) -> tuple[Outcome, int]:
     process-wide blackboard cleared by the run itself.
     """
     from ..plugin_manager import make_plugin_manager
+    from ..run_start import default_timeout
     from ..runtime import run
     from ..tree_loader import load_tree
 
     manager = make_plugin_manager(task.plugins, task.blocked)
     tree = load_tree(task.tree, rig=task.rig, overrides=task.overrides, manager=manager)
+    # As run-tree: a simulated run that makes no progress ends at the default timeout.
+    timeout = task.timeout
+    if timeout is None:
+        timeout = default_timeout(tree.profile, False, manager)
     result = run(
         tree,
         seed=task.seed,
         record=True,
         runs_dir=task.run_dir,
-        timeout=task.timeout,
+        timeout=timeout,
         quiet=True,
         manager=manager,
         stop_key=False,
+        settings=run_settings(task),
     )
     return outcome_of(task, result), result.exit_code
+
+
+def run_settings(task: RunTask) -> dict[str, Any]:
+    """``run.settings`` of the task's run: the sweep's plugin options, and the run's
+    ``tree``, ``rig``, ``overrides`` and ``seed`` as run-tree's options would give them,
+    with ``sweep_run_dir``, the run's folder."""
+    return {
+        **task.settings,
+        "tree": task.tree,
+        "rig": task.rig,
+        "overrides": list(task.overrides),
+        "seed": task.seed,
+        "sweep_run_dir": task.run_dir,
+    }
 
 
 def reason_of(result: Any) -> str:
@@ -110,6 +133,7 @@ def outcome_of(task: RunTask, result: Any) -> Outcome:
     return {
         "seed": task.seed,
         "attempt": task.attempt,
+        "run_dir": task.run_dir,
         "status": result.status,
         "verdict": result.verdict,
         "exit_code": result.exit_code,
@@ -132,6 +156,7 @@ def failed_outcome(task: RunTask, status: str, reason: str, **extra: Any) -> Out
     return {
         "seed": task.seed,
         "attempt": task.attempt,
+        "run_dir": task.run_dir,
         "status": status,
         "verdict": "failure",
         "exit_code": None,

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.cli import seed_value
 from armtree.errors import ConfigError, HardwareFault
 from armtree.rig import MotionHandle, Rig
 
@@ -353,7 +354,7 @@ class JogCommand:
         parser.add_argument(
             "--save", metavar="FILE", help="record places here (a copy of the profile if new)"
         )
-        parser.add_argument("--seed", type=int, default=0, help="seed of a simulated world")
+        parser.add_argument("--seed", type=seed_value, default=0, help="seed of a simulated world")
 
     def run(self, args: argparse.Namespace) -> int:
         """Build the rig on the wall clock, run the UI, close the rig; exit 0 (3 on a fault)."""

@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 import armtree
+from armtree.cli import seed_value
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
 from armtree.interrupts import EXIT_INTERRUPTED
@@ -47,7 +48,7 @@ class EmulateCommand:
         parser.add_argument(
             "--profile", metavar="P", help="hardware profile whose arm section configures it"
         )
-        parser.add_argument("--seed", type=int, default=0, help="seed of injected faults")
+        parser.add_argument("--seed", type=seed_value, default=0, help="seed of injected faults")
         parser.add_argument(
             "--set",
             dest="overrides",

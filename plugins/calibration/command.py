@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from armtree.cli import seed_value
 from armtree.clock import WallClock
 from armtree.errors import ConfigError
 from armtree.plugins.trackers.calibration import BOARDS, Board, calibrate, plot_calibration
@@ -341,7 +342,7 @@ def _tree_options(
         )
     if seed:
         parser.add_argument(
-            "--seed", type=int, default=0, help="the run's seed (sim noise, random poses)"
+            "--seed", type=seed_value, default=0, help="the run's seed (sim noise, random poses)"
         )
     add_set_option(parser, "override a profile key for this run (repeatable)")
 

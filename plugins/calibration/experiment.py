@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import py_trees
 
+from armtree.cli import seed_value
 from armtree.errors import ConfigError
 from armtree.motion.kinematic_calibration import CalibrationPoints
 from armtree.perception.frames import LinearCorrection
@@ -151,7 +152,7 @@ class ExperimentCommand:
             "--only", action="append", choices=PARTS, help="run only these parts (repeatable)"
         )
         acc.add_argument(
-            "--seed", type=int, default=0, help="the runs' seed (sim noise, targets, poses)"
+            "--seed", type=seed_value, default=0, help="the runs' seed (sim noise, targets, poses)"
         )
         add_set_option(acc, "override a profile key (repeatable), e.g. include=calibration.yaml")
 

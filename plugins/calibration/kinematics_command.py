@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from armtree.cli import seed_value
 from armtree.clock import VirtualClock
 from armtree.emulation import FirmwareEmulator
 from armtree.errors import ConfigError
@@ -73,7 +74,9 @@ def configure_kinematics(kinds: Any) -> Any:
     kin.add_argument("--fit-links", action="store_true", help="fit the link lengths too")
     kin.add_argument("--fit-scales", action="store_true", help="fit joint scale factors too")
     kin.add_argument("--no-offsets", action="store_true", help="keep the joint offsets at 0")
-    kin.add_argument("--seed", type=int, default=0, help="--simulate: random poses and noise")
+    kin.add_argument(
+        "--seed", type=seed_value, default=0, help="--simulate: random poses and noise"
+    )
     kin.add_argument(
         "--noise-mm", type=float, default=0.3, help="--simulate: measuring noise, sd (mm)"
     )

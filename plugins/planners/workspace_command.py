@@ -65,9 +65,11 @@ class WorkspaceCommand:
         scene = Scene.from_profile(profile)
         ws = ArmWorkspace(model)
         if not ws.has_covering:
-            raise ConfigError(
+            raise profile.error(
+                "arm.type",
                 f"arm {model.name!r} does not describe its workspace as constraints, so it "
-                "cannot be covered (give the model workspace_constraints and workspace_bounds)"
+                "cannot be covered: give its model workspace_shape() (docs/plugins.md, "
+                "'The workspace')",
             )
         start = time.perf_counter()
         cov = ws.cover(args.delta)

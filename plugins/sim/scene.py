@@ -21,7 +21,16 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError, shown
-from armtree.profile import profile_error, profile_section
+from armtree.plugins.trackers.families import (
+    HAMMING,
+    MarkerFamily,
+    apriltag_dictionary,
+    family_named,
+    max_corrected_bits,
+    tracker_family,
+)
+from armtree.profile import profile_error, profile_section, tag_spec
+from armtree.rig import TagSpec
 
 from .as_built import AsBuilt, parse_as_built
 from .duckybot import DuckybotParams, Leg, RouteSpec
@@ -38,7 +47,6 @@ KINDS: dict[str, dict[str, Any]] = {
     "duckybot": {"size": (90.0, 70.0, 40.0), "color": (50, 50, 60), "role": "duckybot"},
 }
 SHAPES = ("box", "cylinder")
-FAMILIES = ("aruco", "hamming")
 
 _OBJECT_KEYS = ("kind", "shape", "size", "at", "yaw", "color", "marker", "wall_mm", "mass_g")
 _DUCKYBOT_KEYS = (
@@ -71,12 +79,14 @@ _WORLD_KEYS = (
 
 @dataclass(frozen=True)
 class MarkerSpec:
-    """A printed marker on a top face: family, dictionary (aruco), id and side (mm)."""
+    """A printed marker on a top face: family (``aruco`` or ``hamming``, the generator
+    that draws it), dictionary (aruco), id, side (mm) and the tag role it is in ``tags:``."""
 
     family: str
     id: int
     size_mm: float
     dictionary: str = "4x4_50"
+    role: str | None = None
 
 
 @dataclass
@@ -241,47 +251,73 @@ def _mapping(
 
 @dataclass
 class _Tags:
-    """The profile's tag roles: role -> (ids, size)."""
+    """The profile's tag roles, and the marker family tagged bodies are drawn in: the one
+    the profile's tracker reads (ArUco 4x4_50 for a tracker armtree does not know)."""
 
-    roles: dict[str, tuple[tuple[int, ...], float]]
+    specs: dict[str, TagSpec]
+    drawn: MarkerFamily
+    #: Bit corrections the hamming tracker allows (which Hampy ids are valid).
+    corrections: int
 
-    def role_of(self, marker_id: int) -> str | None:
-        for role, (ids, _) in self.roles.items():
-            if marker_id in ids:
+    def ids(self, role: str | None, family: MarkerFamily | None = None) -> tuple[int, ...]:
+        """The role's ids in ``family`` (the drawn one by default); none for no such role."""
+        spec = self.specs.get(role or "")
+        return () if spec is None else spec.in_family((family or self.drawn).name).ids
+
+    def size(self, role: str) -> float:
+        """The role's marker side (mm)."""
+        return self.specs[role].size_mm
+
+    def role_of(self, marker_id: int, family: MarkerFamily | None = None) -> str | None:
+        """The role whose ids in ``family`` (the drawn one by default) include ``marker_id``."""
+        for role in self.specs:
+            if marker_id in self.ids(role, family):
                 return role
         return None
 
+    def in_drawn(self, marker_id: int) -> int:
+        """``marker_id`` as the drawn family numbers it: a role's plain ``id`` / ``ids`` (as a
+        ``world:`` entry writes it whatever the tracker) become that role's ids there."""
+        for spec in self.specs.values():
+            if marker_id in spec.ids and marker_id not in self.ids(spec.role):
+                return self.ids(spec.role)[spec.ids.index(marker_id)]
+        return marker_id
+
 
 def _read_tags(profile: Any) -> _Tags:
-    roles: dict[str, tuple[tuple[int, ...], float]] = {}
+    specs: dict[str, TagSpec] = {}
     tags = profile_section(profile, "tags", {}) or {}
     if isinstance(tags, Mapping):
         for role, spec in tags.items():
-            if not isinstance(spec, Mapping):
-                continue
-            ids = spec.get("ids", [spec["id"]] if "id" in spec else [])
-            size = spec.get("size_mm", 25.0)
-            roles[str(role)] = (tuple(int(i) for i in ids), float(size))
-    return _Tags(roles)
-
-
-def _marker_defaults(profile: Any) -> tuple[str, str]:
+            if isinstance(spec, Mapping):
+                specs[str(role)] = tag_spec(str(role), {"size_mm": 25.0, **spec})
     tracker = profile_section(profile, "tracker", {}) or {}
-    family = tracker.get("type", "aruco") if isinstance(tracker, Mapping) else "aruco"
-    family = family if family in FAMILIES else "aruco"
-    dictionary = tracker.get("dictionary", "4x4_50") if isinstance(tracker, Mapping) else "4x4_50"
-    return str(family), str(dictionary)
+    drawn = tracker_family(tracker)
+    if drawn is None:
+        dictionary = tracker.get("dictionary") if isinstance(tracker, Mapping) else None
+        try:
+            drawn = family_named(str(dictionary or "4x4_50"))
+        except ConfigError:
+            drawn = family_named("4x4_50")
+    return _Tags(specs, drawn, max_corrected_bits(tracker))
 
 
-def aruco_dictionary_size(name: str) -> int | None:
-    """Number of ids in OpenCV's predefined ArUco dictionary ``name`` (e.g. 4x4_50), or None."""
-    import cv2
-
-    for attr in (f"DICT_{name.upper()}", f"DICT_{name}", "DICT_" + name.upper().replace("H", "h")):
-        const = getattr(cv2.aruco, attr, None)
-        if const is not None:
-            return int(cv2.aruco.getPredefinedDictionary(const).bytesList.shape[0])
-    return None
+def _marker_family(err: _Errors, path: tuple[Any, ...], spec: Mapping[str, Any], tags: _Tags):
+    """The family a ``marker:`` entry is printed in: its ``family`` (``hamming``, ``aruco``
+    with its ``dictionary``, ``apriltag``, or a dictionary's name), else the drawn one."""
+    name = spec.get("family")
+    dictionary = spec.get("dictionary")
+    try:
+        if name is None:
+            return tags.drawn if dictionary is None else family_named(str(dictionary))
+        if name == "aruco":
+            default = tags.drawn.dictionary if tags.drawn.generator == "aruco" else "4x4_50"
+            return family_named(str(dictionary or default))
+        if name == "apriltag":
+            return family_named(apriltag_dictionary(str(dictionary or "36h11")))
+        return family_named(str(name))
+    except ConfigError as exc:
+        raise err((*path, "family" if name is not None else "dictionary"), str(exc)) from None
 
 
 def _parse_marker(
@@ -290,65 +326,65 @@ def _parse_marker(
     value: Any,
     kind: str,
     tags: _Tags,
-    defaults: tuple[str, str],
     auto_index: int,
     top: tuple[float, float],
 ) -> MarkerSpec | None:
     role = KINDS[kind]["role"] if kind in KINDS else kind
-    if value is False or (value is None and (role is None or role not in tags.roles)):
+    if value is False or (value is None and (role is None or role not in tags.specs)):
         return None
     if value is None:
         value = {}
     spec = _mapping(err, path, value, ("id", "size_mm", "family", "dictionary"))
-    family = spec.get("family", defaults[0])
-    if family not in FAMILIES:
-        raise err((*path, "family"), f"unknown marker family {family!r}; expected aruco or hamming")
-    dictionary = str(spec.get("dictionary", defaults[1]))
+    family = _marker_family(err, path, spec, tags)
+    drawn = family.name == tags.drawn.name
     if "id" in spec:
         mid = spec["id"]
         if isinstance(mid, bool) or not isinstance(mid, int) or mid < 0:
             raise err((*path, "id"), f"expected a marker id (integer >= 0), got {mid!r}")
-    elif role in tags.roles and tags.roles[role][0]:
-        ids = tags.roles[role][0]
+        if drawn:
+            mid = tags.in_drawn(mid)
+    elif tags.ids(role, family):
+        ids = tags.ids(role, family)
         mid = ids[auto_index % len(ids)]
     else:
         raise err(path, f"a {kind} marker needs an id (no tags: entry for role {role!r})")
-    owner = tags.role_of(mid)
+    owner = tags.role_of(mid, family)
     # a spot is a printed sheet: its marker may be any role's (seed 000's target marker)
     if kind == "spot" and owner is not None:
         role = owner
     if owner is not None and owner != role:
         raise err((*path, "id"), f"marker id {mid} is the {owner!r} tag in tags:, not a {kind}")
-    if owner is None and role in tags.roles:
+    if owner is None and role in tags.specs:
         raise err(
             (*path, "id"),
-            f"marker id {mid} is not among the {role!r} ids in tags: {list(tags.roles[role][0])}",
+            f"{family.name} marker id {mid} is not among the {role!r} ids in tags: "
+            f"{list(tags.ids(role, family))}",
         )
     size = spec.get("size_mm")
     if size is None:
-        size = tags.roles[role][1] if role in tags.roles else 25.0
+        size = tags.size(role) if role in tags.specs else 25.0
     size = _number(err, (*path, "size_mm"), size, positive=True)
-    if owner is not None and abs(size - tags.roles[owner][1]) > 1e-6:
+    if owner is not None and abs(size - tags.size(owner)) > 1e-6:
         raise err(
             (*path, "size_mm"),
-            f"marker side {size} mm differs from the {owner!r} tag "
-            f"size {tags.roles[owner][1]} mm in tags:",
+            f"marker side {size} mm differs from the {owner!r} tag size {tags.size(owner)} mm in tags:",
         )
     if size > min(top) + 1e-6:
         raise err(
             (*path, "size_mm"), f"a {size} mm marker does not fit on a {top[0]} x {top[1]} mm top"
         )
-    if family == "aruco":
-        n = aruco_dictionary_size(dictionary)
-        if n is None:
-            raise err((*path, "dictionary"), f"unknown ArUco dictionary {dictionary!r}")
-        if mid >= n:
-            raise err(
-                (*path, "id"), f"marker id {mid} is outside ArUco {dictionary} (ids 0-{n - 1})"
-            )
-    elif mid >= 2**28:
-        raise err((*path, "id"), f"hamming marker id {mid} exceeds 28 bits")
-    return MarkerSpec(family=family, id=int(mid), size_mm=size, dictionary=dictionary)
+    # the sim draws no marker its family's tracker could not read (docs/trackers.md)
+    corrections = tags.corrections if family.generator == HAMMING else 0
+    problem = family.id_error(int(mid), corrections)
+    if problem is not None:
+        raise err((*path, "id") if "id" in spec else path, problem)
+    return MarkerSpec(
+        family=family.generator,
+        id=int(mid),
+        size_mm=size,
+        dictionary=family.dictionary or "4x4_50",
+        role=owner if owner is not None else role,
+    )
 
 
 def _parse_body(
@@ -357,7 +393,6 @@ def _parse_body(
     name: str,
     entry: Any,
     tags: _Tags,
-    defaults: tuple[str, str],
     auto_index: dict[str, int],
     table: TableSpec,
     forced_kind: str | None = None,
@@ -407,7 +442,6 @@ def _parse_body(
             entry.get("marker"),
             kind,
             tags,
-            defaults,
             index,
             (size[0], size[1]),
         )
@@ -475,7 +509,6 @@ def _parse_duckybot(
     name: str,
     entry: Any,
     tags: _Tags,
-    defaults: tuple[str, str],
     auto_index: dict[str, int],
     table: TableSpec,
 ) -> DuckybotSpec:
@@ -484,9 +517,7 @@ def _parse_duckybot(
     body_entry = {k: entry[k] for k in ("size", "color", "marker") if k in entry}
     body_entry["at"] = list(route.start[:2])
     body_entry["yaw"] = math.degrees(route.start[2])
-    body = _parse_body(
-        err, path, name, body_entry, tags, defaults, auto_index, table, forced_kind="duckybot"
-    )
+    body = _parse_body(err, path, name, body_entry, tags, auto_index, table, forced_kind="duckybot")
     gains = _mapping(err, (*path, "gains"), entry.get("gains"), ("kp", "ktheta"))
     params = DuckybotParams(
         speed=_number(err, (*path, "speed_mm_s"), entry.get("speed_mm_s", 50.0), positive=True),
@@ -555,7 +586,6 @@ def parse_scene(profile: Any) -> SceneSpec:
     err = _Errors(profile)
     world = _mapping(err, ("world",), profile_section(profile, "world", {}), _WORLD_KEYS)
     tags = _read_tags(profile)
-    defaults = _marker_defaults(profile)
     table = _parse_table(err, world.get("table"))
     seed = world.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
@@ -567,16 +597,14 @@ def parse_scene(profile: Any) -> SceneSpec:
         raise err(("world", "objects"), "expected a mapping of name: {kind: ..., at: [x, y]}")
     for name, entry in entries.items():
         objects.append(
-            _parse_body(
-                err, ("world", "objects", name), str(name), entry, tags, defaults, auto_index, table
-            )
+            _parse_body(err, ("world", "objects", name), str(name), entry, tags, auto_index, table)
         )
     bots_entry = world.get("duckybots") or {}
     if not isinstance(bots_entry, Mapping):
         raise err(("world", "duckybots"), "expected a mapping of name: {route: [...], ...}")
     duckybots = [
         _parse_duckybot(
-            err, ("world", "duckybots", name), str(name), entry, tags, defaults, auto_index, table
+            err, ("world", "duckybots", name), str(name), entry, tags, auto_index, table
         )
         for name, entry in bots_entry.items()
     ]
@@ -585,7 +613,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         """One more body of ``kind`` for ``randomize``'s count, like the first one."""
         first = next(o for o in objects if o.kind == kind)
         role = KINDS[kind]["role"]
-        ids = tags.roles.get(role or "", ((), 0.0))[0] if first.marker is not None else ()
+        ids = tags.ids(role) if first.marker is not None else ()
         if first.marker is not None and index >= len(ids):
             raise err(
                 path, f"tags.{role} has {len(ids)} marker ids: at most {len(ids)} {kind} bodies"
@@ -599,7 +627,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         }
         if first.marker is None:
             entry["marker"] = False
-        return _parse_body(err, path, name, entry, tags, defaults, auto_index, table)
+        return _parse_body(err, path, name, entry, tags, auto_index, table)
 
     from .randomize import parse_randomize  # it builds on this module's parsers
 
@@ -622,7 +650,7 @@ def parse_scene(profile: Any) -> SceneSpec:
         )
         marker_entry = {k: v for k, v in tm.items() if k != "offset"}
         tool_marker = _parse_marker(
-            err, ("world", "tool_marker"), marker_entry, "tool", tags, defaults, 0, (1e9, 1e9)
+            err, ("world", "tool_marker"), marker_entry, "tool", tags, 0, (1e9, 1e9)
         )
     return SceneSpec(
         seed=seed,

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.cli import add_set_option
+from armtree.cli import add_set_option, seed_value
 from armtree.clock import WallClock
 from armtree.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.errors import ConfigError
@@ -241,7 +241,9 @@ class ServeSimCommand:
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add PROFILE, --seed, --set, --host, --camera-port, --quality and --json."""
         parser.add_argument("profile", metavar="PROFILE", help="a sim profile, e.g. sim_dobot")
-        parser.add_argument("--seed", type=int, default=0, help="seed of the world (default 0)")
+        parser.add_argument(
+            "--seed", type=seed_value, default=0, help="seed of the world (default 0)"
+        )
         add_set_option(parser, "override a profile key, e.g. world.objects.ducky.at=[120,-140]")
         parser.add_argument(
             "--camera-port", type=int, default=0, help="HTTP port of the camera (default: any free)"

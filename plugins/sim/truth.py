@@ -21,19 +21,14 @@ from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World
 
 
-def _tag_roles(profile: Any) -> dict[int, str]:
-    """Marker id -> tag role, from the profile's ``tags:``."""
-    out: dict[int, str] = {}
-    for role, spec in (profile_section(profile, "tags", {}) or {}).items():
-        if isinstance(spec, dict):
-            for i in spec.get("ids", [spec["id"]] if "id" in spec else []):
-                out[int(i)] = str(role)
-    return out
+def _tag_roles(profile: Any) -> list[str]:
+    """The tag roles of the profile's ``tags:``."""
+    return [str(role) for role in (profile_section(profile, "tags", {}) or {})]
 
 
-def _role(kind: str, marker: MarkerSpec | None, roles: dict[int, str]) -> str | None:
-    if marker is not None and marker.id in roles:
-        return roles[marker.id]
+def _role(kind: str, marker: MarkerSpec | None) -> str | None:
+    if marker is not None and marker.role is not None:
+        return marker.role
     return KINDS.get(kind, {}).get("role")
 
 
@@ -42,8 +37,8 @@ def _places(profile: Any) -> dict[str, tuple[float, float, float]]:
     return {str(k): (float(v[0]), float(v[1]), float(v[2])) for k, v in places.items()}
 
 
-def _roles_of(objects: Iterable[WorldObject], tags: dict[int, str]) -> dict[str, list[str]]:
-    roles: dict[str, list[str]] = {role: [] for role in set(tags.values())}
+def _roles_of(objects: Iterable[WorldObject], tags: list[str]) -> dict[str, list[str]]:
+    roles: dict[str, list[str]] = {role: [] for role in tags}
     for obj in objects:
         if obj.role is not None:
             roles.setdefault(obj.role, []).append(obj.name)
@@ -58,7 +53,7 @@ def scene_truth(scene: SceneSpec, profile: Any) -> WorldTruth:
         b.name: WorldObject(
             name=b.name,
             kind=b.kind,
-            role=_role(b.kind, b.marker, tags),
+            role=_role(b.kind, b.marker),
             position=(float(b.position[0]), float(b.position[1]), float(b.position[2])),
             size=(float(b.size[0]), float(b.size[1]), float(b.size[2])),
             yaw_deg=math.degrees(b.yaw),
@@ -83,7 +78,7 @@ def world_truth(world: World, profile: Any) -> WorldTruth:
             objects[name] = WorldObject(
                 name=name,
                 kind=b.kind,
-                role=_role(b.kind, b.marker, tags),
+                role=_role(b.kind, b.marker),
                 position=(round(float(p[0]), 3), round(float(p[1]), 3), round(float(p[2]), 3)),
                 size=(float(b.size[0]), float(b.size[1]), float(b.size[2])),
                 yaw_deg=round(math.degrees(b.yaw), 3),

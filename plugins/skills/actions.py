@@ -16,7 +16,7 @@ from armtree.calibration import calibration_of
 from armtree.errors import PlanningError, Unreachable
 from armtree.rig import MotionHandle, MotionStatus
 
-from .eye import Sighting, eye_of
+from .eye import Sighting, Tally, eye_of
 
 
 class SkillFailure(Exception):
@@ -242,26 +242,32 @@ class ArmHome(Action):
             self.rig.arm.stop()
 
 
-class Suction(Action):
-    """Switch the suction pump on or off; done when the arm acknowledges it."""
+class Grip(Action):
+    """Take hold (``on``) or let go with the rig's tool (``rig.tool``, whatever it is:
+    a suction cup, a gripper, a plugin's); done when the tool reports it."""
 
     def __init__(self, rig: Any, on: bool) -> None:
         self.rig = rig
         self.on = on
         self._handle: MotionHandle | None = None
 
+    def describe(self) -> str:
+        """``grip`` or ``release``, for the skill's feedback."""
+        return "grip" if self.on else "release"
+
     def start(self) -> None:
-        self._handle = self.rig.arm.set_suction(self.on)
+        tool = self.rig.tool
+        if tool is not None:
+            self._handle = tool.grip() if self.on else tool.release()
 
     def poll(self) -> State:
-        assert self._handle is not None
+        word = "grip" if self.on else "release"
+        if self._handle is None:
+            return self.fail(f"{word} failed: this rig has no tool")
         if not self._handle.done:
             return State.RUNNING
         if self._handle.status is not MotionStatus.DONE:
-            word = "on" if self.on else "off"
-            return self.fail(
-                f"suction {word} failed: {self._handle.error or self._handle.status.value}"
-            )
+            return self.fail(f"{word} failed: {self._handle.error or self._handle.status.value}")
         return State.DONE
 
 
@@ -289,7 +295,8 @@ class Look(Action):
     of ``want`` (a role) is seen. The result is
     a list of :class:`Sighting`, newest per marker id, or with ``average`` each
     marker's position averaged over the frames that saw it. No frame within
-    ``timeout`` seconds fails the step.
+    ``timeout`` seconds fails the step. Each frame read is added to ``tally``
+    (a search's :class:`Tally`) when one is given.
     """
 
     def __init__(
@@ -301,10 +308,12 @@ class Look(Action):
         settle: float = 0.0,
         timeout: float = 2.0,
         average: bool = False,
+        tally: Tally | None = None,
     ) -> None:
         self.rig = rig
         self.clock = clock
         self.want = want
+        self.tally = tally
         self.frames = max(1, frames)
         self.settle = settle
         self.timeout = timeout
@@ -339,6 +348,9 @@ class Look(Action):
                 self._seen[sighting.id] = sighting
                 self._all.setdefault(sighting.id, []).append(sighting.position)
             self.result = [self._averaged(s) for s in self._seen.values()]
+            if self.tally is not None:
+                in_frame = any(s.role == self.want for s in view.sightings)
+                self.tally.add(view, rig.tracker, in_frame)
             wanted = self.want is None or any(s.role == self.want for s in self.result)
             if self._count >= self.frames or (self.want is not None and wanted):
                 return State.DONE

@@ -133,13 +133,10 @@ def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
     return want if best is None else best
 
 
-def has_gripper(arm: Any) -> bool:
-    """True when the arm's tool is a gripper (its driver's ``tool_kind``), not a suction cup.
-
-    A tool state's ``gripper`` field is no sign of one: the Dobot V1.0 reports a gripper
-    angle in every status frame whatever is mounted.
-    """
-    return getattr(arm, "tool_kind", "suction") == "gripper"
+def has_gripper(rig: Any) -> bool:
+    """True when the rig's tool (``rig.tool``) is a gripper, not a suction cup."""
+    tool = getattr(rig, "tool", None)
+    return tool is not None and tool.kind == "gripper"
 
 
 def grip_point(

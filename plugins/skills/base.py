@@ -186,7 +186,7 @@ class Skill(armtree.Behaviour):
                         self.note(
                             "halted",
                             step=_describe(action) if action is not None else "",
-                            tool=_tool_words(self.rig.arm),
+                            tool=_tool_words(self.rig.tool),
                         )
             self._process = None
 
@@ -261,11 +261,15 @@ class Skill(armtree.Behaviour):
         return isinstance(self.params.get(pname), Binding)
 
 
-def _tool_words(arm: Any) -> str:
-    tool = arm.tool
-    if getattr(arm, "tool_kind", "suction") == "gripper" and tool.gripper is not None:
-        return f"gripper at {tool.gripper:g}, left as it is"
-    return "suction on, holding what it holds" if tool.suction else "suction off, holding nothing"
+def _tool_words(tool: Any) -> str:
+    """What a halt left in the rig's tool, for the run log."""
+    if tool is None:
+        return "no tool"
+    if tool.kind == "suction":
+        return (
+            "suction on, holding what it holds" if tool.holding else "suction off, holding nothing"
+        )
+    return f"{tool.kind or 'tool'} {'closed' if tool.holding else 'open'}, left as it is"
 
 
 def _describe(action: Action) -> str:

@@ -34,6 +34,7 @@ from .manipulation import skipped, tool_engaged
 class Condition(Skill):
     """A check made within one tick: :meth:`check` returns (holds, why)."""
 
+    CONDITION = True
     NEEDS: tuple[str, ...] = ()
 
     def check(self) -> tuple[bool, str]:

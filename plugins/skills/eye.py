@@ -166,6 +166,51 @@ class Eye:
         return self.newest()
 
 
+@dataclass
+class Tally:
+    """What the looks of one search saw, to say why it did not find its tag.
+
+    ``frames`` read, the tag ``roles`` seen, the ``unknown`` ids (markers no tag
+    role has), and ``unread``: the most marker-like shapes one frame that did not
+    show the wanted tag left unread in the tracker's family (``Tracker.unread``).
+    """
+
+    frames: int = 0
+    roles: set[str] = field(default_factory=set)
+    unknown: set[int] = field(default_factory=set)
+    unread: int = 0
+
+    def add(self, view: View, tracker: Any, wanted: bool) -> None:
+        """Count ``view``, the frame ``tracker`` detected last; ``wanted``: it showed the tag."""
+        self.frames += 1
+        for s in view.sightings:
+            if s.role == "unknown":
+                self.unknown.add(s.id)
+            else:
+                self.roles.add(s.role)
+        if not wanted:
+            # asked only here: the aruco tracker counts these when asked; a tracker
+            # that does not subclass armtree.rig.Tracker counts none
+            self.unread = max(self.unread, int(getattr(tracker, "unread", 0)))
+
+    def describe(self, family: str | None) -> str:
+        """What was seen, for a failure message: shapes of another family, markers of other
+        roles or of no role, or nothing at all."""
+        if self.unread:
+            shapes = f"{self.unread} marker-like shape" + ("s" * (self.unread > 1))
+            return (
+                f"{shapes} in a frame decoded as nothing in family {family or 'of the tracker'}: "
+                "the markers may be of another family"
+            )
+        seen = [f"{role!r}" for role in sorted(self.roles)]
+        if self.unknown:
+            ids = ", ".join(str(i) for i in sorted(self.unknown)[:5])
+            seen.append(f"markers {ids} of no tag role")
+        if seen:
+            return f"saw {', '.join(seen)}"
+        return f"no marker in any of {self.frames} frames"
+
+
 def eye_of(rig: Any) -> Eye:
     """The rig's :class:`Eye`, made on first use and kept on the rig for the run."""
     eye = getattr(rig, "_skills_eye", None)
@@ -176,4 +221,4 @@ def eye_of(rig: Any) -> Eye:
     return eye
 
 
-__all__ = ["Eye", "PLANE_TOLERANCE_MM", "Sighting", "View", "eye_of", "onto_plane"]
+__all__ = ["Eye", "PLANE_TOLERANCE_MM", "Sighting", "Tally", "View", "eye_of", "onto_plane"]

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from armtree.perception.frames import EYE_IN_HAND
 from .actions import Look, Move
 from .arm_skill import ArmSkill, camera_over
 from .base import Procedure
-from .eye import Sighting, eye_of
+from .eye import Sighting, Tally, eye_of
 from .reach import reachable
 from .sightline import hides
 from .survey import survey_points
@@ -41,10 +42,18 @@ REFINE_FRAMES = 3
 
 @dataclass
 class Found:
-    """Where :func:`locate` found a tag (None) and from how many camera poses it looked."""
+    """Where :func:`locate` found a tag (None), from how many camera poses it looked, and
+    what its looks saw (:class:`Tally`)."""
 
     sighting: Sighting | None
     looks: int
+    tally: Tally = field(default_factory=Tally)
+
+    def not_found(self, rig: Any) -> str:
+        """Why the tag was not found, for a failure's parentheses: the poses looked from and
+        what the frames showed (markers of another family, other tags, nothing)."""
+        family = getattr(rig.tracker, "marker_family", None)
+        return f"looked from {self.looks} camera poses; {self.tally.describe(family)}"
 
     @property
     def position(self) -> np.ndarray:
@@ -60,17 +69,27 @@ def look_over(
     want: str | None,
     frames: int = 3,
     average: bool = False,
+    tally: Tally | None = None,
 ) -> Procedure:
     """Bring the camera ``height`` mm above ``point`` (stay put if None) and look.
 
     Eye-to-hand the arm does not move (the camera is not on it). Returns the list
-    of :class:`Sighting`, positions averaged over the frames when ``average``.
+    of :class:`Sighting`, positions averaged over the frames when ``average``; the
+    frames are added to ``tally`` when given.
     """
     rig = skill.rig
     if point is not None and rig.camera.mount == EYE_IN_HAND:
         tool = camera_over(skill, point, height)
         yield Move(rig, tool, speed=skill.speed(), label="look over")
-    look = Look(rig, skill.clock, want=want, frames=frames, settle=skill.settle(), average=average)
+    look = Look(
+        rig,
+        skill.clock,
+        want=want,
+        frames=frames,
+        settle=skill.settle(),
+        average=average,
+        tally=tally,
+    )
     return (yield look)
 
 
@@ -270,14 +289,15 @@ def locate(
         tries = [None] if far is None else [None, far]
     seen: Sighting | None = None
     looks = 0
+    tally = Tally()
     while tries:
         point = tries.pop(0)
         looks += 1
         if in_hand or point is None:
-            sightings = yield from look_over(skill, point, height, tag, frames=2)
+            sightings = yield from look_over(skill, point, height, tag, frames=2, tally=tally)
         else:
             yield Move(rig, point, speed=skill.speed(), label="out of view")
-            sightings = yield from look_over(skill, None, height, tag, frames=2)
+            sightings = yield from look_over(skill, None, height, tag, frames=2, tally=tally)
         seen = nearest(sightings, tag, hint, radius if hint is not None else None, skip)
         if seen is not None:
             break
@@ -285,13 +305,13 @@ def locate(
             view = eye_of(rig).last
             tries = around(hint, radius, None if view is None else view.footprint(float(hint[2])))
     if seen is None or not refine:
-        return Found(seen, looks)
+        return Found(seen, looks, tally)
     # measure again from over the tag itself (nearer the image centre, less distortion),
     # closer where the arm reaches, averaging frames
     closer = height * CLOSER if in_hand else height
     again = yield from look_over(skill, seen.position, closer, None, REFINE_FRAMES, average=True)
     best = nearest(again, tag, seen.position, radius / 2.0, skip)
-    return Found(best if best is not None else seen, looks + 1)
+    return Found(best if best is not None else seen, looks + 1, tally)
 
 
 __all__ = [

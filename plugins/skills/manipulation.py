@@ -33,7 +33,7 @@ from armtree import Param
 from armtree.params import Binding
 from armtree.perception.frames import EYE_IN_HAND
 
-from .actions import ArmHome, Look, Move, Pause, SkillFailure, Suction, fmt
+from .actions import ArmHome, Grip, Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .bins import Drop, contents_of, inside, plan_drop
@@ -82,17 +82,17 @@ def pick_steps(
     rig, speed = skill.rig, skill.speed()
     # a suction cup holds anywhere on the marker's face: up to 3 mm inside its edge
     edge = edge_toward_base(target, marker_size, marker_yaw)
-    inward = 0.0 if has_gripper(rig.arm) else max(0.0, edge - 3.0)
+    inward = 0.0 if has_gripper(rig) else max(0.0, edge - 3.0)
     grip = grip_point(skill, target, grasp_offset, inward)
     # jaws closing on it hold an object gripped up to a fifth of its marker off centre
-    hold = GRIP_HOLD * marker_size if has_gripper(rig.arm) else max(0.0, 0.5 * marker_size - 3.0)
+    hold = GRIP_HOLD * marker_size if has_gripper(rig) else max(0.0, 0.5 * marker_size - 3.0)
     grip = clear_of_neighbours(skill, target, grip, grasp_offset, approach, marker, hold)
     over = above(skill, grip - UP * grasp_offset, approach + grasp_offset)
-    if has_gripper(rig.arm):
-        yield Suction(rig, False)  # a gripper opens before it goes down
+    if has_gripper(rig):
+        yield Grip(rig, False)  # a gripper opens before it goes down
     yield Move(rig, over, speed=speed, label="approach")
     yield Move(rig, grip, speed=speed, label="descend")
-    yield Suction(rig, True)
+    yield Grip(rig, True)
     yield Pause(skill.clock, dwell)
     yield Move(rig, over, speed=speed, label="lift")
     return grip
@@ -196,7 +196,7 @@ def release_at(
         over = np.array([point[0], point[1], max(over[2], point[2])])
     if over[2] > point[2] + 1e-6:
         yield Move(rig, point, speed=speed, label="descend")
-    yield Suction(rig, False)
+    yield Grip(rig, False)
     yield Pause(skill.clock, dwell)
     if over[2] > point[2] + 1e-6:
         yield Move(rig, over, speed=speed, label="lift")
@@ -210,14 +210,10 @@ def tool_pose_at(rig: Any, xyz: np.ndarray) -> np.ndarray:
 
 
 def tool_engaged(rig: Any) -> bool:
-    """True when the tool reports gripping: suction on, or a gripper nearer closed than open."""
-    arm = rig.arm
-    tool = arm.tool
-    if has_gripper(arm) and tool.gripper is not None:
-        closed = float(getattr(arm, "grip_closed", 0.0))
-        opened = float(getattr(arm, "grip_open", 90.0))
-        return abs(tool.gripper - closed) < abs(tool.gripper - opened)
-    return bool(tool.suction)
+    """True when the rig's tool reports gripping (``rig.tool.holding``: suction on, a gripper
+    nearer closed than open); False for a rig without one."""
+    tool = getattr(rig, "tool", None)
+    return tool is not None and bool(tool.holding)
 
 
 def move_out_of_view(skill: ArmSkill, point: np.ndarray) -> Procedure:
@@ -520,7 +516,7 @@ class Gripping(ArmSkill):
             return
         self.note("released", why=why)
         with contextlib.suppress(SkillFailure):
-            yield Suction(self.rig, False)
+            yield Grip(self.rig, False)
 
 
 class Pick(Gripping):
@@ -606,9 +602,7 @@ class Pick(Gripping):
             if expected is not None:
                 self.add_skip(int(expected))
             where = f"within {radius:g} mm of {fmt(hint)}" if hint is not None else "in view"
-            raise SkillFailure(
-                f"{self.name}: no {tag!r} tag {where} (looked from {found.looks} camera poses)"
-            )
+            raise SkillFailure(f"{self.name}: no {tag!r} tag {where} ({found.not_found(self.rig)})")
         self.feedback_message = f"{tag!r} tag at {fmt(found.position)}"
         return (yield from self.grip(found.position, tag, found.sighting.id))
 
@@ -854,7 +848,7 @@ class Place(PuttingDown):
             if found.sighting is None:
                 raise SkillFailure(
                     f"{self.name}: no {tag!r} tag within {radius:g} mm of {fmt(target)} "
-                    f"(looked from {found.looks} camera poses); still holding the object"
+                    f"({found.not_found(self.rig)}); still holding the object"
                 )
             target = found.position
         return (yield from self.put_down(target, bool(tag)))

@@ -16,11 +16,11 @@ import numpy as np
 
 from armtree import Param
 
-from .actions import Look, Move, Pause, SkillFailure, Suction, fmt
+from .actions import Grip, Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
 from .base import ActionFailed, Procedure, as_list
 from .bins import contents_of
-from .eye import Sighting
+from .eye import Sighting, Tally
 from .manipulation import bin_drop, release_at, release_steps
 from .survey import survey_points, sweep_angles
 
@@ -64,8 +64,8 @@ def clean_one(
     rig, speed = skill.rig, skill.speed()
     log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
     over = above(skill, item.position, skill.param("approach_mm"))
-    if has_gripper(rig.arm):
-        yield Suction(rig, False)  # a gripper opens before it goes down
+    if has_gripper(rig):
+        yield Grip(rig, False)  # a gripper opens before it goes down
     try:
         yield Move(rig, over, speed=speed, label="approach trash")
         grip = grip_point(skill, item.position, skill.workcell.grasp_offset_mm)
@@ -74,7 +74,7 @@ def clean_one(
         log.skipped[item.id] = str(exc)
         yield Move(rig, origin, speed=speed, label="return")
         return
-    yield Suction(rig, True)
+    yield Grip(rig, True)
     yield Pause(skill.clock, skill.param("dwell_s"))
     yield Move(rig, over, speed=speed, label="lift")
     approach = skill.param("approach_mm")
@@ -191,18 +191,36 @@ def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
         yield camera_over(skill, point, cell.look_height_mm)
 
 
-def clear_here(skill: ArmSkill, pose: np.ndarray, want: str | None, log: TrashLog) -> Procedure:
+def scan_look(skill: ArmSkill, want: str | None, tally: Tally | None) -> Look:
+    """A look from a scan pose: up to the skill's ``frames``, ending early once ``want``
+    is seen; the frames are added to ``tally`` when given."""
+    return Look(
+        skill.rig,
+        skill.clock,
+        want=want,
+        frames=skill.param("frames"),
+        settle=skill.settle(),
+        tally=tally,
+    )
+
+
+def clear_here(
+    skill: ArmSkill,
+    pose: np.ndarray,
+    want: str | None,
+    log: TrashLog,
+    tally: Tally | None = None,
+) -> Procedure:
     """Look from ``pose`` and clear trash until none that can be cleared is in view.
 
     Returns the last sightings. A marker still seen after ``attempts`` tries is
-    left where it is; more than ``max_items`` carries fail the skill.
+    left where it is; more than ``max_items`` carries fail the skill. The frames
+    are added to ``tally`` when given.
     """
     trash = skill.param("trash")
     bin_xyz = skill.point(skill.param("bin"), f"{skill.name}: bin")
     while True:
-        sightings = yield Look(
-            skill.rig, skill.clock, want=want, frames=skill.param("frames"), settle=skill.settle()
-        )
+        sightings = yield scan_look(skill, want, tally)
         log.check(sightings)
         radius = float(skill.param("bin_radius_mm"))
         items = [
@@ -288,6 +306,7 @@ class Search(ArmSkill):
         tag = self.param("tag")
         refused: list[str] = []
         log = TrashLog()
+        tally = Tally()
         count = 0
         for pose in scan_poses(self):
             count += 1
@@ -297,15 +316,9 @@ class Search(ArmSkill):
                 refused.append(str(exc))
                 continue
             if self.param("clean_up"):
-                sightings = yield from clear_here(self, pose, tag, log)
+                sightings = yield from clear_here(self, pose, tag, log, tally)
             else:
-                sightings = yield Look(
-                    self.rig,
-                    self.clock,
-                    want=tag,
-                    frames=self.param("frames"),
-                    settle=self.settle(),
-                )
+                sightings = yield scan_look(self, tag, tally)
             found = [s for s in sightings if s.role == tag]
             if found:
                 position = found[0].position
@@ -314,7 +327,11 @@ class Search(ArmSkill):
                 self.feedback_message = f"found {tag!r} at {fmt(position)}{cleaned}"
                 return position
         detail = f"; {len(refused)} refused, first: {refused[0]}" if refused else ""
-        raise SkillFailure(f"{self.name}: no {tag!r} tag seen from {count} scan poses{detail}")
+        family = getattr(self.rig.tracker, "marker_family", None)
+        raise SkillFailure(
+            f"{self.name}: no {tag!r} tag seen from {count} scan poses "
+            f"({tally.describe(family)}){detail}"
+        )
 
 
 __all__ = ["CleanUp", "Search", "sweep_angles"]

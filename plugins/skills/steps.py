@@ -76,9 +76,7 @@ class LookFor(ArmSkill):
         found = yield from locate(self, tag, hint, radius, skip=skipped(self.param("skip")))
         if found.sighting is None:
             where = f"within {radius:g} mm of {fmt(hint)}" if hint is not None else "in view"
-            raise SkillFailure(
-                f"{self.name}: no {tag!r} tag {where} (looked from {found.looks} camera poses)"
-            )
+            raise SkillFailure(f"{self.name}: no {tag!r} tag {where} ({found.not_found(self.rig)})")
         self.output("pose", as_list(found.position))
         self.output("marker", int(found.sighting.id))
         self.feedback_message = f"{tag!r} marker {found.sighting.id} at {fmt(found.position)}"

@@ -1,4 +1,9 @@
-"""The ``aruco`` tracker: OpenCV's ArucoDetector, any predefined dictionary by name.
+"""The ``aruco`` and ``apriltag`` trackers: OpenCV's ArucoDetector, any predefined dictionary.
+
+``{type: apriltag, family: 36h11}`` is this tracker with the dictionary
+``apriltag_36h11`` (OpenCV carries AprilTag 16h5, 25h9, 36h10 and 36h11 as
+ArUco dictionaries), so ``{type: aruco, dictionary: apriltag_36h11}`` is the
+same tracker spelled the long way (docs/trackers.md).
 
 Seed 000 tracks its marker with ArUco; seed 004 solves the marker pose with
 solvePnP. Corners are refined to sub-pixel accuracy by default from the
@@ -28,14 +33,23 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
-from .preprocess import Preprocessing, to_gray
+from .kernels import apart_from, framed_by_light
+from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 from .rescue import Rescuer
 
 FAMILY = "aruco"
+APRILTAG = "apriltag"
 DEFAULT_DICTIONARY = "4x4_50"
+#: AprilTag families OpenCV's ArUco module carries, and the one most people print.
+APRILTAG_FAMILIES = ("16h5", "25h9", "36h10", "36h11")
+DEFAULT_APRILTAG = "36h11"
 #: Pixels per cell when reading a candidate's bits (OpenCV's default is 4).
 SMALL_MARKER_PIXELS_PER_CELL = 8
+#: Least :func:`.kernels.framed_by_light` of a marker: a printed one's quiet zone is
+#: about as light as its white cells, a light blob in a dark patch's is not (docs/
+#: benchmarks.md, "small markers").
+MIN_FRAMED = 0.4
 
 
 def dictionary_names() -> dict[str, int]:
@@ -148,6 +162,7 @@ class ArucoTracker(Tracker):
     ) -> None:
         self.dictionary_name = dictionary
         self.dictionary = get_dictionary(dictionary, where)
+        self.marker_family = dictionary_key(dictionary)
         params = parameters if parameters is not None else detector_parameters(None)
         self.preprocessing = preprocessing or Preprocessing()
         self.roles = roles or TagRoles({})
@@ -160,6 +175,7 @@ class ArucoTracker(Tracker):
         self._cells = self.dictionary.markerSize + 2
         # small markers OpenCV rejected, read again on edge-refined corners
         self._rescue = Rescuer(self.dictionary) if rescue and self._edges else None
+        self._reader = self._rescue or Rescuer(self.dictionary)
         # Refine on the grey image ourselves when the detector sees a binarised one.
         self._refine_on_gray = (
             not self.preprocessing.identity
@@ -180,7 +196,29 @@ class ArucoTracker(Tracker):
             )
         self.min_side_px = min_side_px
         self._sized_for: tuple[int, ...] = ()
+        # the last detect()'s grey image and markers, for the unread count asked after it
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._unread: int | None = 0
         self.detector = cv2.aruco.ArucoDetector(self.dictionary, params)
+
+    @property
+    def unread(self) -> int:
+        """Marker-like shapes in the last detect()'s frame that read as no marker of the
+        dictionary (see :class:`armtree.rig.Tracker`).
+
+        Counted when first asked, from dark quadrilaterals of the frame thresholded at
+        Otsu's level (OpenCV's detector drops a candidate inside a larger one, such as a
+        marker inside the outline of the paper it is printed on): a search over many
+        frames asks only of frames that did not show what it looked for.
+        """
+        if self._unread is None and self._last is not None:
+            image, found = self._last
+            grey = to_gray(image) if image.ndim == 3 else image
+            dark = threshold_image(grey, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+            quads = dark_quads(dark, self.min_side_px or 10.0)
+            quads = quads[apart_from(quads, found)]
+            self._unread = int(self._reader.marker_like(grey, quads).sum())
+        return self._unread or 0
 
     def _size_for(self, shape: tuple[int, ...]) -> None:
         """Set the detector's perimeter limit from ``min_side_px`` for frames of ``shape``."""
@@ -197,7 +235,10 @@ class ArucoTracker(Tracker):
         warm_up(self, FAMILY, self.dictionary_name)
 
     def detect(self, frame: Frame) -> list[Detection]:
-        """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known."""
+        """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known.
+
+        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        """
         image = frame.image
         colour = (
             self.preprocessing.identity
@@ -221,12 +262,17 @@ class ArucoTracker(Tracker):
             )
             quads = np.concatenate([quads, more])
             ids = np.concatenate([ids, more_ids])
+        self._last, self._unread = (gray, quads), None
         if len(ids) == 0:
             return []
         detections = []
         registered = self.roles.ids
         if self._edges:
             quads = refine_corners(gray, quads, self._cells, contour_inset=0.5)
+        # a marker lies in a light quiet zone; OpenCV also reads a light blob on a
+        # dark patch of the scene as one, with corrections
+        framed = framed_by_light(gray, quads, self._cells) >= MIN_FRAMED
+        quads, ids = quads[framed], ids[framed]
         for c, marker_id in zip(quads, ids, strict=True):
             if self.only_registered and int(marker_id) not in registered:
                 continue
@@ -234,21 +280,18 @@ class ArucoTracker(Tracker):
                 c = cv2.cornerSubPix(
                     gray, c.reshape(-1, 1, 2), (self._win, self._win), (-1, -1), self._criteria
                 ).reshape(4, 2)
-            det = Detection(id=int(marker_id), corners=c, family=FAMILY)
+            det = Detection(id=int(marker_id), corners=c, family=self.family)
             detections.append(finish_detection(det, self.roles, frame, pose_quality=True))
         return detections
 
 
-def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
-    """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
-    where = context.profile
-    values = check_config(config, aruco_factory.PARAMS, "tracker", where)
-    roles = TagRoles.from_profile(context.profile, values["size_mm"])
-    return ArucoTracker(
-        values["dictionary"],
+def _tracker(values: dict[str, Any], dictionary: str, where: Any, family: str) -> ArucoTracker:
+    """The tracker a checked ``tracker:`` section describes (``where`` is the profile)."""
+    tracker = ArucoTracker(
+        dictionary,
         detector_parameters(values["detector"], where),
         Preprocessing.from_config(values["preprocess"], where),
-        roles,
+        TagRoles.from_profile(where, values["size_mm"], dictionary_key(dictionary)),
         only_registered=values["only_registered"],
         refine=values["refine"],
         rescue=values["rescue"],
@@ -258,21 +301,25 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
         else values["min_side_px"],
         where=where,
     )
+    tracker.family = family
+    return tracker
+
+
+def dictionary_key(name: str) -> str:
+    """A dictionary's name as families and ``tags: family_ids:`` spell it (``apriltag_36h11``)."""
+    return str(name).strip().lower().removeprefix("dict_")
+
+
+def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
+    """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
+    values = check_config(config, aruco_factory.PARAMS, "tracker", context.profile)
+    return _tracker(values, values["dictionary"], context.profile, FAMILY)
 
 
 def _validate(config: dict[str, Any], profile: Any) -> None:
     """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
     values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
-    tracker = ArucoTracker(
-        values["dictionary"],
-        detector_parameters(values["detector"], profile),
-        Preprocessing.from_config(values["preprocess"], profile),
-        TagRoles.from_profile(profile, values["size_mm"]),
-        only_registered=values["only_registered"],
-        refine=values["refine"],
-        where=profile,
-    )
-    probe(tracker, profile, "tracker.detector")
+    probe(_tracker(values, values["dictionary"], profile, FAMILY), profile, "tracker.detector")
 
 
 aruco_factory.validate = _validate
@@ -314,4 +361,35 @@ aruco_factory.PARAMS = (
         True,
         doc="read small candidates OpenCV rejected again on edge-refined corners (edges only)",
     ),
+)
+
+
+def apriltag_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
+    """AprilTag markers (36h11 by default): the aruco tracker with OpenCV's AprilTag dictionary."""
+    values = check_config(config, apriltag_factory.PARAMS, "tracker", context.profile)
+    dictionary = _apriltag_dictionary(values["family"])
+    return _tracker(values, dictionary, context.profile, APRILTAG)
+
+
+def _validate_apriltag(config: dict[str, Any], profile: Any) -> None:
+    """Load-time checks, as the aruco tracker's."""
+    values = check_config(config, apriltag_factory.PARAMS, "tracker", profile)
+    tracker = _tracker(values, _apriltag_dictionary(values["family"]), profile, APRILTAG)
+    probe(tracker, profile, "tracker.detector")
+
+
+def _apriltag_dictionary(family: str) -> str:
+    return f"apriltag_{family}"
+
+
+apriltag_factory.validate = _validate_apriltag
+apriltag_factory.PARAMS = (
+    Param(
+        "family",
+        "str",
+        DEFAULT_APRILTAG,
+        doc="AprilTag family (OpenCV carries 16h5, 25h9, 36h10, 36h11)",
+        choices=APRILTAG_FAMILIES,
+    ),
+    *(p for p in aruco_factory.PARAMS if p.name != "dictionary"),
 )

@@ -23,12 +23,12 @@ from armtree.errors import ConfigError
 from armtree.imaging import Intrinsics, intrinsics_from_config
 from armtree.rig import Detection, Frame, RigContext
 
-from . import hamming_code
 from .annotate import annotate
-from .aruco import get_dictionary
+from .aruco import APRILTAG_FAMILIES, get_dictionary
 from .detection_rate import marker_detection_rate
+from .families import MarkerFamily, apriltag_dictionary, family_named
 from .inputs import Source, add_intrinsics_options, intrinsics_from_args, is_video, sources
-from .markers import FAMILIES, printable_marker, write_png, write_sheet
+from .markers import printable_marker, write_png, write_sheet
 
 
 def registry_of(args: argparse.Namespace) -> Any:
@@ -67,7 +67,10 @@ class DetectCommand:
         """Add detect's arguments."""
         parser.add_argument("images", nargs="+", metavar="IMAGE", help="image or video files")
         parser.add_argument("--tracker", default="aruco", help="tracker name (default aruco)")
-        parser.add_argument("--dictionary", help="ArUco dictionary (aruco; default 4x4_50)")
+        parser.add_argument(
+            "--dictionary",
+            help="ArUco dictionary (aruco; default 4x4_50) or AprilTag family (apriltag; 36h11)",
+        )
         parser.add_argument("--size-mm", type=float, help="marker side for poses (mm)")
         parser.add_argument(
             "--rig", metavar="PROFILE", help="take tracker settings and tags from a profile"
@@ -154,12 +157,15 @@ class DetectCommand:
             if section.get("type", args.tracker) == args.tracker:
                 config = {k: v for k, v in section.items() if k != "type"}
         if args.dictionary is not None:
-            if args.tracker != "aruco":
+            if args.tracker == "apriltag":
+                config["family"] = apriltag_dictionary(args.dictionary).removeprefix("apriltag_")
+            elif args.tracker == "aruco":
+                get_dictionary(args.dictionary)
+                config["dictionary"] = args.dictionary
+            else:
                 raise ConfigError(
-                    f"--dictionary applies to the aruco tracker, not {args.tracker!r}"
+                    f"--dictionary applies to the aruco and apriltag trackers, not {args.tracker!r}"
                 )
-            get_dictionary(args.dictionary)
-            config["dictionary"] = args.dictionary
         if args.size_mm is not None:
             if not args.size_mm > 0:
                 raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
@@ -268,25 +274,45 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
-def check_marker_id(family: str, marker_id: int, dictionary: str) -> None:
-    """ConfigError unless ``marker_id`` exists in the family (and dictionary)."""
-    if family == "hamming":
-        if not 0 <= marker_id < hamming_code.MAX_ID:
-            raise ConfigError(f"--id {marker_id}: Hamming ids run from 0 to 2**28 - 1")
-        return
-    count = get_dictionary(dictionary).bytesList.shape[0]
-    if not 0 <= marker_id < count:
-        raise ConfigError(f"--id {marker_id}: dictionary {dictionary} has ids 0 to {count - 1}")
+def marker_family(family: str, dictionary: str | None) -> MarkerFamily:
+    """The family ``armtree markers --family F [--dictionary D]`` names: ``hamming``,
+    ``aruco`` (dictionary D, 4x4_50 by default), ``apriltag`` (family D, 36h11 by
+    default) or an ArUco dictionary's own name. ConfigError naming the choices."""
+    if family == "aruco":
+        return family_named(dictionary or "4x4_50")
+    if family == "apriltag":
+        return family_named(apriltag_dictionary(dictionary or "36h11"))
+    if dictionary is not None:
+        raise ConfigError(f"--dictionary applies to --family aruco or apriltag, not {family!r}")
+    try:
+        return family_named(family)
+    except ConfigError as exc:
+        raise ConfigError(
+            f"--family {family}: {exc.message} (or aruco --dictionary D, apriltag --dictionary "
+            f"{'|'.join(APRILTAG_FAMILIES)})"
+        ) from None
+
+
+def check_marker_id(family: MarkerFamily, marker_id: int) -> None:
+    """ConfigError unless ``marker_id`` is a valid id of ``family``, naming valid ones near it."""
+    problem = family.id_error(marker_id)
+    if problem is not None:
+        raise ConfigError(f"--id {marker_id}: {problem}")
 
 
 class MarkersCommand:
     """``armtree markers``: printable marker PNGs, or A4 sheets (PNG or PDF)."""
 
-    help = "write printable ArUco or Hamming markers (PNG with DPI, or A4 sheets as PNG/PDF)"
+    help = "write printable Hamming, ArUco or AprilTag markers (PNG with DPI, or A4 sheets)"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add markers' arguments."""
-        parser.add_argument("--family", required=True, choices=FAMILIES, help="marker family")
+        parser.add_argument(
+            "--family",
+            required=True,
+            metavar="FAMILY",
+            help="hamming, aruco, apriltag, or an ArUco dictionary (4x4_50, apriltag_36h11, ...)",
+        )
         parser.add_argument("--id", type=int, help="marker id")
         parser.add_argument("--sheet", metavar="IDS", help="several ids on A4, e.g. 0-5,8")
         parser.add_argument(
@@ -296,7 +322,8 @@ class MarkersCommand:
             "--dpi", type=float, default=300.0, help="print resolution (default 300)"
         )
         parser.add_argument(
-            "--dictionary", default="4x4_50", help="ArUco dictionary (default 4x4_50)"
+            "--dictionary",
+            help="ArUco dictionary (aruco; default 4x4_50) or AprilTag family (apriltag; 36h11)",
         )
         parser.add_argument(
             "-o", "--output", required=True, metavar="FILE", help=".png (or .pdf sheet)"
@@ -308,8 +335,7 @@ class MarkersCommand:
             raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
         if not args.dpi > 0:
             raise ConfigError(f"--dpi {args.dpi:g}: must be positive")
-        if args.family == "aruco":
-            get_dictionary(args.dictionary)
+        family = marker_family(args.family, args.dictionary)
         if (args.id is None) == (args.sheet is None):
             raise ConfigError("give --id N for one marker or --sheet IDS for a sheet")
         out = Path(args.output)
@@ -317,23 +343,25 @@ class MarkersCommand:
         if suffix not in (".png", ".pdf"):
             raise ConfigError(f"-o {args.output}: write a .png (or a .pdf sheet)")
         ids = [args.id] if args.id is not None else parse_ids(args.sheet)
+        # only ids the family's tracker reads (docs/trackers.md: valid ids)
         for marker_id in ids:
-            check_marker_id(args.family, marker_id, args.dictionary)
+            check_marker_id(family, marker_id)
+        dictionary = family.dictionary or "4x4_50"
         if args.sheet is None and suffix == ".png":
             printed = printable_marker(
-                args.family, args.id, args.size_mm, args.dpi, args.dictionary
+                family.generator, args.id, args.size_mm, args.dpi, dictionary
             )
             write_png(out, printed.image, args.dpi)
             print(
-                f"{out}: {args.family} id {args.id}, {printed.side_px} px = {printed.size_mm:.2f} mm "
-                f"at {args.dpi:g} dpi (print at 100 %)"
+                f"{out}: {family.name} id {args.id}, {printed.side_px} px = "
+                f"{printed.size_mm:.2f} mm at {args.dpi:g} dpi (print at 100 %)"
             )
             return 0
         try:
-            pages = write_sheet(out, args.family, ids, args.size_mm, args.dpi, args.dictionary)
+            pages = write_sheet(out, family.generator, ids, args.size_mm, args.dpi, dictionary)
         except ValueError as exc:
             raise ConfigError(str(exc), file=str(out)) from None
         print(
-            f"{out}: {len(ids)} {args.family} marker(s) of {args.size_mm:g} mm on {pages} A4 page(s)"
+            f"{out}: {len(ids)} {family.name} marker(s) of {args.size_mm:g} mm on {pages} A4 page(s)"
         )
         return 0

@@ -18,30 +18,34 @@ import cv2
 import numpy as np
 
 from armtree.component_config import config_error
-from armtree.profile import profile_section
+from armtree.profile import profile_section, tag_spec
 from armtree.rig import Detection, Frame, TagSpec
 
 
-def tag_table(profile: Any) -> dict[int, TagSpec]:
-    """Marker id -> its :class:`TagSpec` from the profile's ``tags:`` (empty without one).
+def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:
+    """Marker id -> its :class:`TagSpec` from the profile's ``tags:`` (empty without one),
+    the ids those of marker family ``family`` where ``family_ids`` gives them.
 
-    Uses ``profile.tags()`` when the profile offers it, else reads the raw
-    ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``). A size
-    that is not a positive number, or an id given to two roles, is a ConfigError.
+    Uses ``profile.tags()`` when the profile offers it (a loaded profile: its ids were
+    checked against their families where it was written, :mod:`.tag_checks`), else reads
+    the raw ``tags:`` mapping (``{role: {id: N | ids: [...], size_mm: S}}``), where a
+    size that is not a positive number, or an id given to two roles, is a ConfigError.
     """
     where = profile
     tags_method = getattr(profile, "tags", None)
-    raw = tags_method() if callable(tags_method) else profile_section(profile, "tags")
+    checked = callable(tags_method)
+    raw = tags_method() if checked else profile_section(profile, "tags")
     table: dict[int, TagSpec] = {}
     for role, spec in (raw or {}).items():
         if not isinstance(spec, TagSpec):
             spec = _parse_tag(role, spec, where)
+        spec = spec.in_family(family)
         if not spec.size_mm > 0:
             raise config_error(
                 where, f"tags.{role}.size_mm", f"a marker size must be positive, got {spec.size_mm}"
             )
         for marker_id in spec.ids:
-            if marker_id in table and table[marker_id].role != spec.role:
+            if not checked and marker_id in table and table[marker_id].role != spec.role:
                 raise config_error(
                     where,
                     "tags",
@@ -69,7 +73,20 @@ def _parse_tag(role: str, spec: Any, where: Any) -> TagSpec:
     size = spec["size_mm"]
     if isinstance(size, bool) or not isinstance(size, (int, float)):
         raise config_error(where, f"tags.{role}.size_mm", f"a number of millimetres, got {size!r}")
-    return TagSpec(str(role), tuple(int(i) for i in ids), float(size))
+    family_ids = spec.get("family_ids") or {}
+    if not isinstance(family_ids, Mapping):
+        raise config_error(
+            where, f"tags.{role}.family_ids", f"a mapping of family: ids, got {family_ids!r}"
+        )
+    for family, value in family_ids.items():
+        for marker_id in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(marker_id, bool) or not isinstance(marker_id, int) or marker_id < 0:
+                raise config_error(
+                    where,
+                    f"tags.{role}.family_ids.{family}",
+                    f"marker ids are integers >= 0, got {marker_id!r}",
+                )
+    return tag_spec(str(role), {**spec, "family_ids": family_ids})
 
 
 def object_points(size_mm: float) -> np.ndarray:
@@ -118,12 +135,15 @@ class TagRoles:
         self.default_size_mm = default_size_mm
 
     @classmethod
-    def from_profile(cls, profile: Any, size_mm: float | None) -> TagRoles:
-        """The profile's ``tags:`` with ``size_mm`` (``tracker.size_mm``) for unlisted markers.
+    def from_profile(
+        cls, profile: Any, size_mm: float | None, family: str | None = None
+    ) -> TagRoles:
+        """The profile's ``tags:`` (their ids in marker family ``family``) with ``size_mm``
+        (``tracker.size_mm``) for unlisted markers.
 
         Raises :class:`ConfigError` for a bad ``tags:`` entry or a size that is not positive.
         """
-        return cls(tag_table(profile), positive_size(size_mm, "tracker.size_mm", profile))
+        return cls(tag_table(profile, family), positive_size(size_mm, "tracker.size_mm", profile))
 
     @property
     def ids(self) -> frozenset[int]:

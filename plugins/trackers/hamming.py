@@ -6,16 +6,18 @@ convex quadrilaterals, the 9x9 cells read through each quad's homography
 (:mod:`.kernels`, all candidates at once), each cell compared with the midpoint of
 the black border and the white quiet zone around it (planes fitted over the
 marker, so a marker half in shadow reads like one in full light), then
-Hamming(7,4) decoding of the four rotations at once. Corners are refined to sub-pixel
+Hamming(7,4) decoding of the four rotations at once, by soft decision (each
+row's code word chosen by how far its disagreeing cells are from the
+threshold, :func:`.kernels.read_markers`). Corners are refined to sub-pixel
 accuracy from the square's edges (:mod:`.refine`) before the cells are read.
 
 Unlike Hampy, which reports every rotation that decodes, a marker here gets
 exactly one id and one orientation: a rotation that reads as an id registered
 in the profile wins, then the rotation needing the fewest bit corrections,
 and a tie that remains is reported once with ``ambiguous=True`` (smallest id
-first). The format needs this: small ids read upside down are other valid
-ids (id 2 turned 180 degrees is exactly id 2 << 24, id 1 is one bit from
-3 << 24), so profiles should register the ids they use.
+first). Ids whose turns read as other ids are not valid markers at all
+(:func:`.hamming_code.id_problem`; id 2 turned 180 degrees is exactly id
+2 << 24): profiles and ``armtree markers`` refuse them.
 """
 
 from __future__ import annotations
@@ -31,12 +33,16 @@ from armtree.params import Param
 from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
-from .hamming_code import GRID, WORD_ERRORS, WORD_FLIP, WORD_NIBBLE
-from .kernels import best_of_overlapping, clockwise_quads, read_markers, sample_cells
-from .preprocess import Preprocessing, threshold_image, to_gray
+from .hamming_code import CODEWORDS, GRID
+from .kernels import apart_from, best_of_overlapping, read_markers, sample_cells
+from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 
 FAMILY = "hamming"
+#: How much better (summed cell margins) a row's code word must fit than the next:
+#: enough to refuse the guesses that made wrong ids of small tilted markers, not so
+#: much that clean rows are refused (docs/benchmarks.md, "small markers").
+MIN_ROW_GAP = 1.0
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
@@ -141,16 +147,19 @@ class _Reading:
 class HammingTracker(Tracker):
     """Finds Hampy-format Hamming markers; one detection per physical marker.
 
-    ``max_corrected_bits`` bounds the corrections over the seven rows (each
-    row corrects at most one, as Hamming(7,4) allows); a correction that flips
-    a clearly read cell while another cell of the row is in doubt (margin
-    below ``max_flip_margin``, a fraction of the local black-white difference)
-    is refused, as that is how a double error looks; ``max_border_errors``
-    how many of the 32 border cells may read white; ``only_registered``
-    drops ids the profile does not list.
+    ``max_corrected_bits`` bounds the bits corrected over the seven rows; a
+    correction may flip only a cell in doubt (read closer to the threshold than
+    ``max_flip_margin``, a fraction of the local black-white difference), and a
+    row is read only when its code word beats every other by ``min_row_gap``
+    (summed margins): a clearly read wrong cell is an occluder or another
+    marker, and a row nearly as close to two code words is a guess (docs/
+    benchmarks.md, "small markers"). ``max_border_errors`` is how many of the 32
+    border cells may read white; ``only_registered`` drops ids the profile does
+    not list.
     """
 
     family = FAMILY
+    marker_family = FAMILY
 
     def __init__(
         self,
@@ -164,6 +173,7 @@ class HammingTracker(Tracker):
         only_registered: bool = False,
         refine: bool = True,
         max_flip_margin: float = 0.25,
+        min_row_gap: float = MIN_ROW_GAP,
     ) -> None:
         self.preprocessing = preprocessing or Preprocessing(**SEED_PREPROCESS)
         self.roles = roles or TagRoles({})
@@ -174,6 +184,7 @@ class HammingTracker(Tracker):
         self.only_registered = bool(only_registered)
         self.refine = bool(refine)
         self.max_flip_margin = float(max_flip_margin)
+        self.min_row_gap = float(min_row_gap)
 
     # -- the Tracker contract -------------------------------------------------
 
@@ -184,13 +195,16 @@ class HammingTracker(Tracker):
         warm_up(self, FAMILY)
 
     def detect(self, frame: Frame) -> list[Detection]:
-        """Every Hamming marker in ``frame``; poses when its size and intrinsics are known."""
+        """Every Hamming marker in ``frame``; poses when its size and intrinsics are known.
+
+        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        """
         gray = to_gray(frame.image)
         quads = self.candidates(gray)
         if self.refine and len(quads):
             # refined corners put the cell samples on the cells, which matters at 2-3 px per cell
             quads = refine_corners(gray, quads, GRID, contour_inset=0.5)
-        readings = self.decode(gray, quads)
+        readings, self.unread = self._decode(gray, quads)
         detections = []
         for r in readings:
             det = Detection(
@@ -212,77 +226,53 @@ class HammingTracker(Tracker):
         else:
             processed = self.preprocessing.apply(gray)
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-        # findContoursLinkRuns gives what RETR_CCOMP with CHAIN_APPROX_SIMPLE gives,
-        # without findContours' internal full-frame threshold on OpenCV's worker threads.
-        contours, _ = cv2.findContoursLinkRuns(dark)
-        min_perimeter = 4.0 * self.min_side_px
-        h, w = gray.shape
-        max_perimeter = 2.0 * (w + h)
-        min_area = 0.5 * self.min_side_px**2
-        found = []
-        for contour in contours:
-            # outer edges of dark regions run one way, holes (inner edges of dark rings)
-            # the other; the hierarchy link runs return does not say which is which
-            area = cv2.contourArea(contour, True)
-            if area < min_area or len(contour) < 4:
-                continue
-            perimeter = cv2.arcLength(contour, True)
-            if perimeter < min_perimeter or perimeter > max_perimeter:
-                continue
-            approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
-            if len(approx) != 4 or not cv2.isContourConvex(approx):
-                continue
-            # a square's outline fills its quad; a blob's (an ellipse, a hand) does not
-            fill = area / max(cv2.contourArea(approx), 1.0)
-            if 0.8 < fill < 1.2:
-                found.append(approx)
-        if not found:
-            return np.zeros((0, 4, 2), np.float32)
-        quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
-        return clockwise_quads(quads, float(self.min_side_px))
+        return dark_quads(dark, self.min_side_px)
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
+        return self._decode(gray, quads)[0]
+
+    def _decode(self, gray: np.ndarray, quads: np.ndarray) -> tuple[list[_Reading], int]:
+        """:meth:`decode`'s readings, and how many marker-like candidates apart from them
+        decoded as no id."""
         if len(quads) == 0:
-            return []
+            return [], 0
         if self.only_registered and not self.roles.table:
-            return []
+            return [], 0
         levels = sample_cells(
             np.ascontiguousarray(gray), quads.astype(np.float64), _CELL_SAMPLES, _QUIET_SAMPLES
         )
-        rows, turns, ids, corrected, ties = read_markers(
+        rows, turns, ids, corrected, ties, unread = read_markers(
             levels @ _READING_OP,
             _BORDER_CELLS,
             _TURNED,
-            WORD_NIBBLE,
-            WORD_ERRORS,
-            WORD_FLIP,
+            CODEWORDS,
             np.array(sorted(self.roles.table), dtype=np.int64),
             self.only_registered,
             self.min_contrast,
             self.max_border_errors,
             self.max_corrected_bits,
             self.max_flip_margin,
+            self.min_row_gap,
         )
-        if len(rows) == 0:
-            return []
         corners = quads[rows[:, None], _ROLLS[turns]]
+        unseen = int(apart_from(quads[unread], corners).sum())
+        if len(rows) == 0:
+            return [], unseen
         # a dark sheet with a white window around a marker can itself read as a
         # marker with corrections; the marker in the window, read cleanly, is the one
         kept = best_of_overlapping(corners, corrected, ties > 1)
-        return [
+        readings = [
             _Reading(corners[i], int(ids[i]), int(corrected[i]), bool(ties[i] > 1)) for i in kept
         ]
+        return readings, unseen
 
 
-def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
-    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
-    where = context.profile
-    values = check_config(config, hamming_factory.PARAMS, "tracker", where)
-    roles = TagRoles.from_profile(context.profile, values["size_mm"])
+def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
+    """The tracker a checked ``tracker:`` section describes (``where`` is the profile)."""
     return HammingTracker(
         Preprocessing.from_config(values["preprocess"], where),
-        roles,
+        TagRoles.from_profile(where, values["size_mm"], FAMILY),
         min_side_px=values["min_side_px"],
         max_corrected_bits=values["max_corrected_bits"],
         max_border_errors=values["max_border_errors"],
@@ -290,23 +280,20 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
         only_registered=values["only_registered"],
         refine=values["refine"],
         max_flip_margin=values["max_flip_margin"],
+        min_row_gap=values["min_row_gap"],
     )
+
+
+def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
+    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
+    values = check_config(config, hamming_factory.PARAMS, "tracker", context.profile)
+    return _tracker(values, context.profile)
 
 
 def _validate(config: dict[str, Any], profile: Any) -> None:
     """Load-time checks (``armtree check``): build the tracker and run it once."""
     values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
-    tracker = HammingTracker(
-        Preprocessing.from_config(values["preprocess"], profile),
-        TagRoles.from_profile(profile, values["size_mm"]),
-        min_side_px=values["min_side_px"],
-        max_corrected_bits=values["max_corrected_bits"],
-        max_border_errors=values["max_border_errors"],
-        min_contrast=values["min_contrast"],
-        refine=values["refine"],
-        max_flip_margin=values["max_flip_margin"],
-    )
-    probe(tracker, profile, "tracker.preprocess")
+    probe(_tracker(values, profile), profile, "tracker.preprocess")
 
 
 hamming_factory.validate = _validate
@@ -363,5 +350,13 @@ hamming_factory.PARAMS = (
         doc="cells read closer than this to the threshold are in doubt",
         minimum=0.0,
         maximum=0.5,
+    ),
+    Param(
+        "min_row_gap",
+        "float",
+        MIN_ROW_GAP,
+        doc="how much better a row's code word must fit than any other (summed margins)",
+        minimum=0.0,
+        maximum=3.5,
     ),
 )

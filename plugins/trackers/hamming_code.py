@@ -15,9 +15,20 @@ Hamming(7,4) is a perfect code: every 7-bit word is at most one bit from
 exactly one code word, so a row always "decodes"; what tells a right reading
 from a wrong one is how many bits had to be corrected. The decoding tables
 here return that count with the nibble.
+
+Not every id makes a usable marker. A marker is read in four orientations and
+the one that decodes wins; a clean print must decode in one orientation only,
+so an id is *valid* (:func:`id_problem`) when each of its other three quarter
+turns is more than ``max_corrected_bits`` bit flips from the grid of any id a
+tracker accepts (ids 0 and ``2**28 - 1``, an all-black and an all-white inside,
+are never accepted: they have no orientation). Small ids fail: id 1 turned
+upside down is one flip from id ``3 << 24``. docs/trackers.md gives the rule's
+reasons and the robust ids the shipped profiles use.
 """
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -112,3 +123,88 @@ def decode_bits(bits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     shifts = 4 * np.arange(BITS - 1, -1, -1)
     ids = (nibbles << shifts).sum(axis=-1)
     return ids, errors.sum(axis=-1)
+
+
+#: Bits between each 7-bit word and each code word, ``(128, 16)``.
+WORD_DISTANCES = np.array(
+    [[bin(w ^ int(c @ ROW_WEIGHTS)).count("1") for c in CODEWORDS] for w in range(128)],
+    dtype=np.int64,
+)
+#: What an inside never reads as: all black (id 0) and all white (every bit set).
+REFUSED_IDS = (0, MAX_ID - 1)
+#: Bit corrections the hamming tracker allows by default (``max_corrected_bits``).
+DEFAULT_MAX_CORRECTED = 2
+
+
+def turn_readings(marker_id: int) -> tuple[tuple[int, int], ...]:
+    """For each of the id's quarter turns (1, 2, 3, as ``np.rot90``): the fewest bit flips
+    that make the turned marker decode as an id other than 0 and ``2**28 - 1``, and that id.
+
+    Rows decode on their own (each to its nearest code word), so the count is the
+    rows that are not code words, unless those nearest words spell a refused id:
+    then the row cheapest to move goes to its next-nearest code word instead.
+    """
+    grid = encode_id(marker_id)
+    shifts = 4 * np.arange(BITS - 1, -1, -1)
+    out = []
+    for k in (1, 2, 3):
+        words = np.rot90(grid, k) @ ROW_WEIGHTS
+        costs = WORD_DISTANCES[words]  # (7, 16)
+        nibbles = costs.argmin(axis=1)
+        total = int(costs.min(axis=1).sum())
+        if (nibbles == 0).all() or (nibbles == 15).all():
+            ordered = np.argsort(costs, axis=1, kind="stable")
+            extra = costs[np.arange(BITS), ordered[:, 1]] - costs[np.arange(BITS), ordered[:, 0]]
+            row = int(extra.argmin())
+            nibbles[row] = ordered[row, 1]
+            total += int(extra[row])
+        out.append((total, int((nibbles << shifts).sum())))
+    return tuple(out)
+
+
+@lru_cache(maxsize=4096)
+def id_problem(marker_id: int, max_corrected_bits: int = DEFAULT_MAX_CORRECTED) -> str | None:
+    """Why ``marker_id`` is not a valid Hampy marker for a tracker allowing
+    ``max_corrected_bits`` corrections, or None when it is (see the module docstring).
+
+    Raises ``ValueError`` for an id outside ``0 <= id < 2**28``.
+    """
+    marker_id = check_id(marker_id)
+    if marker_id == 0:
+        return "its inside is all black: no white cell to give it an orientation or data"
+    if marker_id == MAX_ID - 1:
+        return "its inside is all white: no black cell to give it an orientation or data"
+    readings = turn_readings(marker_id)
+    k = min(range(3), key=lambda i: readings[i][0])
+    flips, other = readings[k]
+    if flips <= max_corrected_bits:
+        how = "as it is" if flips == 0 else f"after {flips} correction" + "s" * (flips > 1)
+        return (
+            f"turned {90 * (k + 1)} degrees it reads as id {other} {how} "
+            f"(the tracker allows {max_corrected_bits}), so its orientation is not unique"
+        )
+    return None
+
+
+def is_valid_id(marker_id: int, max_corrected_bits: int = DEFAULT_MAX_CORRECTED) -> bool:
+    """True when ``marker_id`` is in range and :func:`id_problem` finds nothing."""
+    try:
+        return id_problem(int(marker_id), max_corrected_bits) is None
+    except ValueError:
+        return False
+
+
+def valid_ids_near(
+    marker_id: int, count: int = 3, max_corrected_bits: int = DEFAULT_MAX_CORRECTED
+) -> list[int]:
+    """The ``count`` valid ids nearest ``marker_id`` (ties: the smaller first)."""
+    centre = min(max(int(marker_id), 0), MAX_ID - 1)
+    found: list[int] = []
+    step = 0
+    while len(found) < count and step < MAX_ID:
+        for candidate in (centre - step, centre + step) if step else (centre,):
+            valid = 0 <= candidate < MAX_ID and is_valid_id(candidate, max_corrected_bits)
+            if valid and candidate not in found:
+                found.append(candidate)
+        step += 1
+    return found[:count]

@@ -175,20 +175,49 @@ def sample_cells(
     return out
 
 
+def framed_by_light(image: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
+    """How much lighter than its border the ring just outside each quad ``(N, 4, 2)`` is, as
+    a fraction of the border's contrast with its lightest inner cell (``cells`` a side,
+    border included): about 1 for a printed marker in its white quiet zone, about 0 for a
+    dark patch of the scene around a light blob, which a detector can read as a marker."""
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    if len(quads) == 0:
+        return np.zeros(0)
+    centres = np.arange(cells) + 0.5
+    middle = (np.stack(np.meshgrid(centres, centres), axis=-1).reshape(-1, 1, 2)) / cells
+    out, side = -0.5 / cells, 1.0 + 0.5 / cells
+    along = centres / cells
+    ring = np.concatenate(
+        [
+            np.column_stack([along, np.full(cells, out)]),
+            np.column_stack([np.full(cells, side), along]),
+            np.column_stack([along, np.full(cells, side)]),
+            np.column_stack([np.full(cells, out), along]),
+        ]
+    )
+    levels = sample_cells(image, quads, middle, ring)
+    grid = levels[:, : cells * cells].reshape(-1, cells, cells)
+    border = np.concatenate(
+        [grid[:, 0], grid[:, -1], grid[:, 1:-1, 0], grid[:, 1:-1, -1]], axis=1
+    ).mean(axis=1)
+    lightest = grid[:, 1:-1, 1:-1].reshape(len(quads), -1).max(axis=1)
+    quiet = np.median(levels[:, cells * cells :], axis=1)
+    return (quiet - border) / np.maximum(lightest - border, 1e-6)
+
+
 def read_markers(
     reading: np.ndarray,
     border: np.ndarray,
     turned: np.ndarray,
-    word_nibble: np.ndarray,
-    word_errors: np.ndarray,
-    word_flip: np.ndarray,
+    codewords: np.ndarray,
     registered: np.ndarray,
     only_registered: bool,
     min_contrast: float,
     max_border_errors: int,
     max_corrected_bits: int,
     max_flip_margin: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    min_row_gap: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Decode Hampy-format candidates: one reading per candidate that reads as a marker.
 
     ``reading (N, 3 * 81 + 1)`` is :func:`.hamming._linear_reading`'s for each
@@ -197,19 +226,31 @@ def read_markers(
     a margin of the distance as a fraction of the difference. ``border``
     indexes the 32 border cells; ``turned[k]`` the 49 data cells, row by row,
     of the marker as printed when its top-left corner is the quad's corner k;
-    the ``word_*`` tables decode a 7-bit row (:mod:`.hamming_code`);
-    ``registered`` is the profile's ids, sorted. Returns ``(rows, turns, ids,
-    corrected, ties)``: the candidate, the chosen corner k, its id, the bits
-    corrected and how many turns tied for the best reading. The rules are the
-    tracker's (see :class:`.hamming.HammingTracker`): registered ids first,
-    then fewest corrections, then the smallest id.
+    ``codewords (16, 7)`` the Hamming(7,4) code word of each nibble
+    (:mod:`.hamming_code`); ``registered`` is the profile's ids, sorted.
+
+    Each row is decoded by soft decision: the code word whose cells that
+    disagree with the reading weigh least, each weighing its margin. A row is
+    trusted when that code word beats every other by ``min_row_gap`` (summed
+    margins) and it flips only doubtful cells (margins below
+    ``max_flip_margin``): a clear cell read wrong is an occluder or another
+    marker, not noise. The bits flipped over the seven rows are the
+    corrections, at most ``max_corrected_bits``.
+
+    Returns ``(rows, turns, ids, corrected, ties, unread)``: the candidate, the
+    chosen corner k, its id, the bits corrected and how many turns tied for the
+    best reading; and the candidates that look like markers (contrast, a black
+    border, an inside neither all black nor all white) but decode as no id
+    under any turn. The rules are the tracker's (see
+    :class:`.hamming.HammingTracker`): registered ids first, then fewest
+    corrections, then the smallest id.
     """
     n_cells = (reading.shape[1] - 1) // 3
     n_data = turned.shape[1]
     bits = int(round(np.sqrt(n_data)))
     rows = np.flatnonzero(reading[:, 3 * n_cells] >= min_contrast)
     above = reading[rows, :n_cells] - reading[rows, n_cells : 2 * n_cells]
-    white = (above > 0.0).astype(np.int64)
+    white = above > 0.0
     margin = np.abs(above) / np.maximum(reading[rows, 2 * n_cells : 3 * n_cells], 1.0)
     inner = white[:, turned[0]].sum(axis=1)
     # hampy rejects all-black and all-white insides; so do we
@@ -220,20 +261,21 @@ def read_markers(
     shape = (len(rows), 4, bits, bits)
     cells = white[:, turned].reshape(shape)
     doubts = margin[:, turned].reshape(shape)
-    words = cells @ (1 << np.arange(bits - 1, -1, -1))  # (N, 4, 7), left bit most significant
-    ids = word_nibble[words] @ (1 << (4 * np.arange(bits - 1, -1, -1)))  # (N, 4)
-    corrected = word_errors[words].sum(axis=-1)
-    flip = word_flip[words]
-    # the margin of the cell each row's correction flips (any cell where none is flipped)
-    flipped_margin = doubts.reshape(-1)[np.arange(0, doubts.size, bits).reshape(flip.shape) + flip]
-    # two misread (doubtful) cells in a row decode to a wrong nibble by flipping a
-    # third, clearly read one: such a correction is refused
-    refused = (
-        (flip >= 0) & (doubts.min(axis=-1) < max_flip_margin) & (flipped_margin > max_flip_margin)
-    ).any(axis=-1)
+    # every row against every code word: the cells that disagree and what they weigh
+    disagree = cells[..., None, :] != codewords.astype(bool)  # (N, 4, 7, 16, 7)
+    cost = (disagree * doubts[..., None, :]).sum(axis=-1)  # (N, 4, 7, 16)
+    order = np.argsort(cost, axis=-1, kind="stable")[..., :2]
+    nibbles = order[..., 0]
+    best, second = np.moveaxis(np.take_along_axis(cost, order, axis=-1), -1, 0)
+    flips = np.take_along_axis(disagree, nibbles[..., None, None], axis=-2)[..., 0, :]
+    ids = nibbles @ (1 << (4 * np.arange(bits - 1, -1, -1)))  # (N, 4)
+    corrected = flips.sum(axis=(-1, -2))
+    refused = (flips & (doubts >= max_flip_margin)).any(axis=(-1, -2))
+    refused |= (second - best < min_row_gap).any(axis=-1)
     # ids 0 and 2**28 - 1 are an all-black and an all-white inside
     refused |= (ids == 0) | (ids == (1 << (4 * bits)) - 1)
-    corrected = np.where(refused, bits + 1, corrected)  # a count never allowed
+    corrected = np.where(refused, n_data + 1, corrected)  # a count never allowed
+    unread = rows[~(corrected <= max_corrected_bits).any(axis=1)]
     if len(registered):  # sorted
         at = np.minimum(np.searchsorted(registered, ids), len(registered) - 1)
         is_registered = registered[at] == ids
@@ -241,13 +283,20 @@ def read_markers(
         is_registered = np.zeros(ids.shape, dtype=bool)
     valid = (corrected <= max_corrected_bits) & (is_registered | (not only_registered))
     no_key = 1 << 20
-    keys = np.where(valid, np.where(is_registered, 0, bits + 2) + corrected, no_key)
-    best = keys.min(axis=1, initial=no_key)
-    tied = keys == best[:, None]
+    keys = np.where(valid, np.where(is_registered, 0, n_data + 2) + corrected, no_key)
+    best_key = keys.min(axis=1, initial=no_key)
+    tied = keys == best_key[:, None]
     chosen = np.argmin(np.where(tied, ids, np.iinfo(np.int64).max), axis=1)
-    found = best < no_key
+    found = best_key < no_key
     pick = np.arange(len(rows))[found], chosen[found]
-    return rows[found], chosen[found], ids[pick], corrected[pick], tied.sum(axis=1)[found]
+    return (
+        rows[found],
+        chosen[found],
+        ids[pick],
+        corrected[pick],
+        tied.sum(axis=1)[found],
+        unread,
+    )
 
 
 def twice_signed_area(quads: np.ndarray) -> np.ndarray:
@@ -279,6 +328,26 @@ def best_of_overlapping(
     for i in np.argsort(rank, kind="stable"):
         kept[i] = not (overlapping[i] & kept).any()
     return np.flatnonzero(kept)
+
+
+def apart_from(quads: np.ndarray, markers: np.ndarray) -> np.ndarray:
+    """Which of ``quads (N, 4, 2)`` neither hold a marker of ``markers (M, 4, 2)`` nor lie in
+    one (no centre of either inside the other): a marker's label or mount, or a contour of
+    its cells, is not another marker-like shape."""
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    markers = np.asarray(markers, dtype=np.float64).reshape(-1, 4, 2)
+    if len(quads) == 0 or len(markers) == 0:
+        return np.ones(len(quads), dtype=bool)
+    inside = _contains(quads, markers.mean(axis=1)) | _contains(markers, quads.mean(axis=1)).T
+    return ~inside.any(axis=1)
+
+
+def _contains(quads: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``(N, P)``: point p inside convex quad n (either winding)."""
+    edges = quads[:, _NEXT] - quads  # (N, 4, 2)
+    to = points[None, None, :, :] - quads[:, :, None, :]  # (N, 4, P, 2)
+    cross = edges[..., None, 0] * to[..., 1] - edges[..., None, 1] * to[..., 0]
+    return (cross >= 0).all(axis=1) | (cross <= 0).all(axis=1)
 
 
 def clockwise_quads(quads: np.ndarray, min_side: float) -> np.ndarray:

@@ -164,11 +164,7 @@ def write_sheet(
                 interpolation="nearest",
             )
             ax.set_axis_off()
-            label = (
-                f"{family} {dictionary} id {marker_id}"
-                if family == "aruco"
-                else f"hamming id {marker_id}"
-            )
+            label = f"{dictionary if family == 'aruco' else family} id {marker_id}"
             fig.text(
                 (x + size_mm / 2) / A4_MM[0],
                 1 - (y_top + size_mm + size_mm / cells + 1.0) / A4_MM[1],

@@ -1,6 +1,7 @@
 """Registration of the built-in trackers plugin.
 
-Trackers ``aruco`` and ``hamming``; commands ``armtree detect``,
+Trackers ``aruco``, ``apriltag`` and ``hamming``; the profile's ``tags:`` checked
+against the tracker's marker family; commands ``armtree detect``,
 ``armtree markers`` (``armtree calibrate`` lives in the calibration plugin).
 """
 
@@ -10,15 +11,22 @@ from typing import Any
 
 import armtree
 
-from .aruco import aruco_factory
+from .aruco import apriltag_factory, aruco_factory
 from .commands import DetectCommand, MarkersCommand
 from .hamming import hamming_factory
+from .tag_checks import tag_problems
 
 
 @armtree.hookimpl
 def armtree_trackers() -> dict[str, Any]:
-    """The ``aruco`` and ``hamming`` marker trackers."""
-    return {"aruco": aruco_factory, "hamming": hamming_factory}
+    """The ``aruco``, ``apriltag`` and ``hamming`` marker trackers."""
+    return {"aruco": aruco_factory, "apriltag": apriltag_factory, "hamming": hamming_factory}
+
+
+@armtree.hookimpl
+def armtree_validate_profile(profile: Any) -> list[Any]:
+    """``tags:`` ids against their marker families (docs/trackers.md)."""
+    return tag_problems(profile)
 
 
 @armtree.hookimpl

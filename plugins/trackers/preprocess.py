@@ -23,6 +23,8 @@ import numpy as np
 from armtree.component_config import check_config, config_error
 from armtree.params import Param
 
+from .kernels import clockwise_quads
+
 #: The keys of a ``preprocess:`` mapping.
 PREPROCESS_PARAMS: tuple[Param, ...] = (
     Param(
@@ -183,3 +185,37 @@ def dark_after_blur3(image: np.ndarray, level: float = 127.0) -> np.ndarray:
     total2[-1] = 2 * (across2[-1] + across2[-2])
     cv2.threshold(ones, 7, 255, cv2.THRESH_BINARY_INV, dst=ones)
     return total2
+
+
+def dark_quads(dark: np.ndarray, min_side_px: float) -> np.ndarray:
+    """Convex quadrilaterals ``(N, 4, 2)`` float32, clockwise on screen, outlining the dark
+    regions of ``dark`` (255 where dark) with every side at least ``min_side_px`` long:
+    the shapes a square marker's black border makes."""
+    # findContoursLinkRuns gives what RETR_CCOMP with CHAIN_APPROX_SIMPLE gives,
+    # without findContours' internal full-frame threshold on OpenCV's worker threads.
+    contours, _ = cv2.findContoursLinkRuns(dark)
+    min_perimeter = 4.0 * min_side_px
+    h, w = dark.shape
+    max_perimeter = 2.0 * (w + h)
+    min_area = 0.5 * min_side_px**2
+    found = []
+    for contour in contours:
+        # outer edges of dark regions run one way, holes (inner edges of dark rings)
+        # the other; the hierarchy link runs return does not say which is which
+        area = cv2.contourArea(contour, True)
+        if area < min_area or len(contour) < 4:
+            continue
+        perimeter = cv2.arcLength(contour, True)
+        if perimeter < min_perimeter or perimeter > max_perimeter:
+            continue
+        approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
+        if len(approx) != 4 or not cv2.isContourConvex(approx):
+            continue
+        # a square's outline fills its quad; a blob's (an ellipse, a hand) does not
+        fill = area / max(cv2.contourArea(approx), 1.0)
+        if 0.8 < fill < 1.2:
+            found.append(approx)
+    if not found:
+        return np.zeros((0, 4, 2), np.float32)
+    quads = np.concatenate(found).reshape(-1, 4, 2).astype(np.float32)
+    return clockwise_quads(quads, float(min_side_px))

@@ -9,6 +9,9 @@ four edges (:mod:`.refine`), its cells are read in their middles
 (:func:`.kernels.sample_cells`), its border must be black, and its inside must
 be a word of the dictionary exactly, under one of the four turns: no bit is
 corrected, so a rescued marker is as sure as OpenCV's.
+
+The same first look (:meth:`Rescuer.marker_like`: a dark border around light
+cells) tells the tracker's ``unread`` count which shapes look like markers.
 """
 
 from __future__ import annotations
@@ -75,9 +78,7 @@ class Rescuer:
             return none
         # a first look on the contour's corners: most candidates (texture, a sheet's
         # outline) have no dark border with light cells inside and are not refined
-        levels, threshold, contrast = self._read(gray, quads)
-        dark_border = (levels[:, self.border] < threshold).mean(axis=1)
-        likely = (contrast >= MIN_CONTRAST) & (dark_border >= 0.75)
+        likely = self.marker_like(gray, quads)
         quads, sides = quads[likely], sides[keep][likely]
         if len(quads) == 0:
             return none
@@ -102,6 +103,15 @@ class Rescuer:
         if not out_q:
             return none
         return np.array(out_q, dtype=np.float32), np.array(out_id, dtype=int)
+
+    def marker_like(self, gray: np.ndarray, quads: np.ndarray) -> np.ndarray:
+        """Which quads ``(N, 4, 2)`` look like a marker read at this dictionary's grid on
+        their corners as given: most border cells dark, and light cells inside."""
+        if len(quads) == 0:
+            return np.zeros(0, dtype=bool)
+        levels, threshold, contrast = self._read(gray, quads)
+        dark_border = (levels[:, self.border] < threshold).mean(axis=1)
+        return (contrast >= MIN_CONTRAST) & (dark_border >= 0.75)
 
     def _read(self, gray: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, ...]:
         """Each quad's cell levels ``(N, cells**2)``, the threshold ``(N, 1)`` halfway between

@@ -1,0 +1,96 @@
+"""`armtree check` (and so `run-tree`, before anything moves) runs `armtree plugins --check`'s
+checks on the arm the rig uses, built from the profile: a home outside the limits, an IK
+with a sign error or a workspace that disagrees with the arm is the plugin's, at its line
+(issue 29)."""
+
+from __future__ import annotations
+
+import pytest
+from plugin_author import armtree, line_of, run_tree
+
+from armtree import cli
+from armtree.plugin_checks import model_problems, rig_problems
+from armtree.plugins.arms.common.workspace_shapes import scara_shape
+from armtree.plugins.arms.vicra.kinematics import VicraModel
+from armtree.profile import load_profile
+from armtree.resolve import available
+
+#: Mistakes to make in the scaffolded arm's kinematics: (what is written, what instead,
+#: the line the error names (its text), what the error says).
+MISTAKES = {
+    "home outside the limits": (
+        "self.home = np.array([150.0, -45.0, 90.0])",
+        "self.home = np.array([150.0, -45.0, 170.0])",
+        "def __init__",
+        "home: [150.0, -45.0, 170.0] outside the limits or constraints; expected a pose the "
+        "arm can take",
+    ),
+    "an IK sign error": (
+        "t1 = np.arctan2(y, x) - np.arctan2(",
+        "t1 = np.arctan2(y, x) + np.arctan2(",
+        "def ik_all",
+        "ik_all(position(home)): solutions reaching [0.0, 353.553, 150.0] mm, not "
+        "[353.553, 0.0, 150.0]; expected fk(ik(p)) == p",
+    ),
+    "a workspace for other links": (
+        "return scara_shape(self, self.l1, self.l2)",
+        "return scara_shape(self, self.l1, self.l2 - 100)",
+        "def workspace_shape",
+        "workspace_shape(): the tool at",
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def scaffolded(tmp_path_factory):
+    """The `arm` kind of `armtree new-plugin`, written once for this module's tests."""
+    root = tmp_path_factory.mktemp("arm")
+    assert cli.main(["new-plugin", "cheapo", "--kind", "arm", "--dir", str(root)]) == 0
+    package = root / "armtree-cheapo"
+    return package, (package / "src" / "armtree_cheapo" / "kinematics.py").read_text()
+
+
+@pytest.mark.slow  # two or three commands on a simulated rig each
+@pytest.mark.parametrize("mistake", sorted(MISTAKES))
+def test_check_and_run_tree_refuse_an_arm_plugins_mistake_at_its_line(scaffolded, mistake):
+    package, original = scaffolded
+    written, instead, at, said = MISTAKES[mistake]
+    kinematics = package / "src" / "armtree_cheapo" / "kinematics.py"
+    assert written in original
+    kinematics.write_text(original.replace(written, instead))
+    try:
+        options = ("--plugin", "armtree_cheapo.plugin")
+        env = {"PYTHONPATH": str(package / "src")}
+        checked = armtree(package, "check", "trees/cheapo_demo.yaml", *options, env=env)
+        assert checked.returncode == 2, checked.stdout + checked.stderr
+        first = checked.stderr.splitlines()[0]
+        assert first.startswith(
+            f"{kinematics}:{line_of(kinematics, at)}: plugin 'armtree_cheapo.plugin': arm "
+            f"'cheapo': {said}"
+        ), checked.stderr
+        assert "(the model built from the profile's arm: at " in first
+        assert "sim_cheapo.yaml:5:" in first
+        ran = run_tree(package, "trees/cheapo_demo.yaml", "--quiet", *options, env=env)
+        assert ran.returncode == 2 and ran.stderr.splitlines()[0] == first
+        assert "result:" not in ran.stdout  # nothing ran
+        if mistake == "an IK sign error":  # the same check as plugins --check's
+            listed = armtree(package, "plugins", "--check", "--kind", "arm", *options, env=env)
+            assert listed.returncode == 2 and said in listed.stdout
+    finally:
+        kinematics.write_text(original)
+
+
+@pytest.mark.parametrize("name", sorted(available("profile")))
+def test_every_shipped_profiles_arm_passes_them(name):
+    assert [e.message for e in rig_problems(load_profile(name))] == []
+
+
+def test_a_workspace_that_disagrees_with_the_arm_is_found():
+    class Misdescribed(VicraModel):
+        def workspace_shape(self):
+            return scara_shape(self, self.l1, self.l2 / 2)
+
+    assert model_problems(VicraModel()) == []
+    problems = model_problems(Misdescribed())
+    assert [member for member, _, _ in problems] == ["workspace_shape()"]
+    assert "within the limits) outside it" in problems[0][1]
