@@ -33,6 +33,7 @@ arm:
   baud: {baud}
   urdf: {urdf}
   tool_link: {tool}
+  home: [0, -28, 29, 89, 0]
   servos:
     shoulder_pan: {{id: 1, model: sts3215}}
     shoulder_lift: {{id: 2, model: sts3215}}
@@ -74,6 +75,13 @@ def test_a_profile_pointing_at_the_shipped_urdf_makes_an_arm(tmp_path, monkeypat
     profile = armtree.load_profile(str(write_profile(tmp_path)))
     model = profile.manager.registry.get("arm", "bus_servo").factory.model(profile.component("arm"))
     assert [j.name for j in model.joints][:2] == ["shoulder_pan", "shoulder_lift"]
+
+
+def test_a_urdf_arm_without_a_home_pose_is_told_to_give_one(tmp_path, monkeypatch):
+    path = write_profile(tmp_path)
+    path.write_text(path.read_text().replace("  home: [0, -28, 29, 89, 0]\n", ""))
+    (exc,) = errors(path, tmp_path, monkeypatch)
+    assert "arm.home: give the home pose, 5 joint angles (deg)" in exc.message
 
 
 def test_a_urdf_that_does_not_parse(tmp_path, monkeypatch):

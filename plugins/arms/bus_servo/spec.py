@@ -247,6 +247,13 @@ def arm_model(config: Mapping[str, Any]) -> UrdfModel:
                     f"the URDF's limits [{joint.lower:.1f}, {joint.upper:.1f}]"
                 )
         joints.append(replace(joint, lower=lo, upper=hi))
+    if home is None and model.tool_axis is not None:
+        # a URDF says nothing of where the arm rests; the zero pose rarely holds the tool
+        # along tool_axis, and every run starts and ends at home
+        raise ConfigError(
+            f"arm.home: give the home pose, {len(joints)} joint angles (deg) with the tool "
+            "along tool_axis (where the arm rests, and every run starts and ends)"
+        )
     if home is not None and (not isinstance(home, Sequence) or len(home) != len(joints)):
         raise ConfigError(f"arm.home: give {len(joints)} joint angles (deg), got {shown(home)}")
     return UrdfModel(
