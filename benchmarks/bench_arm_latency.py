@@ -46,10 +46,10 @@ import yaml
 from rich.console import Console
 from rich.table import Table
 
-from armtree.clock import WallClock
-from armtree.emulation import SHARED_KEY
+from armtree.api.clock import WallClock
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import RigContext
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
-from armtree.rig import RigContext
 
 ARMS = ("dobot_magician", "vicra", "dh")
 DOBOT_V1_FIRMWARES = ("original", "open-dobot")
@@ -87,7 +87,7 @@ def config_for(arm: str) -> dict:
 
 def factory_for(arm: str):
     """The arm's registered factory."""
-    from armtree.plugin_manager import get_plugin_manager
+    from armtree.hooks.plugin_manager import get_plugin_manager
 
     return get_plugin_manager().registry.get("arm", arm).factory
 

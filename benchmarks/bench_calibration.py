@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from armtree.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
+from armtree.maths.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 
 NOMINAL = {"tool_offset_mm": 55.0, "l1_mm": 135.0, "l2_mm": 160.0}

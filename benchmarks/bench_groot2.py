@@ -23,9 +23,9 @@ import time
 
 from bench_monitor import TickTimes, execute_paced, print_cost
 
-from armtree.cli import plugin_manager_for
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
+from armtree.cli.commandline import plugin_manager_for
+from armtree.loader.tree_loader import load_tree
+from armtree.runtime.runner import Run
 
 #: The client, in a process of its own so its CPU is not charged to the run's.
 CLIENT_SCRIPT = """

@@ -37,11 +37,12 @@ from pathlib import Path
 import numpy as np
 
 import armtree
-from armtree.clock import WallClock
-from armtree.plugin_manager import get_plugin_manager
+from armtree.api.clock import WallClock
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.sim.serve import read_stamp
-from armtree.rig_builder import build_rig
-from armtree.runtime import Run, lateness_ms
+from armtree.runtime.rig_builder import build_rig
+from armtree.runtime.run_end import lateness_ms
+from armtree.runtime.runner import Run
 
 
 def bare_loop(ticks: int, hz: float = 20.0) -> list[float]:

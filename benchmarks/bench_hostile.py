@@ -309,7 +309,7 @@ def corpus_results(family: str, cases: Iterable[Any], work: Path, worker: Worker
 
 def component_params() -> list[tuple[str, str, Any]]:
     """(section, type, Param) of every parameter of every shipped component type."""
-    from armtree.plugin_manager import get_plugin_manager
+    from armtree.hooks.plugin_manager import get_plugin_manager
 
     registry = get_plugin_manager().registry
     out = []
@@ -464,12 +464,12 @@ def family_trees_run(work: Path, pool: list[Worker], n: int, rng: random.Random)
 SERIAL = r"""
 import json, math, sys, time, threading
 import numpy as np
-from armtree.clock import VirtualClock
-from armtree.emulation import SHARED_KEY
+from armtree.api.clock import VirtualClock
+from armtree.api.emulation import SHARED_KEY
 from armtree.errors import HardwareFault
-from armtree.rig import RigContext
-from armtree.profile import load_profile
-from armtree.plugin_manager import get_plugin_manager
+from armtree.api.rig import RigContext
+from armtree.loader.profile import load_profile
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.arms.common.plausibility import LIMIT_MARGIN
 
 variant, mode, seed = sys.argv[1], sys.argv[2], int(sys.argv[3])

@@ -172,7 +172,7 @@ def dobot_ik(n: int, rng: np.random.Generator) -> Case:
 
 def dobot_jacobian(n: int, rng: np.random.Generator) -> Case:
     """Dobot V1 analytic Jacobian vs the base class's central differences."""
-    from armtree.motion.kinematics import KinematicModel
+    from armtree.maths.motion.kinematics import KinematicModel
 
     model, q = DobotV1Model(), _dobot_q(n, rng)
     return Case(
@@ -379,8 +379,8 @@ def dh_rows(n: int, n_rtb_fk: int, n_ik: int, n_ik_ours: int, progress: Progress
 
 def motoman_rows(n: int, n_ik: int) -> list[Row]:
     """The shipped 5-joint Motoman L-3 profile: FK, and IK of tool positions (3 constraints)."""
+    from armtree.loader.profile import load_profile
     from armtree.plugins.arms.dh.plugin import dh_factory
-    from armtree.profile import load_profile
 
     model = dh_factory.model(load_profile("dh_motoman_l3").component("arm"))
     rng = np.random.default_rng(2)

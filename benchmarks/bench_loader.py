@@ -18,8 +18,8 @@ import py_trees
 import yaml
 
 import armtree
-from armtree.plugin_manager import get_plugin_manager
-from armtree.yamlio import load_yaml
+from armtree.config.yamlio import load_yaml
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 GROUPS = 25  # each group is 20 nodes: 25 * 20 = 500, plus the root
 
@@ -138,7 +138,7 @@ def main() -> int:
     print(f"tree file: {nodes} nodes, {len(text.splitlines())} lines; median of {repeat} runs")
     print(f"plugin manager start-up (entry points, registry), once:  {startup_ms:8.1f} ms")
     print(f"baseline: PyYAML C loader, plain data:                   {plain:8.1f} ms")
-    print(f"armtree.yamlio.load_yaml, with marks:                    {marked:8.1f} ms")
+    print(f"armtree.config.yamlio.load_yaml, with marks:                    {marked:8.1f} ms")
     print(f"baseline: same behaviours built directly with py_trees:  {direct:8.1f} ms")
     print(f"armtree.load_tree (parse, validate, build):              {full:8.1f} ms")
     print(f"load_tree / (plain parse + direct build): {full / (plain + direct):.2f}x")

@@ -35,10 +35,10 @@ from pathlib import Path
 from typing import Any
 
 import armtree
-from armtree.cli import plugin_manager_for
+from armtree.cli.commandline import plugin_manager_for
+from armtree.loader.tree_loader import load_tree
 from armtree.plugins.monitor.chromium import CHROMIUM
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
+from armtree.runtime.runner import Run
 
 
 class TickTimes:

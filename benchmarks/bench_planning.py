@@ -47,11 +47,11 @@ import networkx as nx  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
-from armtree.motion.collision import CollisionChecker  # noqa: E402
-from armtree.motion.meshio import write_stl_binary  # noqa: E402
-from armtree.motion.scene import Scene  # noqa: E402
-from armtree.motion.tritri import intersect_matrix, intersect_pairs, triangles_intersect  # noqa: E402
-from armtree.motion.workspace import ArmWorkspace, cover  # noqa: E402
+from armtree.maths.motion.collision import CollisionChecker  # noqa: E402
+from armtree.maths.motion.meshio import write_stl_binary  # noqa: E402
+from armtree.maths.motion.scene import Scene  # noqa: E402
+from armtree.maths.motion.tritri import intersect_matrix, intersect_pairs, triangles_intersect  # noqa: E402
+from armtree.maths.motion.workspace import ArmWorkspace, cover  # noqa: E402
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model  # noqa: E402
 from armtree.plugins.arms.vicra.kinematics import VicraModel  # noqa: E402
 from armtree.plugins.planners.prm import PRMPlanner  # noqa: E402
@@ -161,7 +161,7 @@ def bench_tritri(quick: bool) -> None:
     # The planner's layout: every link-box triangle of 1,000 configurations against the scene.
     model = DobotV1Model()
     q = model.lower + rng.random((1000, 3)) * (model.upper - model.lower)
-    from armtree.motion.geometry import box_triangles
+    from armtree.maths.motion.geometry import box_triangles
 
     arm = box_triangles(model.box_poses(q), model.box_sizes()).reshape(-1, 3, 3)
     tris = scene().triangles()

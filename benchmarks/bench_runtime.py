@@ -9,7 +9,7 @@ Usage: python benchmarks/bench_runtime.py [--ticks N] [--rounds R]
 
 import argparse
 
-from armtree.bench import runtime_benchmark
+from armtree.cli.bench import runtime_benchmark
 
 
 def main() -> None:

@@ -30,10 +30,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from sim_fakes import FakeEmulator  # noqa: E402
 
-from armtree.clock import VirtualClock  # noqa: E402
+from armtree.api.clock import VirtualClock  # noqa: E402
+from armtree.api.rig import RigContext  # noqa: E402
 from armtree.plugins.sim.camera import sim_camera  # noqa: E402
 from armtree.plugins.sim.world import world_for  # noqa: E402
-from armtree.rig import RigContext  # noqa: E402
 
 PROFILE = {
     "tracker": {"type": "aruco", "dictionary": "4x4_50"},
@@ -188,8 +188,8 @@ def bench_pick_and_place() -> None:
 
 
 def bench_load_ducky(rig: str) -> None:
-    from armtree.runtime import run
-    from armtree.tree_loader import load_tree
+    from armtree.loader.tree_loader import load_tree
+    from armtree.runtime.runner import run
 
     tree = load_tree("load_ducky.yaml", rig=rig)
     wall0 = time.perf_counter()

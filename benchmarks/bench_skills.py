@@ -21,9 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from armtree.loader.tree_loader import load_tree
 from armtree.plugins.sim.plugin import sim_world
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
+from armtree.runtime.runner import Run
 
 CAMERA = "camera.position=[0,40,60]"
 

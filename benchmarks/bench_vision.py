@@ -44,13 +44,13 @@ from call_timing import ratios, time_contenders
 from rich.console import Console
 from rich.progress import track
 
+from armtree.api.rig import Frame, TagSpec
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import ArucoTracker
 from armtree.plugins.trackers.common import TagRoles
 from armtree.plugins.trackers.detection_rate import marker_detection_rate
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.plugins.trackers.preprocess import Preprocessing
-from armtree.rig import Frame, TagSpec
 
 K = syn.nominal_camera()
 FX = K[0, 0]

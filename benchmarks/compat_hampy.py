@@ -41,11 +41,11 @@ except ImportError:  # pragma: no cover - the message is the point
 
 from call_timing import MEASURES, ratios, time_contenders
 
+from armtree.api.rig import Frame, TagSpec
 from armtree.plugins.trackers import hamming_code as hc
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.common import TagRoles
 from armtree.plugins.trackers.hamming import HammingTracker
-from armtree.rig import Frame, TagSpec
 
 K = syn.nominal_camera()
 OFFSETS = [(-90.0, -40.0), (0.0, 45.0), (90.0, -40.0)]

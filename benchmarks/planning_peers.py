@@ -123,8 +123,8 @@ def ompl_task(args: dict) -> dict:
     out["trivial_query_ms"] = float(np.median(times) * 1e3)
     out["trivial_solved"] = f"{ok}/{len(times)}"
 
-    from armtree.motion.collision import CollisionChecker
-    from armtree.motion.scene import Scene
+    from armtree.maths.motion.collision import CollisionChecker
+    from armtree.maths.motion.scene import Scene
     from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 
     scene = Scene.from_profile(

@@ -79,10 +79,10 @@ def child(args: argparse.Namespace) -> None:
     """One source tree: run every seed of one rig in forked children; print one JSON line each."""
     src = Path(args.source).resolve()
     _use_source(src)
-    from armtree.plugin_manager import make_plugin_manager
+    from armtree.hooks.plugin_manager import make_plugin_manager
+    from armtree.loader.tree_loader import load_tree
     from armtree.plugins.sim import renderer
-    from armtree.runtime import run
-    from armtree.tree_loader import load_tree
+    from armtree.runtime.runner import run
 
     frames: list[str] = []
     render = renderer.Renderer.render

@@ -18,14 +18,16 @@ TYPE_CHECKING = False
 if TYPE_CHECKING:
     from typing import Any
 
-    from .behaviour import Behaviour
+    from armtree.api.behaviour import Behaviour
+    from armtree.config.params import REQUIRED, Binding, Param, ParamKind, Place, Position, TagRole
+    from armtree.hooks.hookspecs import hookimpl, hookspec
+    from armtree.loader.profile import Profile, load_profile
+    from armtree.loader.tree import Tree
+    from armtree.loader.tree_loader import load_tree
+    from armtree.runtime.run_end import RunResult
+    from armtree.runtime.runner import Run, run
+
     from .errors import ConfigError, HardwareFault, PlanningError, Unreachable
-    from .hookspecs import hookimpl, hookspec
-    from .params import REQUIRED, Binding, Param, ParamKind, Place, Position, TagRole
-    from .profile import Profile, load_profile
-    from .runtime import Run, RunResult, run
-    from .tree import Tree
-    from .tree_loader import load_tree
 
 __version__ = "0.1.0"
 
@@ -35,30 +37,30 @@ _LAZY = {
     "HardwareFault": "errors",
     "PlanningError": "errors",
     "Unreachable": "errors",
-    "Behaviour": "behaviour",
-    "hookimpl": "hookspecs",
-    "hookspec": "hookspecs",
-    "REQUIRED": "params",
-    "Binding": "params",
-    "Param": "params",
-    "ParamKind": "params",
-    "Place": "params",
-    "Position": "params",
-    "TagRole": "params",
-    "Profile": "profile",
-    "load_profile": "profile",
-    "Run": "runtime",
-    "RunResult": "runtime",
-    "run": "runtime",
-    "Tree": "tree",
-    "load_tree": "tree_loader",
+    "Behaviour": "api.behaviour",
+    "hookimpl": "hooks.hookspecs",
+    "hookspec": "hooks.hookspecs",
+    "REQUIRED": "config.params",
+    "Binding": "config.params",
+    "Param": "config.params",
+    "ParamKind": "config.params",
+    "Place": "config.params",
+    "Position": "config.params",
+    "TagRole": "config.params",
+    "Profile": "loader.profile",
+    "load_profile": "loader.profile",
+    "Run": "runtime.runner",
+    "RunResult": "runtime.runner",
+    "run": "runtime.runner",
+    "Tree": "loader.tree",
+    "load_tree": "loader.tree_loader",
 }
 
 
 def __getattr__(name: str) -> Any:
     module = _LAZY.get(name)
     if module is None:
-        # ``armtree.runtime`` and friends without an explicit import, as before.
+        # ``armtree.runtime.runner`` and friends without an explicit import, as before.
         try:
             return importlib.import_module(f"{__name__}.{name}")
         except ModuleNotFoundError as exc:

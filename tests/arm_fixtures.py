@@ -1,7 +1,7 @@
 """A factory-built arm driving its firmware emulator over a pty, stepped as the runtime does it.
 
-The arm driver tests share this set-up: a :class:`~armtree.clock.VirtualClock`,
-a :class:`~armtree.rig.RigContext` that records interrupts, the driver the
+The arm driver tests share this set-up: a :class:`~armtree.api.clock.VirtualClock`,
+a :class:`~armtree.api.rig.RigContext` that records interrupts, the driver the
 arm's factory builds on ``port: sim`` and the emulator it registered. Each
 test module subclasses :class:`ArmSim` with its factory and its defaults.
 """
@@ -12,9 +12,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from armtree.clock import VirtualClock, WallClock
-from armtree.emulation import SHARED_KEY
-from armtree.rig import MotionHandle, RigContext
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import MotionHandle, RigContext
 
 
 class ArmSim:

@@ -18,7 +18,7 @@ from pathlib import Path
 import aiohttp
 import pytest
 
-from armtree.cli import run_tree_main
+from armtree.cli.commandline import run_tree_main
 from armtree.plugins.monitor.chromium import CHROMIUM, launch
 
 RUN_TREE = Path(sys.executable).with_name("run-tree")

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.motion.geometry import rot_y, rot_z, transform
-from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
-from armtree.motion.workspace import WorkspaceShape
+from armtree.maths.motion.geometry import rot_y, rot_z, transform
+from armtree.maths.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.maths.motion.workspace import WorkspaceShape
 from armtree.plugins.arms.common.workspace_shapes import dobot_shape
 
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.emulation import FirmwareEmulator
-from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
-from armtree.rig import ToolState
+from armtree.api.emulation import FirmwareEmulator
+from armtree.api.rig import ToolState
+from armtree.maths.motion.kinematics import Joint, KinematicModel, LinkBox
 
 
 def _tf(yaw_deg: float, xyz) -> np.ndarray:

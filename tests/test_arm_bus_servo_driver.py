@@ -16,13 +16,13 @@ import pytest
 from arm_fixtures import ArmSim
 
 import armtree
+from armtree.api.rig import MotionStatus
 from armtree.errors import HardwareFault
 from armtree.plugins.arms.bus_servo import bus
 from armtree.plugins.arms.bus_servo.bus import PacketReader
 from armtree.plugins.arms.bus_servo.plugin import koch_factory, so101_factory
 from armtree.plugins.arms.bus_servo.servo import SimServo
 from armtree.plugins.arms.bus_servo.tables import MODELS
-from armtree.rig import MotionStatus
 
 FACTORIES = {"so101": so101_factory, "koch": koch_factory}
 
@@ -212,7 +212,7 @@ def test_a_joint_a_count_past_its_limit_reads_at_the_limit():
 @pytest.mark.slow
 def test_one_seed_runs_the_same_run_however_long_the_ticks_take(tmp_path):
     # a tick's skills take wall time (IK, images): the bus must not move meanwhile
-    from armtree.runtime import Run
+    from armtree.runtime.runner import Run
 
     logs = []
     for k in range(2):

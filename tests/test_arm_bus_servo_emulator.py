@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 import scservo_sdk as scs
 
-from armtree.clock import WallClock
-from armtree.motion.kinematics import Joint, KinematicModel
+from armtree.api.clock import WallClock
+from armtree.maths.motion.kinematics import Joint, KinematicModel
 from armtree.plugins.arms.bus_servo.emulator import BusServoEmulator, Mount
 from armtree.plugins.arms.bus_servo.servo import SimServo
 from armtree.plugins.arms.bus_servo.tables import MODELS, protocol_for

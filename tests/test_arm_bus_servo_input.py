@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree.resolve import resolve
+from armtree.config.resolve import resolve
 
 BIN = Path(sys.executable).parent
 console = pytest.mark.skipif(

@@ -91,7 +91,7 @@ def test_armtree_emulate_subprocess_prints_the_path_then_serves():
 
 def test_emulate_set_chooses_the_firmware_and_checks_the_option():
     command, args = _args("dobot_v1", "--set", "firmware=open-dobot", "--set", "board=ramps")
-    from armtree.plugin_manager import get_plugin_manager
+    from armtree.hooks.plugin_manager import get_plugin_manager
 
     config = command._config(args, get_plugin_manager())
     assert config["firmware"] == "open-dobot" and config["board"] == "ramps"

@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 import serial
 
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.rig import MotionHandle, MotionStatus
 from armtree.errors import HardwareFault
-from armtree.motion.kinematics import Joint, KinematicModel
+from armtree.maths.motion.kinematics import Joint, KinematicModel
 from armtree.plugins.arms.common import (
     FixedFrameParser,
     PtyEmulator,
@@ -23,7 +24,6 @@ from armtree.plugins.arms.common import (
     open_serial_port,
     sim_driver_options,
 )
-from armtree.rig import MotionHandle, MotionStatus
 
 
 class OneJoint(KinematicModel):
@@ -66,7 +66,7 @@ class ToyEmulator(PtyEmulator):
             self._next += self.period
 
     def tool(self):
-        from armtree.rig import ToolState
+        from armtree.api.rig import ToolState
 
         return ToolState()
 

@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_arm_common_pty import OneJoint, ToyEmulator
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
 from armtree.plugins.arms.common.pty_emulator import (
     TIOCPKT_DATA,
     TIOCPKT_FLUSHREAD,

@@ -20,7 +20,7 @@ import numpy as np
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
 from armtree.plugins.arms.common.plausibility import LIMIT_MARGIN
 from armtree.plugins.arms.dh import ssc32 as S
 from armtree.plugins.arms.dh.driver import SSC32Driver

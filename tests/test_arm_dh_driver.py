@@ -7,14 +7,14 @@ import pytest
 import serial
 from arm_fixtures import ArmSim, connected, served
 
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.api.rig import MotionStatus, RigContext
 from armtree.errors import ConfigError, HardwareFault, Unreachable
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.loader.profile import load_profile
 from armtree.plugins.arms.dh import ssc32 as S
 from armtree.plugins.arms.dh.plugin import dh_factory
 from armtree.plugins.arms.vicra.plugin import vicra_factory
-from armtree.profile import load_profile
-from armtree.rig import MotionStatus, RigContext
 
 
 def puma_config(**extra):

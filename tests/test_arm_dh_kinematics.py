@@ -202,8 +202,8 @@ def hobby():
     """sim_dh's five-axis arm (base yaw, three pitch joints, roll; gripper pointing down)."""
     global HOBBY
     if HOBBY is None:
+        from armtree.loader.profile import load_profile
         from armtree.plugins.arms.dh.plugin import dh_factory
-        from armtree.profile import load_profile
 
         HOBBY = dh_factory.model(load_profile("sim_dh").component("arm"))
     return HOBBY

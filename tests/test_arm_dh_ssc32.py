@@ -69,7 +69,7 @@ def test_servo_config():
 @settings(max_examples=150, deadline=None)
 @given(st.lists(st.binary(max_size=120), max_size=8))
 def test_board_emulator_and_driver_take_any_bytes(chunks):
-    from armtree.clock import VirtualClock
+    from armtree.api.clock import VirtualClock
     from armtree.plugins.arms.dh.driver import SSC32Driver
     from armtree.plugins.arms.dh.emulator import SSC32Emulator
     from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
@@ -89,7 +89,7 @@ def test_board_emulator_and_driver_take_any_bytes(chunks):
 
 
 def test_group_moves_arrive_together_at_the_slowest_speed():
-    from armtree.clock import VirtualClock
+    from armtree.api.clock import VirtualClock
     from armtree.plugins.arms.dh.emulator import SSC32Emulator
     from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
 

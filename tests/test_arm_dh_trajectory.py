@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from arm_fixtures import ArmSim, connected
 
+from armtree.api.rig import MotionStatus
 from armtree.errors import PlanningError
+from armtree.loader.profile import load_profile
 from armtree.plugins.arms.dh import ssc32 as S
 from armtree.plugins.arms.dh.plugin import dh_factory
-from armtree.profile import load_profile
-from armtree.rig import MotionStatus
 
 #: A post in front of the arm: sweeping out to [300, 0, 30] passes through it.
 POST = {"obstacles": [{"box": {"center": [240, 0, 50], "size": [40, 40, 100]}}], "table": {"z": 0}}
@@ -176,7 +176,7 @@ def test_a_servo_slip_lasts_until_the_servo_is_next_commanded(sim):
 
 
 def test_a_stream_sent_late_aims_as_far_ahead_as_it_was_behind():
-    from armtree.motion.trajectory import plan_trajectory
+    from armtree.maths.motion.trajectory import plan_trajectory
     from armtree.plugins.arms.common.streaming import MIN_RAMP_S, TrajectoryStream
 
     trajectory = plan_trajectory(np.array([[0.0], [90.0]]), durations=[1.0])

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from arm_fixtures import ArmSim, connected
 
-from armtree.clock import VirtualClock
-from armtree.emulation import SHARED_KEY
+from armtree.api.clock import VirtualClock
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import MotionStatus, RigContext
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.dobot_v1 import codec
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
-from armtree.rig import MotionStatus, RigContext
 
 
 class Sim(ArmSim):
@@ -222,7 +222,7 @@ def test_gripper_angle_is_set_and_kept_through_moves(sim):
 @pytest.mark.parametrize("firmware", ["original", "open-dobot"])
 def test_a_port_path_is_driven_exactly_like_hardware(firmware):
     """An emulator serving on the wall clock (as ``armtree emulate`` does) behind a device path."""
-    from armtree.clock import WallClock
+    from armtree.api.clock import WallClock
     from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_emulator
 
     emu = dobot_v1_emulator({"firmware": firmware}, WallClock())

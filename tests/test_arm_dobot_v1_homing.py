@@ -16,11 +16,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_arm_dobot_v1_driver import Sim
 
+from armtree.api.rig import MotionStatus
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common import check_joint_target
 from armtree.plugins.arms.dobot_v1 import opendobot as od
 from armtree.plugins.arms.dobot_v1.emulator import BOOT_TIME, accelerometer_pose
-from armtree.rig import MotionStatus
 
 
 @pytest.fixture
@@ -149,9 +149,9 @@ def test_slips_that_left_the_arm_beyond_its_limits_are_undone_by_the_second_move
 
 def test_homing_on_the_wall_clock_as_on_hardware():
     """The emulator served on its own thread behind a device path, the driver stepped by hand."""
-    from armtree.clock import WallClock
+    from armtree.api.clock import WallClock
+    from armtree.api.rig import RigContext
     from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_emulator, dobot_v1_factory
-    from armtree.rig import RigContext
 
     emu = dobot_v1_emulator({}, WallClock())
     emu.boot_time = 0.3  # the real 2 s boot would only make the test slower

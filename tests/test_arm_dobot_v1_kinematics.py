@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from armtree.errors import Unreachable
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 
 MODEL = DobotV1Model()

@@ -8,7 +8,8 @@ from arm_fixtures import ArmSim, connected
 from hypothesis import given
 from hypothesis import strategies as st
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import MotionStatus
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common import sim_driver_options
 from armtree.plugins.arms.dobot_v1 import opendobot as od
@@ -18,7 +19,6 @@ from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.dobot_v1.opendobot_driver import OpenDobotDriver
 from armtree.plugins.arms.dobot_v1.opendobot_emulator import OpenDobotEmulator
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
-from armtree.rig import MotionStatus
 
 H = bytes.fromhex
 

@@ -9,8 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from armtree.clock import VirtualClock, WallClock
-from armtree.emulation import SHARED_KEY
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import MotionStatus, RigContext
 from armtree.errors import ConfigError, HardwareFault
 from armtree.plugins.arms.dobot_v1 import codec
 from armtree.plugins.arms.dobot_v1 import opendobot as od
@@ -20,7 +21,6 @@ from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.dobot_v1.opendobot_driver import OpenDobotDriver
 from armtree.plugins.arms.dobot_v1.opendobot_emulator import OpenDobotEmulator
 from armtree.plugins.arms.dobot_v1.plugin import armtree_arms, dobot_v1_factory
-from armtree.rig import MotionStatus, RigContext
 
 MODEL = DobotV1Model()
 
@@ -146,7 +146,7 @@ def test_plugin_registers_dobot_v1_with_model_and_emulator():
 
 
 def test_profile_validation_rejects_an_unknown_firmware(tmp_path):
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     bad = tmp_path / "bad.yaml"
     bad.write_text("profile: bad\narm: {type: dobot_v1, port: sim, firmware: marlin}\n")

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from arm_fixtures import ArmSim, connected, served
 
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.rig import MotionStatus, RigContext
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.dobot_magician import protocol as P
 from armtree.plugins.arms.dobot_magician.plugin import magician_factory
 from armtree.plugins.arms.vicra.plugin import vicra_factory
-from armtree.rig import MotionStatus, RigContext
 
 
 class Sim(ArmSim):

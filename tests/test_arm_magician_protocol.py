@@ -129,7 +129,7 @@ FRAMES = st.builds(
 def test_emulator_and_driver_take_any_bytes(chunks):
     import numpy as np
 
-    from armtree.clock import VirtualClock
+    from armtree.api.clock import VirtualClock
     from armtree.plugins.arms.dobot_magician.driver import MagicianDriver
     from armtree.plugins.arms.dobot_magician.emulator import QUEUE_SIZE, MagicianEmulator
     from armtree.plugins.arms.dobot_magician.kinematics import MagicianModel

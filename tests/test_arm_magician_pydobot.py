@@ -12,7 +12,7 @@ import threading
 import numpy as np
 import pytest
 
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
 from armtree.plugins.arms.dobot_magician.plugin import magician_factory
 
 pydobot = pytest.importorskip("pydobot", reason="pydobot 1.3.2 is in the test extra")

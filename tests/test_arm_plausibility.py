@@ -13,7 +13,7 @@ from arm_fixtures import ArmSim, connected
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault
 from armtree.plugins.arms.common.plausibility import (
     LIMIT_MARGIN,

@@ -7,12 +7,12 @@ import pytest
 import serial
 from arm_fixtures import ArmSim, served
 
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.rig import MotionStatus, RigContext
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.dobot_v1.plugin import dobot_v1_factory
 from armtree.plugins.arms.vicra import gcode as G
 from armtree.plugins.arms.vicra.plugin import vicra_factory
-from armtree.rig import MotionStatus, RigContext
 
 
 class Sim(ArmSim):

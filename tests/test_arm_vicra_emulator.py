@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import serial
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
 from armtree.plugins.arms.vicra import gcode as G
 from armtree.plugins.arms.vicra.emulator import BLOCK_BUFFER_SIZE, MarlinEmulator
 from armtree.plugins.arms.vicra.kinematics import VicraModel

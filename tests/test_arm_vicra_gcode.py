@@ -103,7 +103,7 @@ GCODE = st.builds(
 def test_marlin_emulator_and_driver_take_any_bytes(chunks):
     import numpy as np
 
-    from armtree.clock import VirtualClock
+    from armtree.api.clock import VirtualClock
     from armtree.plugins.arms.vicra.driver import VicraDriver
     from armtree.plugins.arms.vicra.emulator import MarlinEmulator
     from armtree.plugins.arms.vicra.kinematics import VicraModel

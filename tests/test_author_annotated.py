@@ -9,8 +9,8 @@ import pytest
 from plugin_author import armtree, write
 
 from armtree import Place, Position, TagRole
-from armtree.constructor_params import param_kind, yaml_type
-from armtree.params import ParamKind
+from armtree.config.constructor_params import param_kind, yaml_type
+from armtree.config.params import ParamKind
 
 SKILLS = """
     from typing import Annotated

@@ -8,12 +8,12 @@ from __future__ import annotations
 import pytest
 from plugin_author import armtree, line_of, run_tree
 
-from armtree import cli
-from armtree.plugin_checks import model_problems, rig_problems
+from armtree.cli import commandline as cli
+from armtree.config.resolve import available
+from armtree.hooks.plugin_checks import model_problems, rig_problems
+from armtree.loader.profile import load_profile
 from armtree.plugins.arms.common.workspace_shapes import scara_shape
 from armtree.plugins.arms.vicra.kinematics import VicraModel
-from armtree.profile import load_profile
-from armtree.resolve import available
 
 #: Mistakes to make in the scaffolded arm's kinematics: (what is written, what instead,
 #: the line the error names (its text), what the error says).

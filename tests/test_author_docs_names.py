@@ -15,10 +15,10 @@ from typing import Any
 import pytest
 
 import armtree
-from armtree.motion.kinematics import KinematicModel
+from armtree.api.rig import MotionStatus, Rig, RigContext
+from armtree.maths.motion.kinematics import KinematicModel
 from armtree.plugins.arms.common import PtyEmulator
-from armtree.rig import MotionStatus, Rig, RigContext
-from armtree.runtime import Run
+from armtree.runtime.runner import Run
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
 TEXT = DOC.read_text()
@@ -60,7 +60,7 @@ IMPORTS = sorted(
 
 def test_the_page_names_what_this_test_reads():
     assert len(DOTTED) > 30 and len(IMPORTS) >= 5
-    assert "armtree.rig.Tool" in DOTTED and "armtree.TagRole" in DOTTED
+    assert "armtree.api.rig.Tool" in DOTTED and "armtree.TagRole" in DOTTED
 
 
 @pytest.mark.parametrize("dotted", DOTTED + IMPORTS)
@@ -84,7 +84,11 @@ def attributes(cls: type) -> set[str]:
 
 
 #: What ``rig.X`` is, for the names the page gives below it (``rig.arm.model``).
-PARTS = {"arm": armtree.rig.ArmDriver, "tool": armtree.rig.Tool, "camera": armtree.rig.Camera}
+PARTS = {
+    "arm": armtree.api.rig.ArmDriver,
+    "tool": armtree.api.rig.Tool,
+    "camera": armtree.api.rig.Camera,
+}
 #: What each prefix names on the page; ``self`` is a behaviour's, or in the emulator's
 #: paragraph a ``PtyEmulator``'s.
 ON = {
@@ -118,7 +122,7 @@ def rig_table() -> list[tuple[str, str, str]]:
 
 @pytest.mark.parametrize(("part", "interface", "used"), rig_table(), ids=lambda v: v[:20])
 def test_the_rig_tables_interfaces_have_the_methods_it_lists(part, interface, used):
-    cls = getattr(armtree.rig, interface, None) or getattr(armtree, interface)
+    cls = getattr(armtree.api.rig, interface, None) or getattr(armtree, interface)
     assert part.split(".")[1] in attributes(Rig)
     # Methods named after `rig.arm.model` are the kinematic model's.
     own, _, model = used.partition("`rig.arm.model`")

@@ -9,9 +9,9 @@ import re
 import pytest
 from plugin_author import armtree
 
-from armtree import cli
+from armtree.cli import commandline as cli
+from armtree.config.yamlio import MarkedDict, MarkedList
 from armtree.errors import ConfigError, yaml_kind
-from armtree.yamlio import MarkedDict, MarkedList
 
 #: What a user must never read: a traceback, or Python's name for a value's type.
 INTERNAL = re.compile(

@@ -12,14 +12,14 @@ import json
 import pytest
 from plugin_author import run_tree, write
 
-from armtree.clock import VirtualClock
-from armtree.rig import ArmTool, MotionHandle, MotionStatus, Rig, Tool
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import ArmTool, MotionHandle, MotionStatus, Rig, Tool
 
 SKILLS = """
     from py_trees.common import Status
 
     import armtree
-    from armtree.rig import MotionStatus
+    from armtree.api.rig import MotionStatus
 
 
     class GripAndLetGo(armtree.Behaviour):

@@ -13,10 +13,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import armtree
-from armtree.cli import main as armtree_main
-from armtree.plugin_manager import get_plugin_manager
+from armtree.cli.commandline import main as armtree_main
+from armtree.config.resolve import shipped_dir
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.btcpp.writer import export_tree
-from armtree.resolve import shipped_dir
 
 SHIPPED = sorted(p.stem for p in shipped_dir("tree").glob("*.yaml"))
 #: Values a shipped tree needs to be checked (search.yaml's tag has no default).

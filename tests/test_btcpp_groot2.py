@@ -18,9 +18,9 @@ import pytest
 import zmq
 
 import armtree
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.btcpp.groot2 import Groot2Server
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 BTVIEW = [sys.executable, "-m", "btview"]
 #: One line of ``btview snapshot --ascii --uid``: name, type, uid, status.

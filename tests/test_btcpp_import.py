@@ -9,11 +9,11 @@ import xml.etree.ElementTree as ET
 import pytest
 
 import armtree
-from armtree.cli import main as armtree_main
-from armtree.cli import run_tree_main
-from armtree.plugin_manager import get_plugin_manager
+from armtree.cli.commandline import main as armtree_main
+from armtree.cli.commandline import run_tree_main
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.btcpp.writer import export_tree, palette
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 
 def write(path, text):

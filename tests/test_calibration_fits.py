@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from armtree.hand_eye import DegenerateData, MarkerView, lateral_residuals, solve
-from armtree.perception.frames import LinearCorrection
+from armtree.maths.perception.frames import LinearCorrection
+from armtree.maths.perception.hand_eye import DegenerateData, MarkerView, lateral_residuals, solve
 from armtree.plugins.calibration import fits
 
 

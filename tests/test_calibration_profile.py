@@ -11,11 +11,11 @@ import pytest
 import yaml
 
 import armtree
-from armtree.calibration import calibration_of, update_calibration_file
-from armtree.clock import VirtualClock
-from armtree.plugin_manager import get_plugin_manager
+from armtree.api.clock import VirtualClock
+from armtree.config.calibration import calibration_of, update_calibration_file
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.sim.plugin import sim_world
-from armtree.rig_builder import build_rig
+from armtree.runtime.rig_builder import build_rig
 
 PROFILE = """\
 profile: bench

@@ -8,8 +8,8 @@ import py_trees
 from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
-from armtree.motion.scene import Scene
-from armtree.params import Binding
+from armtree.config.params import Binding
+from armtree.maths.motion.scene import Scene
 from armtree.plugins.calibration.occupied import declared_keep_outs, free
 from armtree.plugins.calibration.trials import PlaceTarget, PlanTargets
 

@@ -7,8 +7,8 @@ import textwrap
 
 import pytest
 
-from armtree.cli import main, run_tree_main
-from armtree.runlog import read_log
+from armtree.cli.commandline import main, run_tree_main
+from armtree.runtime.runlog import read_log
 
 PLUGIN = '''
 import threading

@@ -11,7 +11,7 @@ HEAVY = ("scipy.optimize", "scipy.spatial", "networkx", "aiohttp")
 def _main_in_fresh_process(*argv: str) -> subprocess.CompletedProcess:
     code = (
         "import sys\n"
-        "from armtree.cli import main\n"
+        "from armtree.cli.commandline import main\n"
         f"code = main({list(argv)!r})\n"
         f"print(code, sorted(m for m in {HEAVY!r} if m in sys.modules),"
         " 'armtree.plugins' in sys.modules)\n"

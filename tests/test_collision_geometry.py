@@ -1,10 +1,10 @@
-"""Transforms and box geometry (armtree.motion.geometry): properties over random poses."""
+"""Transforms and box geometry (armtree.maths.motion.geometry): properties over random poses."""
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from armtree.motion.geometry import (
+from armtree.maths.motion.geometry import (
     apply,
     box_corners,
     box_triangles,

@@ -7,11 +7,11 @@ from hypothesis import strategies as st
 from planning_models import PlanarArm, wide_dobot
 
 from armtree.errors import ConfigError
-from armtree.motion.collision import CollisionChecker, obb_overlap
-from armtree.motion.geometry import box_corners, box_triangles, from_rpy_deg, transform
-from armtree.motion.meshio import load_mesh, write_stl_ascii, write_stl_binary
-from armtree.motion.scene import Scene
-from armtree.motion.tritri import intersect_matrix
+from armtree.maths.motion.collision import CollisionChecker, obb_overlap
+from armtree.maths.motion.geometry import box_corners, box_triangles, from_rpy_deg, transform
+from armtree.maths.motion.meshio import load_mesh, write_stl_ascii, write_stl_binary
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.tritri import intersect_matrix
 
 WALL = {"box": {"center": [0, 250, 50], "size": [400, 20, 300], "name": "wall"}}
 
@@ -261,7 +261,7 @@ def test_cylinders_and_spheres_are_enclosing_meshes():
 
 
 def test_errors_carry_the_profile_position(tmp_path):
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     path = tmp_path / "rig.yaml"
     path.write_text(

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from armtree.motion.tritri import intersect_matrix, intersect_pairs, triangles_intersect
+from armtree.maths.motion.tritri import intersect_matrix, intersect_pairs, triangles_intersect
 
 
 def _segment_hits_triangle(p, q, t):

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import armtree
-from armtree.clock import VirtualClock
-from armtree.params import Param, check_value
-from armtree.rig import MotionHandle, MotionStatus
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import MotionHandle, MotionStatus
+from armtree.config.params import Param, check_value
 
 
 def test_config_error_is_value_error_with_location():

@@ -7,10 +7,10 @@ import av
 import numpy as np
 import pytest
 
-from armtree.motion.kinematics import Joint
+from armtree.api.rig import Frame, MotionHandle, MotionStatus, ToolState
+from armtree.maths.motion.kinematics import Joint
 from armtree.plugins.dataset.recorder import EpisodeRecorder
 from armtree.plugins.dataset.video import frame_times
-from armtree.rig import Frame, MotionHandle, MotionStatus, ToolState
 
 TICK = 0.05
 

@@ -17,7 +17,7 @@ import pytest
 from lerobot_reader import LeRobotReader
 
 from armtree import ConfigError, load_tree
-from armtree.cli import main, run_tree_main
+from armtree.cli.commandline import main, run_tree_main
 from armtree.plugins.dataset import deps
 from armtree.plugins.dataset.check import check
 from armtree.plugins.dataset.lock import DatasetLock

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from armtree import profile_reference
+from armtree.cli import profile_reference
 from armtree.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,7 +40,7 @@ def test_profiles_md_component_reference_is_current():
     text = path.read_text()
     assert profile_reference.replace_reference(text, str(path)) == text, (
         "docs/profiles.md's component reference is out of date: run "
-        "python -m armtree.profile_reference --update docs/profiles.md"
+        "python -m armtree.cli.profile_reference --update docs/profiles.md"
     )
     assert "#### `arm: {type: dobot_v1}`" in text and "| `l1_mm` | float, mm" in text
 
@@ -100,7 +100,7 @@ def _anchors(markdown: str) -> set[str]:
 
 def test_profile_reference_runs_as_a_module():
     done = subprocess.run(
-        [sys.executable, "-m", "armtree.profile_reference"],
+        [sys.executable, "-m", "armtree.cli.profile_reference"],
         capture_output=True,
         text=True,
         timeout=120,

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree.plugin_manager import make_plugin_manager
+from armtree.hooks.plugin_manager import make_plugin_manager
 from armtree.plugins.arms.common import PtyEmulator
 
 TREE = """\

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import armtree
-from armtree.clock import WallClock
-from armtree.plugin_manager import get_plugin_manager
+from armtree.api.clock import WallClock
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.arms.detect import PROBES, probe_port
 from armtree.plugins.arms.dobot_v1 import codec
 from armtree.plugins.sim.mjpeg import MjpegServer

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import armtree
+from armtree.config.resolve import available
 from armtree.plugins.sim.camera import camera_extrinsics
-from armtree.resolve import available
 
 REAL = ("dobot_v1", "dobot_v1_opendobot", "dobot_magician", "vicra", "dh_ssc32", "so101", "koch")
 TWINS = {

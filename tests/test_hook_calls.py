@@ -7,11 +7,11 @@ import py_trees
 from py_trees.common import Status
 
 import armtree
-from armtree.hook_calls import call_isolated
-from armtree.plugin_manager import PluginManager
-from armtree.runlog import read_log
-from armtree.runtime import run
-from armtree.tree import Tree
+from armtree.hooks.hook_calls import call_isolated
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import Tree
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import run
 
 
 class Plain:

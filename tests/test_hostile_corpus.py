@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from hostile_corpus import CASES, Case
 
-from armtree import cli
+from armtree.cli import commandline as cli
 
 #: Text that must never reach a user: a traceback, a raw exception's name, or Python's name
 #: for a value's type (a file's values are named in YAML's words: a list, a mapping).

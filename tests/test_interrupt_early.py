@@ -16,7 +16,7 @@ RUN_TREE = Path(sys.executable).with_name("run-tree")
 def test_an_interrupt_during_the_first_imports_exits_130_quietly() -> None:
     # What the console script does first, then a signal while heavy modules would load.
     code = (
-        "import os, signal, armtree.console\n"
+        "import os, signal, armtree.cli.console\n"
         "os.kill(os.getpid(), signal.SIGINT)\n"
         "import time; time.sleep(5)\n"
     )
@@ -27,7 +27,7 @@ def test_an_interrupt_during_the_first_imports_exits_130_quietly() -> None:
 
 def test_importing_armtree_loads_nothing_heavy() -> None:
     # The console script holds Ctrl-C only once armtree is imported: that must be quick.
-    code = "import sys, armtree.console; print(sorted({'numpy', 'py_trees', 'yaml'} & set(sys.modules)))"
+    code = "import sys, armtree.cli.console; print(sorted({'numpy', 'py_trees', 'yaml'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "[]"
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 RUN_TREE = Path(sys.executable).with_name("run-tree")
 

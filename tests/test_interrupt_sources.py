@@ -7,7 +7,7 @@ import signal
 import termios
 import threading
 
-from armtree.interrupts import Interrupts, StopKey
+from armtree.runtime.interrupts import Interrupts, StopKey
 
 
 def test_the_first_request_wins_from_any_thread():

@@ -12,13 +12,13 @@ import time
 import numpy as np
 import pytest
 
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.config.resolve import resolve
 from armtree.errors import ConfigError
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.loader.profile import load_profile
 from armtree.plugins.arms.jog import Jogger, build_app, places_file
-from armtree.profile import load_profile
-from armtree.resolve import resolve
-from armtree.rig_builder import build_rig
+from armtree.runtime.rig_builder import build_rig
 
 pytest.importorskip("textual", reason="textual draws the jog UI")
 

@@ -13,10 +13,11 @@ import pytest
 import yaml
 
 import armtree
-from armtree import builtin_behaviours, builtin_commands
-from armtree.plugin_manager import PluginManager, get_plugin_manager
-from armtree.resolve import shipped_dir
-from armtree.schema import build_schema
+from armtree.cli import builtin_commands
+from armtree.config.resolve import shipped_dir
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
+from armtree.loader.schema import build_schema
 
 COMMANDS = builtin_commands.armtree_commands()
 
@@ -197,7 +198,7 @@ def test_armtree_check_in_a_subprocess_exits_0_or_2_with_positions(tmp_path):
 
     good = write(tmp_path, "good.yaml", TREE)
     bad = write(tmp_path, "bad.yaml", "root:\n  sequence:\n    - sucess: {}\n    - retry: {}\n")
-    code = "import sys; from armtree.cli import main; sys.exit(main(sys.argv[1:]))"
+    code = "import sys; from armtree.cli.commandline import main; sys.exit(main(sys.argv[1:]))"
     env = dict(os.environ, ARMTREE_DISABLE_PLUGIN_AUTOLOAD="1")
 
     def check(path: Path) -> subprocess.CompletedProcess:

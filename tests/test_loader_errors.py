@@ -9,8 +9,8 @@ import py_trees
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.plugin_manager import PluginManager
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager
 
 
 def core_manager(*plugins: object) -> PluginManager:

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.plugin_manager import PluginManager
-from armtree.yamlio import load_yaml
+from armtree.config.yamlio import load_yaml
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager
 
 
 class SectionsReader:

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import armtree
 from armtree.errors import ConfigError
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 #: Words the loaders react to, so generated documents reach past the first check.
 WORDS = st.sampled_from(

@@ -10,11 +10,11 @@ import pytest
 from py_trees.common import Status
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.clock import VirtualClock
-from armtree.params import Binding
-from armtree.plugin_manager import PluginManager
-from armtree.resolve import resolve
+from armtree.api.clock import VirtualClock
+from armtree.config.params import Binding
+from armtree.config.resolve import resolve
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager
 
 
 def core_manager(*plugins: object) -> PluginManager:

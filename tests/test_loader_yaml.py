@@ -8,8 +8,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from armtree.profile import parse_override
-from armtree.yamlio import _FLOAT_12, MarkedDict, MarkedList, load_yaml
+from armtree.config.yamlio import _FLOAT_12, MarkedDict, MarkedList, load_yaml
+from armtree.loader.profile import parse_override
 
 # Keys PyYAML writes unquoted and reads back as strings (not booleans or nulls).
 RESERVED = {"y", "n", "yes", "no", "on", "off", "true", "false", "null"}
@@ -121,8 +121,8 @@ def _preorder(node) -> list[str]:
 
 
 def _core_manager():
-    from armtree import builtin_behaviours
-    from armtree.plugin_manager import PluginManager
+    from armtree.hooks import builtin_behaviours
+    from armtree.hooks.plugin_manager import PluginManager
 
     manager = PluginManager(autoload=False)
     manager.register(builtin_behaviours, "core_behaviours")

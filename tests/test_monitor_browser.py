@@ -4,7 +4,7 @@ import time
 
 from monitor_helpers import ARMTREE, RUN_TREE, Proc, chromium, needs_browser
 
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 pytestmark = needs_browser
 

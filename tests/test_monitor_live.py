@@ -8,8 +8,8 @@ import urllib.request
 import pytest
 from monitor_helpers import COUNT_TREE, ONLY_MONITOR, Page, run_tree
 
-from armtree.cli import run_tree_main
-from armtree.runlog import read_log
+from armtree.cli.commandline import run_tree_main
+from armtree.runtime.runlog import read_log
 
 
 @pytest.fixture

@@ -8,10 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
-from armtree.cli import main
+from armtree.cli.commandline import main
 from armtree.plugins.monitor.recorded import Recording
 from armtree.plugins.monitor.replay import ReplayFeed
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 LETTER = {"INVALID": "I", "RUNNING": "R", "SUCCESS": "S", "FAILURE": "F"}
 

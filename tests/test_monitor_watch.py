@@ -8,12 +8,12 @@ import py_trees
 from monitor_helpers import COUNT_TREE, Page, run_tree
 
 import armtree
-from armtree.clock import VirtualClock
-from armtree.plugin_manager import PluginManager
-from armtree.rig import Rig
-from armtree.runlog import read_log
-from armtree.runtime import Run
-from armtree.tree import Tree
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import Rig
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import Tree
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import Run
 
 
 class Arm:

@@ -7,20 +7,13 @@ import textwrap
 import pytest
 
 from armtree import ConfigError, load_profile, load_tree
-from armtree.outcomes import (
-    FailureLog,
-    WorldObject,
-    WorldTruth,
-    chain_text,
-    judge,
-    parse_expectations,
-    reason_key,
-    verdict,
-)
-from armtree.outcomes.predicates import BUILTIN_PREDICATES
-from armtree.plugin_manager import make_plugin_manager
-from armtree.tree_loader import world_inventory
-from armtree.yamlio import load_yaml
+from armtree.api.outcomes.expect import judge, parse_expectations, verdict
+from armtree.api.outcomes.failures import FailureLog, chain_text, reason_key
+from armtree.api.outcomes.predicates import BUILTIN_PREDICATES
+from armtree.api.outcomes.truth import WorldObject, WorldTruth
+from armtree.config.yamlio import load_yaml
+from armtree.hooks.plugin_manager import make_plugin_manager
+from armtree.loader.tree_keys import world_inventory
 
 
 def world(**changes) -> WorldTruth:
@@ -343,7 +336,7 @@ def test_on_a_rig_without_ground_truth_names_come_from_tags_and_places(tmp_path)
 
 PLUGIN = '''
 import armtree
-from armtree.outcomes import Judgement, Predicate
+from armtree.api.outcomes import Judgement, Predicate
 
 
 class Upright(Predicate):

@@ -8,10 +8,10 @@ import pytest
 from sim_fakes import FakeEmulator
 
 from armtree import load_tree, run
-from armtree.cli import run_tree_main
+from armtree.cli.commandline import run_tree_main
 from armtree.plugins.sim.scene import parse_scene
 from armtree.plugins.sim.world import World
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 
 def write(path, text):
@@ -234,7 +234,7 @@ def test_every_failure_is_logged_with_its_reason_and_the_summary_chains_them(tmp
         "node": "Task/Place",
         "why": "the Duckybot left",
     }
-    from armtree.display import summary
+    from armtree.runtime.display import summary
 
     text = summary(result)
     assert "chain: Task > Place: the Duckybot left" in text

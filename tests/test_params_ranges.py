@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 import armtree
+from armtree.config.params import KINDS, Param, check_value
 from armtree.errors import shown
-from armtree.params import KINDS, Param, check_value
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 
 def test_kind_must_be_a_known_one() -> None:

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from planning_models import PlanarArm, wide_dobot
 
+from armtree.api.rig import RigContext
 from armtree.errors import ConfigError, PlanningError, Unreachable
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.validation import validate_samples
-from armtree.plugin_manager import make_plugin_manager
+from armtree.hooks.plugin_manager import make_plugin_manager
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.validation import validate_samples
 from armtree.plugins.planners.direct import DirectPlanner, direct_factory, sample_segment
 from armtree.plugins.planners.prm import PRMPlanner, Roadmap, default_cache_dir, prm_factory
-from armtree.rig import RigContext
 
 WALL = {"box": {"center": [0, 250, 50], "size": [400, 20, 300], "name": "wall"}}
 PROFILE = {"table": {"z": -110}, "obstacles": [WALL]}
@@ -270,9 +270,9 @@ def test_factory_refuses_a_home_inside_an_obstacle():
 
 
 def test_prm_on_the_dobot_v1_model_from_a_profile(tmp_path):
+    from armtree.loader.profile import load_profile
     from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
-    from armtree.profile import load_profile
-    from armtree.rig_builder import make_scene
+    from armtree.runtime.rig_builder import make_scene
 
     rig = tmp_path / "rig.yaml"
     rig.write_text(

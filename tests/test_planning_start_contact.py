@@ -15,20 +15,20 @@ from arm_fixtures import ArmSim
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from armtree.api.rig import MotionStatus
 from armtree.errors import PlanningError
-from armtree.motion.collision import TOUCH_TOL, CollisionChecker, obb_overlap
-from armtree.motion.geometry import BOX_CORNER_SIGNS, BOX_TRIANGLES, from_rpy_deg
-from armtree.motion.penetration import box_box_depth, box_triangles_depth, penetrations
-from armtree.motion.scene import Scene
-from armtree.motion.start_contact import START_CONTACT_MM, leaving_run
-from armtree.motion.tritri import intersect_pairs
-from armtree.motion.validation import validate_samples
+from armtree.loader.profile import load_profile
+from armtree.maths.motion.collision import TOUCH_TOL, CollisionChecker, obb_overlap
+from armtree.maths.motion.geometry import BOX_CORNER_SIGNS, BOX_TRIANGLES, from_rpy_deg
+from armtree.maths.motion.penetration import box_box_depth, box_triangles_depth, penetrations
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.start_contact import START_CONTACT_MM, leaving_run
+from armtree.maths.motion.tritri import intersect_pairs
+from armtree.maths.motion.validation import validate_samples
 from armtree.plugins.arms.dh.plugin import dh_factory
 from armtree.plugins.planners.direct import DirectPlanner, sample_segment
 from armtree.plugins.planners.plugin import armtree_run_started
 from armtree.plugins.planners.prm import PRMPlanner
-from armtree.profile import load_profile
-from armtree.rig import MotionStatus
 
 #: Seed 2760's believed start: the gripper closed on a trash on the table.
 GRIPPING = np.array([51.24, 60.65, -88.47, -62.22, 0.01])

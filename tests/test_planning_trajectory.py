@@ -7,9 +7,9 @@ from hypothesis import strategies as st
 from planning_models import PlanarArm, wide_dobot
 
 from armtree.errors import PlanningError
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.trajectory import (
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.trajectory import (
     cubic_coefficients,
     plan_trajectory,
     quintic_coefficients,

@@ -12,11 +12,11 @@ import py_trees
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.cli import main
-from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
-from armtree.plugin_checks import installed_version, model_problems, version_problem
-from armtree.plugin_manager import PluginManager
+from armtree.cli.commandline import main
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_checks import installed_version, model_problems, version_problem
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.maths.motion.kinematics import Joint, KinematicModel, LinkBox
 
 
 def manager(*plugins: object) -> PluginManager:

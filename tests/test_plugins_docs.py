@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree.cli import main
-from armtree.hook_reference import BEGIN, END, hook_reference, replace_reference, update_file
+from armtree.cli.commandline import main
+from armtree.cli.hook_reference import BEGIN, END, hook_reference, replace_reference, update_file
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
 
@@ -17,10 +17,10 @@ DOC = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
 def test_the_hook_reference_is_generated_from_the_current_hookspecs():
     text = DOC.read_text()
     assert replace_reference(text) == text, (
-        "docs/plugins.md's hook reference differs from core/hookspecs.py: "
+        "docs/plugins.md's hook reference differs from core/hooks/hookspecs.py: "
         "run `armtree hooks --update docs/plugins.md`"
     )
-    for name in vars(armtree.hookspecs):
+    for name in vars(armtree.hooks.hookspecs):
         if name.startswith("armtree_"):
             assert f"#### `{name}(" in text
 
@@ -42,7 +42,7 @@ def test_hooks_update_rewrites_only_the_part_between_the_markers(tmp_path, capsy
 def test_the_reference_turns_rest_into_markdown():
     text = hook_reference()
     assert "#### `armtree_rig_ready(rig: Rig, context: RigContext) -> None`" in text
-    assert "- `rig`: the `armtree.rig.Rig` about to be handed to the tree." in text
+    assert "- `rig`: the `armtree.api.rig.Rig` about to be handed to the tree." in text
     assert ":class:" not in text and "``" not in text
 
 

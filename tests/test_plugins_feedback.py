@@ -11,9 +11,9 @@ import pytest
 from rich.console import Console
 
 import armtree
-from armtree.cli import run_tree_main
-from armtree.display import LiveView
-from armtree.runlog import read_log
+from armtree.cli.commandline import run_tree_main
+from armtree.runtime.display import LiveView
+from armtree.runtime.runlog import read_log
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.plugin_manager import PluginManager, get_plugin_manager
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 
 HELLO = '''
 """A third-party plugin."""
@@ -91,7 +91,7 @@ PROBE = textwrap.dedent(
     import json, os
     from importlib.metadata import entry_points
     import armtree
-    from armtree.plugin_manager import make_plugin_manager
+    from armtree.hooks.plugin_manager import make_plugin_manager
 
     # Other built-in plugins are someone else's work in progress: keep to the core ones.
     own = [ep.name for ep in entry_points(group="armtree")

@@ -15,8 +15,8 @@ import pytest
 import yaml
 from package_install import pip_install, run_package_tests
 
-from armtree.cli import main
-from armtree.scaffold import KINDS, plugin_names, render_package
+from armtree.cli.commandline import main
+from armtree.cli.scaffold import KINDS, plugin_names, render_package
 
 # Each test installs a package and runs its suite in a subprocess: on a loaded machine
 # that outlasts the suite's default 120 s per test.

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.constructor_params import constructor_params, declared_params, yaml_type
-from armtree.plugin_manager import PluginManager
-from armtree.schema import build_schema
+from armtree.config.constructor_params import constructor_params, declared_params, yaml_type
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.schema import build_schema
 
 # The form every py_trees user already has: no armtree import in the behaviour itself.
 WAVE = '''

@@ -8,12 +8,12 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree import builtin_behaviours
-from armtree.params import Param
-from armtree.plugin_manager import PluginManager
-from armtree.profile import parse_override
-from armtree.profile_sections import ProfileSection
-from armtree.rig import TagSpec
+from armtree.api.rig import TagSpec
+from armtree.config.params import Param
+from armtree.config.profile_sections import ProfileSection
+from armtree.hooks import builtin_behaviours
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.profile import parse_override
 
 
 def _factory(doc: str, params: tuple[Param, ...] = (), planner: bool = False):

@@ -97,7 +97,7 @@ def test_an_eye_in_hand_camera_written_for_another_tool_frame_is_named(tmp_path)
 
 
 def test_the_command_line_exits_2_naming_the_key(capsys):
-    from armtree.cli import main
+    from armtree.cli.commandline import main
 
     assert (
         main(["check", "load_ducky.yaml", "--rig", "sim_vicra", "--set", "arm.type=dobot_v1"]) == 2
@@ -114,8 +114,8 @@ def test_the_command_line_exits_2_naming_the_key(capsys):
 
 @pytest.mark.slow
 def test_the_readme_swap_loads_the_ducky_with_a_magician_in_sim_dobots_world():
-    from armtree.runtime import Run
-    from armtree.tree_loader import load_tree
+    from armtree.loader.tree_loader import load_tree
+    from armtree.runtime.runner import Run
 
     tree = load_tree("load_ducky.yaml", rig="sim_dobot", overrides=["arm.type=dobot_magician"])
     run = Run(tree, None, seed=0, record=False, max_ticks=4000, quiet=True)

@@ -7,8 +7,8 @@ import textwrap
 
 import pytest
 
-from armtree import cli
-from armtree.rig import TagSpec
+from armtree.api.rig import TagSpec
+from armtree.cli import commandline as cli
 
 TREE = "rig: rig.yaml\nroot: {success: {}}\n"
 GOOD_TAGS = """\

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from armtree.errors import ConfigError
-from armtree.motion.scene import Scene
-from armtree.profile import PROFILE_KEYS, load_profile
+from armtree.loader.profile import PROFILE_KEYS, load_profile
+from armtree.maths.motion.scene import Scene
 
 # A simulated Dobot whose world and tags agree; each test breaks one line of it.
 SIM = """\
@@ -68,7 +68,7 @@ def test_armtree_check_refuses_overlapping_world_objects_at_the_entry(tmp_path):
     rig = write(tmp_path, SIM.replace("at: [92, 160]", "at: [125, -140]"))
     tree = write(tmp_path, "rig: rig.yaml\nroot:\n  success: {}\n", "tree.yaml")
     done = subprocess.run(
-        [sys.executable, "-m", "armtree.cli", "check", str(tree)],
+        [sys.executable, "-m", "armtree.cli.commandline", "check", str(tree)],
         capture_output=True,
         text=True,
         timeout=120,
@@ -271,7 +271,7 @@ def test_a_crash_after_other_errors_is_taken_to_follow_from_them(hooked):
 
 SECTION_PLUGIN = """
 import armtree
-from armtree.profile_sections import ProfileSection
+from armtree.config.profile_sections import ProfileSection
 
 
 def check_rack(profile):
@@ -302,7 +302,7 @@ def test_a_section_a_plugin_registers_is_accepted_typed_and_checked_at_its_posit
 
 
 def test_world_is_the_sim_plugins_section():
-    from armtree.plugin_manager import PluginManager
+    from armtree.hooks.plugin_manager import PluginManager
 
     manager = PluginManager(blocked=["sim"], autoload=False)
     manager.load_entry_points()

@@ -9,8 +9,8 @@ import pytest
 from test_profile_load import manager
 
 import armtree
+from armtree.config.workcell import Survey, parse_workcell, workcell_of
 from armtree.plugins.skills.survey import grid_points, survey_points
-from armtree.workcell import Survey, parse_workcell, workcell_of
 
 
 def load(tmp_path, body: str):
@@ -222,7 +222,7 @@ def test_a_sweep_on_a_profile_without_a_survey_is_refused_at_load(tmp_path):
 
 
 def test_clean_up_needs_the_survey_only_when_it_sweeps_and_check_says_so_at_load(tmp_path, capsys):
-    from armtree import cli
+    from armtree.cli import commandline as cli
 
     profile = tmp_path / "rig.yaml"
     profile.write_text(

@@ -15,12 +15,12 @@ import cv2
 import numpy as np
 import pytest
 
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.loader.profile import load_profile
 from armtree.plugins.sim.mjpeg import MjpegServer
-from armtree.profile import load_profile
-from armtree.rig_builder import build_rig
+from armtree.runtime.rig_builder import build_rig
 
 
 def open_fds() -> set[str]:

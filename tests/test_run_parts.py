@@ -9,14 +9,14 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from armtree import pacing
-from armtree.clock import Clock, VirtualClock
-from armtree.failure_report import EVENTS_KEPT, FailureReport
-from armtree.halting import Halter
-from armtree.interrupts import Interrupts
-from armtree.node_index import NodeIndex
-from armtree.pacing import Pacer
-from armtree.tree import Tree
+from armtree.api.clock import Clock, VirtualClock
+from armtree.loader.tree import Tree
+from armtree.runtime import pacing
+from armtree.runtime.failure_report import EVENTS_KEPT, FailureReport
+from armtree.runtime.halting import Halter
+from armtree.runtime.interrupts import Interrupts
+from armtree.runtime.node_index import NodeIndex
+from armtree.runtime.pacing import Pacer
 
 
 class _Wake:

@@ -11,14 +11,14 @@ import pytest
 from test_interrupt_signals import EXIT_S, Proc
 
 import armtree
-from armtree.clock import WallClock
-from armtree.control import RunControl
-from armtree.interrupts import Interrupts
-from armtree.plugin_manager import PluginManager
-from armtree.rig import Rig
-from armtree.runlog import read_log
-from armtree.runtime import Run
-from armtree.tree import Tree
+from armtree.api.clock import WallClock
+from armtree.api.rig import Rig
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import Tree
+from armtree.runtime.control import RunControl
+from armtree.runtime.interrupts import Interrupts
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import Run
 
 
 class Driver:

@@ -7,11 +7,12 @@ import py_trees
 from py_trees.common import Status
 from rich.console import Console
 
-from armtree import display, runlog
-from armtree.display import LiveView, NullView, PlainView, make_view, summary
-from armtree.runlog import RunLog, default_run_dir, jsonable, read_log
-from armtree.runtime import Run, RunResult, run
-from armtree.tree import Tree
+from armtree.loader.tree import Tree
+from armtree.runtime import display, runlog
+from armtree.runtime.display import LiveView, NullView, PlainView, make_view, summary
+from armtree.runtime.run_end import RunResult
+from armtree.runtime.runlog import RunLog, default_run_dir, jsonable, read_log
+from armtree.runtime.runner import Run, run
 
 
 def test_log_records_status_changes_blackboard_writes_and_the_result(tmp_path):

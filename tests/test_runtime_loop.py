@@ -5,12 +5,12 @@ import pytest
 from py_trees.common import Status
 
 import armtree
-from armtree.clock import VirtualClock, WallClock
-from armtree.plugin_manager import PluginManager
-from armtree.rig import Rig
-from armtree.runlog import read_log
-from armtree.runtime import Run, run
-from armtree.tree import Tree
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.api.rig import Rig
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import Tree
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import Run, run
 
 S, F, R, INV = Status.SUCCESS, Status.FAILURE, Status.RUNNING, Status.INVALID
 

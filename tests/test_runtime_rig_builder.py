@@ -7,12 +7,12 @@ import pytest
 from py_trees.common import Status
 
 import armtree
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
 from armtree.errors import ConfigError, HardwareFault
-from armtree.plugin_manager import PluginManager
-from armtree.rig_builder import build_rig, make_scene, parse_tags, uses_real_hardware
-from armtree.runtime import Run, run
-from armtree.tree import Tree
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import Tree
+from armtree.runtime.rig_builder import build_rig, make_scene, parse_tags, uses_real_hardware
+from armtree.runtime.runner import Run, run
 
 PROFILE = {
     "profile": "fake",
@@ -199,7 +199,7 @@ def test_tags_accept_id_or_ids_and_need_a_size():
 def test_scene_falls_back_to_the_raw_obstacles_only_without_armtree_scene():
     scene = make_scene({"obstacles": []})
     try:
-        from armtree.motion.scene import Scene
+        from armtree.maths.motion.scene import Scene
     except ImportError:
         assert scene == []
     else:

@@ -7,14 +7,14 @@ import pytest
 from py_trees.common import Status
 
 import armtree
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import Rig
 from armtree.errors import HardwareFault, Mark
-from armtree.plugin_manager import PluginManager
-from armtree.resources import Resources
-from armtree.rig import Rig
-from armtree.runlog import read_log
-from armtree.runtime import run
-from armtree.tree import NodeInfo, Tree
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree import NodeInfo, Tree
+from armtree.runtime.resources import Resources
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import run
 
 
 class FakeArm:

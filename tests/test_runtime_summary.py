@@ -9,10 +9,11 @@ import py_trees
 from py_trees.common import Status
 from rich.console import Console
 
-from armtree.display import LiveView, print_summary, render_tree, summary
-from armtree.plugin_manager import get_plugin_manager
-from armtree.runtime import RunResult, run
-from armtree.tree import Tree
+from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.loader.tree import Tree
+from armtree.runtime.display import LiveView, print_summary, render_tree, summary
+from armtree.runtime.run_end import RunResult
+from armtree.runtime.runner import run
 
 RUN_TREE = Path(sys.executable).with_name("run-tree")
 

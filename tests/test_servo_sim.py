@@ -8,10 +8,10 @@ import pytest
 from test_profile_workcell import errors, load
 
 import armtree
+from armtree.config.workcell import ToolMarker, workcell_of
+from armtree.loader.tree_loader import load_tree
 from armtree.plugins.sim.plugin import sim_world
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
-from armtree.workcell import ToolMarker, workcell_of
+from armtree.runtime.runner import Run
 
 SERVO_TREE = """\
 tree: servo

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from sim_fakes import C270, FakeEmulator
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import RigContext
 from armtree.errors import ConfigError
 from armtree.plugins.sim.camera import sim_camera
 from armtree.plugins.sim.drawing import world_drawables
 from armtree.plugins.sim.renderer import Renderer
 from armtree.plugins.sim.world import world_for
 from armtree.plugins.trackers.hamming import HammingTracker
-from armtree.rig import RigContext
 
 STAND = {
     "mount": "eye_to_hand",

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from sim_fakes import C270, FakeEmulator
 
-from armtree.clock import VirtualClock
-from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.clock import VirtualClock
+from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.rig import Rig, RigContext
 from armtree.plugins.sim import plugin
 from armtree.plugins.sim.camera import sim_camera
 from armtree.plugins.sim.world import SHARED_KEY
-from armtree.rig import Rig, RigContext
 
 
 @pytest.fixture

@@ -7,8 +7,10 @@ import pytest
 from sim_fakes import run_world
 
 from armtree import ConfigError, load_tree
-from armtree.outcomes import BUILTIN_PREDICATES, WorldObject, WorldTruth, judge
-from armtree.plugin_manager import PluginManager
+from armtree.api.outcomes.expect import judge
+from armtree.api.outcomes.predicates import BUILTIN_PREDICATES
+from armtree.api.outcomes.truth import WorldObject, WorldTruth
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.plugins.sim.truth import world_truth
 
 PREDICATES = BUILTIN_PREDICATES

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from armtree import ConfigError, load_profile
-from armtree.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.sim.camera import SimCamera, camera_extrinsics
 from armtree.plugins.sim.geometry import point_in_polygon
 from armtree.plugins.sim.randomize import draw_scene

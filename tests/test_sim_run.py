@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from armtree.runtime import run
-from armtree.tree_loader import load_tree
+from armtree.loader.tree_loader import load_tree
+from armtree.runtime.runner import run
 
 WALL_CLOCK_KEYS = {"started", "wall_seconds"}
 

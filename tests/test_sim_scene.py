@@ -100,7 +100,7 @@ def test_profile_obstacles_join_the_world(with_world):
 
 
 def test_error_carries_file_and_line_from_a_loaded_profile(tmp_path):
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     text = resources.files("armtree.hardware").joinpath("sim_dobot.yaml").read_text()
     text = text.replace("trash_a: {kind: trash,", "trash_a: {kind: trash, shape: sphere,")

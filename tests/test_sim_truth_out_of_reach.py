@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import armtree
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
 from armtree.plugins.arms.common import PtyEmulator
 from armtree.plugins.sim.world import World
-from armtree.rig_builder import build_rig
+from armtree.runtime.rig_builder import build_rig
 
 TRUTH = (World, PtyEmulator)
 _LEAVES = (str, bytes, int, float, complex, bool, type(None), np.ndarray, types.ModuleType, type)

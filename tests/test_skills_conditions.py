@@ -6,7 +6,8 @@ import pytest
 from py_trees.common import Status
 from test_skills_fakes import PLACES, TICK, Marker, _clean_blackboard, make_rig  # noqa: F401
 
-from armtree.params import Binding
+from armtree.api.rig import ToolState
+from armtree.config.params import Binding
 from armtree.plugins.skills.conditions import (
     ArmIdle,
     AtPlace,
@@ -15,8 +16,7 @@ from armtree.plugins.skills.conditions import (
     TagNear,
     TagVisible,
 )
-from armtree.resources import Resources
-from armtree.rig import ToolState
+from armtree.runtime.resources import Resources
 
 
 def tick(node, rig, ticks=1):

@@ -18,10 +18,8 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from armtree.clock import VirtualClock
-from armtree.errors import PlanningError, Unreachable
-from armtree.motion.kinematics import Joint, KinematicModel
-from armtree.rig import (
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import (
     ArmDriver,
     Camera,
     Detection,
@@ -34,6 +32,8 @@ from armtree.rig import (
     ToolState,
     Tracker,
 )
+from armtree.errors import PlanningError, Unreachable
+from armtree.maths.motion.kinematics import Joint, KinematicModel
 
 TICK = 0.05
 #: Camera in the tool frame: 20 mm to the side, 30 mm up, looking down (seed 004's R_TC).

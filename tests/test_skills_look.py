@@ -11,8 +11,8 @@ import math
 import numpy as np
 from test_skills_fakes import TICK, FakeCamera, Marker, make_rig
 
+from armtree.api.rig import Frame
 from armtree.plugins.skills.actions import Look, State
-from armtree.rig import Frame
 
 
 class PeriodicCamera(FakeCamera):

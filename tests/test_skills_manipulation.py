@@ -7,7 +7,7 @@ import pytest
 from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
-from armtree.params import Binding
+from armtree.config.params import Binding
 from armtree.plugins.skills.manipulation import Grasp, Pick, Place
 
 
@@ -339,7 +339,7 @@ def beside_a_ducky(dy, height=30.0, lifted=0.0):
     """A trash marker at [200, 0, 20] mm and a ``height`` mm tall ducky's marker ``dy`` mm
     beside it (``lifted`` mm off the table), and a tool whose 40 x 40 x 60 mm body rises
     from the tool centre."""
-    from armtree.motion.kinematics import LinkBox
+    from armtree.maths.motion.kinematics import LinkBox
 
     trash = Marker(2, np.array([200.0, 0.0, 20.0]))
     other = Marker(0, np.array([200.0, dy, height + lifted]))

@@ -6,7 +6,7 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 import armtree
-from armtree.params import Binding
+from armtree.config.params import Binding
 from armtree.plugins.skills.motion import Home, MoveTo
 
 
@@ -57,7 +57,7 @@ def test_a_failed_motion_fails_the_skill_with_the_drivers_error():
 def test_bound_target_is_read_from_the_blackboard():
     rig = make_rig()
     node = MoveTo("go", to=Binding("target"))
-    node.bb.register_key("target", access=armtree.behaviour.Access.WRITE)
+    node.bb.register_key("target", access=armtree.api.behaviour.Access.WRITE)
     node.bb.set("target", [210.0, 20.0, 60.0])
     status, _ = run(node, rig)
     assert status is Status.SUCCESS and np.allclose(rig.arm.pose()[:3, 3], [210, 20, 60])
@@ -66,7 +66,7 @@ def test_bound_target_is_read_from_the_blackboard():
 def test_bad_bound_target_fails_with_a_message():
     rig = make_rig()
     node = MoveTo("go", to=Binding("target"))
-    node.bb.register_key("target", access=armtree.behaviour.Access.WRITE)
+    node.bb.register_key("target", access=armtree.api.behaviour.Access.WRITE)
     node.bb.set("target", "nowhere")
     status, _ = run(node, rig)
     assert status is Status.FAILURE and "unknown place 'nowhere'" in node.feedback_message

@@ -1,4 +1,4 @@
-"""core/perception/frames.py: marker positions in the base frame and the calibrations behind them."""
+"""core/maths/perception/frames.py: marker positions in the base frame and the calibrations behind them."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_skills_fakes import TOOL_T_CAMERA, CylModel, rz
 
-from armtree.perception.frames import (
+from armtree.maths.perception.frames import (
     LinearCorrection,
     camera_in_base,
     estimate_camera_offset,

@@ -10,7 +10,7 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 import armtree
-from armtree.params import Binding
+from armtree.config.params import Binding
 from armtree.plugins.skills.search import CleanUp, Search, sweep_angles
 
 

@@ -16,9 +16,9 @@ from collections.abc import Iterable
 
 import pytest
 
+from armtree.loader.tree_loader import load_tree
 from armtree.plugins.sim.plugin import sim_world
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
+from armtree.runtime.runner import Run
 
 #: These tests vary what a seed does to the nominal world (noise, drops); the worlds a
 #: seed draws from world.randomize are measured with ``armtree sweep`` (docs/benchmarks.md).

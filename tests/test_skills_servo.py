@@ -4,7 +4,7 @@ import numpy as np
 from py_trees.common import Status
 from test_skills_fakes import FakeTracker, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
-from armtree.params import Binding
+from armtree.config.params import Binding
 from armtree.plugins.skills.servo import VisualServo
 
 

@@ -13,10 +13,10 @@ import time
 import pytest
 
 import armtree
-from armtree.plugin_manager import PluginManager
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree_loader import load_tree
 from armtree.plugins.sim.plugin import sim_world
-from armtree.runtime import Run
-from armtree.tree_loader import load_tree
+from armtree.runtime.runner import Run
 
 
 def run_sim(tree_name: str, *overrides: str):

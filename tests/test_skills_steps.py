@@ -7,7 +7,7 @@ import py_trees
 from py_trees.common import Status
 from test_skills_fakes import TICK, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
-from armtree.params import Binding
+from armtree.config.params import Binding
 from armtree.plugins.skills.manipulation import Grasp, Release
 from armtree.plugins.skills.steps import Approach, LookFor, SearchStep, Sweep
 

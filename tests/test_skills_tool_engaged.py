@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import ArmTool
 from armtree.plugins.arms.common.plausibility import STABLE_FRAMES
 from armtree.plugins.arms.dh import ssc32 as S
 from armtree.plugins.arms.dh.driver import SSC32Driver
@@ -18,7 +19,6 @@ from armtree.plugins.arms.dh.kinematics import DHModel, DHRow
 from armtree.plugins.arms.dobot_v1 import codec
 from armtree.plugins.arms.dobot_v1.driver import DobotV1Driver
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
-from armtree.rig import ArmTool
 
 
 def v1_reporting(is_grab: float, gripper: float) -> DobotV1Driver:

@@ -27,12 +27,12 @@ from test_skills_fakes import (
 )
 
 import armtree
-from armtree.clock import VirtualClock
-from armtree.plugin_manager import PluginManager
-from armtree.resolve import available
-from armtree.rig_builder import build_rig
-from armtree.runtime import run
-from armtree.tree_loader import load_tree
+from armtree.api.clock import VirtualClock
+from armtree.config.resolve import available
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.loader.tree_loader import load_tree
+from armtree.runtime.rig_builder import build_rig
+from armtree.runtime.runner import run
 
 
 def _arm(config: dict, context: Any) -> FakeArm:

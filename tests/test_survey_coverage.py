@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 import armtree
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.config.workcell import workcell_of
 from armtree.plugins.skills.coverage import unseen
-from armtree.rig_builder import build_rig
-from armtree.workcell import workcell_of
+from armtree.runtime.rig_builder import build_rig
 
 SIM_PROFILES = ("sim_dobot", "sim_magician", "sim_vicra", "sim_dh", "sim_so101", "sim_koch")
 

@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 
 from armtree import ConfigError
-from armtree.cli import main
-from armtree.sweep.cluster import check_tree_on_worker
-from armtree.sweep.options import check_address, parse_seeds
-from armtree.sweep.report import markdown, summarise, wilson
-from armtree.sweep.task import RunTask
+from armtree.cli.commandline import main
+from armtree.cli.sweep.cluster import check_tree_on_worker
+from armtree.cli.sweep.options import check_address, parse_seeds
+from armtree.cli.sweep.report import markdown, summarise, wilson
+from armtree.cli.sweep.task import RunTask
 
 NODES = '''
 import os
@@ -215,7 +215,7 @@ def outcome(seed, verdict, reason="", expectations=(), status=None, seconds=1.0)
 
 
 def test_runs_get_one_opencv_thread_only_when_every_core_has_a_run(monkeypatch):
-    from armtree.sweep.pool import run_environment
+    from armtree.cli.sweep.pool import run_environment
 
     monkeypatch.delenv("OPENCV_FOR_THREADS_NUM", raising=False)
     assert run_environment(2, cores=2) == {"OPENCV_FOR_THREADS_NUM": "1"}
@@ -292,8 +292,8 @@ def test_the_report_counts_false_outcomes_apart_and_groups_reasons():
 
 @pytest.mark.slow
 def test_a_local_sweep_runs_each_seed_in_its_own_process_and_reports(work, capsys, monkeypatch):
-    import armtree.sweep.command as command
-    import armtree.sweep.pool as pool
+    import armtree.cli.sweep.command as command
+    import armtree.cli.sweep.pool as pool
 
     written = []
     monkeypatch.setattr(command, "CHECKPOINT_S", 0.0)
@@ -372,7 +372,7 @@ def test_ctrl_c_halts_the_runs_and_writes_a_partial_report(work):
         [
             sys.executable,
             "-m",
-            "armtree.cli",
+            "armtree.cli.commandline",
             "sweep",
             "seeds.yaml",
             "--seeds",

@@ -6,10 +6,10 @@ from __future__ import annotations
 import pytest
 
 from armtree import load_tree
-from armtree.cli import run_tree_main
+from armtree.cli.commandline import run_tree_main
+from armtree.config.resolve import available
 from armtree.plugins.trackers.families import tracker_family
-from armtree.resolve import available
-from armtree.runlog import read_log
+from armtree.runtime.runlog import read_log
 
 #: One run per rig, the trackers and both AprilTag spellings spread across them.
 RUNS = [

@@ -1,4 +1,4 @@
-"""Arm models from URDF files (core/motion/urdf.py): the shipped SO-101 and Koch, any other.
+"""Arm models from URDF files (core/maths/motion/urdf.py): the shipped SO-101 and Koch, any other.
 
 Forward kinematics agrees with yourdfpy's own (an outside implementation of the same
 file); inverse kinematics finds what forward kinematics gives, within the joint limits;
@@ -14,9 +14,9 @@ import yourdfpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from armtree.config.resolve import resolve
 from armtree.errors import ConfigError, Unreachable
-from armtree.motion.urdf import load_urdf
-from armtree.resolve import resolve
+from armtree.maths.motion.urdf import load_urdf
 
 ARMS = ("so101", "koch")
 

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import Frame, RigContext
 from armtree.errors import ConfigError
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import (
@@ -14,7 +15,6 @@ from armtree.plugins.trackers.aruco import (
 )
 from armtree.plugins.trackers.common import TagRoles
 from armtree.plugins.trackers.preprocess import Preprocessing
-from armtree.rig import Frame, RigContext
 
 K = syn.nominal_camera()
 
@@ -116,7 +116,7 @@ def test_factory_rejects_bad_config():
 
 def test_only_registered_and_empty_frames():
     frame, _, _ = scene([0, 5])
-    from armtree.rig import TagSpec
+    from armtree.api.rig import TagSpec
 
     roles = TagRoles({5: TagSpec("ducky", (5,), 25.0)})
     assert [d.id for d in ArucoTracker(roles=roles, only_registered=True).detect(frame)] == [5]

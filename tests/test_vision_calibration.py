@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
+from armtree.api.imaging import load_calibration
 from armtree.errors import ConfigError
-from armtree.imaging import load_calibration
 from armtree.plugins.calibration.command import CalibrateCommand
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.calibration import Board, calibrate

@@ -6,17 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.imaging import Intrinsics, IntrinsicsBySize, load_calibration, save_calibration
+from armtree.api.rig import RigContext
 from armtree.errors import ConfigError, HardwareFault
-from armtree.imaging import (
-    Intrinsics,
-    IntrinsicsBySize,
-    load_calibration,
-    save_calibration,
-)
 from armtree.plugins.cameras.opencv_camera import OpenCVCamera, opencv_factory
 from armtree.plugins.cameras.replay import images_factory, video_factory
-from armtree.rig import RigContext
 
 C270 = {"fx": 810.06, "fy": 810.76, "cx": 325.40, "cy": 249.02}
 C270_DIST = [0.01584, 0.37926, -0.00056, 0.00331, 0.0]

@@ -7,6 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import armtree
+from armtree.api.rig import Frame
+from armtree.config.resolve import shipped_dir
 from armtree.errors import ConfigError
 from armtree.plugins.trackers import hamming_code as hc
 from armtree.plugins.trackers import synthetic as syn
@@ -17,8 +19,6 @@ from armtree.plugins.trackers.families import (
     tracker_family,
 )
 from armtree.plugins.trackers.hamming import HammingTracker
-from armtree.resolve import shipped_dir
-from armtree.rig import Frame
 
 K = syn.nominal_camera()
 #: The families the shipped trees run with: the profiles' own, AprilTag, Hampy.

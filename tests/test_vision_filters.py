@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from armtree.api.rig import Detection
 from armtree.errors import ConfigError
-from armtree.perception.filters import PoseFilter
+from armtree.maths.perception.filters import PoseFilter
 from armtree.plugins.trackers.preprocess import Preprocessing, to_gray
-from armtree.rig import Detection
 
 
 def det(marker_id, t, r=None):
@@ -32,7 +32,7 @@ def test_a_filter_of_positions_alone_does_not_load_scipy_rotations():
     # positions only and must not pay for them in the middle of a run.
     code = (
         "import sys\n"
-        "from armtree.perception.filters import PoseFilter\n"
+        "from armtree.maths.perception.filters import PoseFilter\n"
         "f = PoseFilter()\n"
         "f.update(1, [0, 0, 100])\n"
         "print(f.update(1, [10, 0, 100]).tvec.tolist(), 'scipy.spatial' in sys.modules)\n"

@@ -5,13 +5,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from armtree.clock import VirtualClock
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import Frame, RigContext, TagSpec
 from armtree.errors import ConfigError
 from armtree.plugins.trackers import hamming_code as hc
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.common import TagRoles
 from armtree.plugins.trackers.hamming import HammingTracker, hamming_factory
-from armtree.rig import Frame, RigContext, TagSpec
 
 # Hamming(7,4) code words of nibbles 0..15 in hampy 1.4.2's bit order
 # (p1 p2 d1 p3 d2 d3 d4), as hampy.hamming.encode writes them.
@@ -283,7 +283,7 @@ def test_registered_id_wins_over_an_upside_down_reading():
 
 
 def test_profile_errors_point_at_the_value(tmp_path):
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     path = tmp_path / "rig.yaml"
     path.write_text(

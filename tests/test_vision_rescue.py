@@ -5,10 +5,10 @@ import base64
 import cv2
 import numpy as np
 
+from armtree.api.rig import Frame
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import ArucoTracker, get_dictionary
 from armtree.plugins.trackers.rescue import Rescuer
-from armtree.rig import Frame
 
 #: 60 x 60 px of a sim_vicra frame (PNG): seed 000's target marker (id 9, 25 mm) 650 mm
 #: under the camera, 22 px wide, which OpenCV's decoder rejected in every frame there.

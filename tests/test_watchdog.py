@@ -18,11 +18,11 @@ from hostile_corpus import STUCK_PLUGIN
 from py_trees.common import Status
 
 import armtree
-from armtree.clock import VirtualClock
-from armtree.rig import Rig
-from armtree.runlog import read_log
-from armtree.runtime import run
-from armtree.tree import Tree
+from armtree.api.clock import VirtualClock
+from armtree.api.rig import Rig
+from armtree.loader.tree import Tree
+from armtree.runtime.runlog import read_log
+from armtree.runtime.runner import run
 
 RUN_TREE = Path(sys.executable).with_name("run-tree")
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from armtree.motion.workspace import ArmWorkspace
+from armtree.maths.motion.workspace import ArmWorkspace
 from armtree.plugins.arms.dobot_magician.plugin import magician_factory
 from armtree.plugins.arms.dobot_v1.kinematics import DobotV1Model
 from armtree.plugins.arms.vicra.plugin import vicra_factory

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from armtree.errors import ConfigError
-from armtree.plugin_manager import make_plugin_manager
+from armtree.hooks.plugin_manager import make_plugin_manager
 from armtree.plugins.planners.plugin import armtree_commands
 from armtree.plugins.planners.workspace_command import WorkspaceCommand
 
@@ -62,7 +62,7 @@ def test_cli_subprocess(tmp_path):
         [
             sys.executable,
             "-m",
-            "armtree.cli",
+            "armtree.cli.commandline",
             "workspace",
             "--rig",
             "sim_dobot",
@@ -78,7 +78,7 @@ def test_cli_subprocess(tmp_path):
     assert done.returncode == 0, done.stderr
     assert png.exists() and "dobot_v1 workspace" in done.stdout
     bad = subprocess.run(
-        [sys.executable, "-m", "armtree.cli", "workspace", "--rig", "no_such_rig"],
+        [sys.executable, "-m", "armtree.cli.commandline", "workspace", "--rig", "no_such_rig"],
         capture_output=True,
         text=True,
         timeout=120,

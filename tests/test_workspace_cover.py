@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 from planning_models import DobotLike, PlanarArm, wide_dobot
 
 from armtree.errors import ConfigError
-from armtree.motion import interval as iv
-from armtree.motion.interval import Interval
-from armtree.motion.workspace import ArmWorkspace, cover, satisfied, sector_constraint
+from armtree.maths.motion import interval as iv
+from armtree.maths.motion.interval import Interval
+from armtree.maths.motion.workspace import ArmWorkspace, cover, satisfied, sector_constraint
 
 finite = st.floats(-20, 20, allow_nan=False, allow_subnormal=False)
 

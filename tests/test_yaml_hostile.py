@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree import yamlio
+from armtree.config import yamlio
+from armtree.config.yamlio import MAX_BYTES, MAX_DEPTH, load_yaml, load_yaml_file
 from armtree.errors import ConfigError
-from armtree.plugin_manager import get_plugin_manager
-from armtree.yamlio import MAX_BYTES, MAX_DEPTH, load_yaml, load_yaml_file
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 
 def laughs(levels: int = 10, width: int = 10) -> str:

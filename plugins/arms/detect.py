@@ -21,9 +21,9 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.api.rig import RigContext
 from armtree.errors import ConfigError, HardwareFault
-from armtree.rig import RigContext
 
 #: Shipped real-hardware profiles probed in this order (the first only listens).
 PROBES: tuple[str, ...] = (
@@ -96,7 +96,7 @@ def probe_port(
     Each profile's driver is built from its ``arm`` section (``port`` replaced)
     on a wall clock and connected with ``timeout`` seconds for the handshake.
     """
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     answers, tried = [], {}
     for name in profiles:
@@ -152,7 +152,7 @@ class DetectPortCommand:
             raise ConfigError(f"--timeout {args.timeout:g}: give a positive number of seconds")
         manager = getattr(args, "manager", None)
         if manager is None:
-            from armtree.plugin_manager import get_plugin_manager
+            from armtree.hooks.plugin_manager import get_plugin_manager
 
             manager = get_plugin_manager()
         known = {p.device: p for p in list_serial_ports()}

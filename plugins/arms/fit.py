@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.motion.kinematics import KinematicModel
-from armtree.perception.frames import EYE_IN_HAND
-from armtree.profile import Profile, Swap
+from armtree.loader.profile import Profile, Swap
+from armtree.maths.motion.kinematics import KinematicModel
+from armtree.maths.perception.frames import EYE_IN_HAND
 
 #: Angle (degrees) between the two arms' tool z axes at home beyond which a camera
 #: pose written in one tool frame points elsewhere on the other.

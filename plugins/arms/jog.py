@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from armtree.cli import seed_value
+from armtree.api.rig import MotionHandle, Rig
+from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError, HardwareFault
-from armtree.rig import MotionHandle, Rig
 
 #: Step sizes offered, degrees (or mm for a prismatic joint) and mm.
 STEPS: tuple[float, ...] = (0.5, 1.0, 5.0, 10.0, 20.0)
@@ -322,7 +322,7 @@ def build_app(rig: Rig, save_to: Path, refresh_hz: float = 20.0) -> Any:
 def places_file(profile: Any, save: str | None) -> Path:
     """Where recorded places go: ``--save FILE`` (a copy of the profile if new), else the
     profile's own file; a shipped profile is never written to."""
-    from armtree.resolve import shipped_dir
+    from armtree.config.resolve import shipped_dir
 
     source = Path(profile.source)
     if save:
@@ -347,7 +347,7 @@ class JogCommand:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add --rig, --set, --save and --seed."""
-        from armtree.cli import add_set_option
+        from armtree.cli.commandline import add_set_option
 
         parser.add_argument("--rig", metavar="PROFILE", required=True, help="hardware profile")
         add_set_option(parser, "override a profile key, e.g. arm.port=/dev/ttyUSB0")
@@ -358,13 +358,13 @@ class JogCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Build the rig on the wall clock, run the UI, close the rig; exit 0 (3 on a fault)."""
-        from armtree.clock import WallClock
-        from armtree.profile import load_profile
-        from armtree.rig_builder import build_rig
+        from armtree.api.clock import WallClock
+        from armtree.loader.profile import load_profile
+        from armtree.runtime.rig_builder import build_rig
 
         manager = getattr(args, "manager", None)
         if manager is None:
-            from armtree.plugin_manager import get_plugin_manager
+            from armtree.hooks.plugin_manager import get_plugin_manager
 
             manager = get_plugin_manager()
         profile = load_profile(args.rig, args.overrides, manager=manager)

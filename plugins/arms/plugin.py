@@ -22,11 +22,11 @@ from typing import Any
 import yaml
 
 import armtree
-from armtree.cli import seed_value
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.cli.commandline import seed_value
+from armtree.config.params import check_value
 from armtree.errors import ConfigError
-from armtree.interrupts import EXIT_INTERRUPTED
-from armtree.params import check_value
+from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .fit import swap_misfits
 
@@ -62,7 +62,7 @@ class EmulateCommand:
         """Serve until stopped: exit 130 on a signal, 0 when :attr:`stop` is set; 2 for bad input."""
         manager = getattr(args, "manager", None)
         if manager is None:
-            from armtree.plugin_manager import get_plugin_manager
+            from armtree.hooks.plugin_manager import get_plugin_manager
 
             manager = get_plugin_manager()
         registry = manager.registry
@@ -93,7 +93,7 @@ class EmulateCommand:
     def _config(self, args: argparse.Namespace, manager: Any) -> dict[str, Any]:
         config: dict[str, Any] = {"type": args.arm}
         if args.profile:
-            from armtree.profile import load_profile
+            from armtree.loader.profile import load_profile
 
             profile = load_profile(args.profile, manager=manager)
             config = dict(profile.component("arm") or {})

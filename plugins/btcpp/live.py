@@ -8,7 +8,7 @@ from typing import Any
 
 from py_trees.blackboard import Blackboard
 
-from armtree.runlog import jsonable
+from armtree.runtime.runlog import jsonable
 
 from .groot2 import Groot2Server
 from .monitor_tree import MonitorTree

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from armtree import ConfigError
+from armtree.config.yamlio import MarkedDict, MarkedList, error_at
 from armtree.errors import Mark, shown
-from armtree.yamlio import MarkedDict, MarkedList, error_at
 
 from .mapping import BY_BTCPP, SCRIPT_ATTRIBUTES, UNMATCHED
 from .values import from_port, is_text_type

@@ -15,9 +15,9 @@ from typing import Any
 import yaml
 
 from armtree import ConfigError
+from armtree.config.params import Binding
+from armtree.config.yamlio import MarkedDict, MarkedList, load_yaml, plain
 from armtree.errors import Mark
-from armtree.params import Binding
-from armtree.yamlio import MarkedDict, MarkedList, load_yaml, plain
 
 #: armtree parameter types as BehaviorTree.CPP port types (``any`` has none, as
 #: BT.CPP writes none for a port of any type).

@@ -20,8 +20,8 @@ from defusedxml import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidd
 from defusedxml.ElementTree import DefusedXMLParser
 
 from armtree import ConfigError
+from armtree.config.yamlio import decode, read_bounded
 from armtree.errors import Mark
-from armtree.yamlio import decode, read_bounded
 
 #: Deepest nesting of elements.
 MAX_DEPTH = 200

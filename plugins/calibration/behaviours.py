@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.frames import EYE_IN_HAND
 from armtree.plugins.skills.actions import Action, Look, Move, SkillFailure, State, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
 from armtree.plugins.skills.base import Procedure, Skill
@@ -89,7 +89,7 @@ class Observe(Action):
 
 
 class Measure(Action):
-    """Wait for a :class:`~armtree.measuring.Measurement` of the rig's measuring device."""
+    """Wait for a :class:`~armtree.api.measuring.Measurement` of the rig's measuring device."""
 
     def __init__(self, start: Any) -> None:
         self._start = start

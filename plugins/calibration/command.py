@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from armtree.cli import seed_value
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.api.rig import Frame, RigContext
+from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError
 from armtree.plugins.trackers.calibration import BOARDS, Board, calibrate, plot_calibration
 from armtree.plugins.trackers.commands import registry_of
@@ -44,7 +45,6 @@ from armtree.plugins.trackers.inputs import (
     numbers,
     read_image,
 )
-from armtree.rig import Frame, RigContext
 
 from .kinematics_command import configure_kinematics, run_kinematics
 from .servos_command import configure_servos, run_servos
@@ -197,7 +197,7 @@ class CalibrateCommand:
         for name in result.skipped:
             print(f"  {name}: board not found, skipped")
         if args.output:
-            from armtree.imaging import save_calibration
+            from armtree.api.imaging import save_calibration
 
             save_calibration(
                 args.output,
@@ -225,9 +225,9 @@ class CalibrateCommand:
     def _live(self, args: argparse.Namespace) -> list[tuple[str, np.ndarray]]:
         import time
 
+        from armtree.loader.profile import load_profile
         from armtree.plugins.trackers.calibration import find_board
         from armtree.plugins.trackers.preprocess import to_gray
-        from armtree.profile import load_profile
 
         board = Board(
             args.board, args.cols, args.rows, args.square_mm, args.marker_mm, args.dictionary
@@ -263,7 +263,7 @@ class CalibrateCommand:
     # -- hand-eye (seed 000) -------------------------------------------------
 
     def _hand_eye(self, args: argparse.Namespace) -> int:
-        from armtree.perception.frames import eye_to_hand_from_three_positions
+        from armtree.maths.perception.frames import eye_to_hand_from_three_positions
 
         intr = intrinsics_from_args(args)
         if intr is None:
@@ -324,7 +324,7 @@ def _tree_options(
     parser: argparse.ArgumentParser, rig: bool = True, output: bool = True, seed: bool = True
 ) -> None:
     """The options of a calibration that runs its tree."""
-    from armtree.cli import add_set_option
+    from armtree.cli.commandline import add_set_option
 
     if rig:
         parser.add_argument(

@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from armtree.cli import seed_value
+from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError
-from armtree.motion.kinematic_calibration import CalibrationPoints
-from armtree.perception.frames import LinearCorrection
+from armtree.maths.motion.kinematic_calibration import CalibrationPoints
+from armtree.maths.perception.frames import LinearCorrection
 
 from . import fits
 from .run import report, run_tree
@@ -103,7 +103,7 @@ class ExperimentCommand:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``accuracy`` experiment and its options."""
-        from armtree.cli import add_set_option
+        from armtree.cli.commandline import add_set_option
 
         which = parser.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
         acc = which.add_parser(
@@ -158,8 +158,8 @@ class ExperimentCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Run the parts, then write the report; 0, 1 when a part failed, ConfigError for bad input."""
-        from armtree.profile import load_profile
-        from armtree.workcell import workcell_of
+        from armtree.config.workcell import workcell_of
+        from armtree.loader.profile import load_profile
 
         for name in ("grid", "targets", "poses"):
             if getattr(args, name) < (2 if name == "grid" else 1):
@@ -338,7 +338,7 @@ def validation_table(observations: dict[str, Any], rig: Any, out: Path) -> dict[
     names = {p.name for p in component.params}
     free = tuple(k for k in ("tool_offset_mm",) if k in names)
     points = CalibrationPoints(joints, truth, "measuring device")
-    from armtree.motion.kinematic_calibration import fit_kinematics
+    from armtree.maths.motion.kinematic_calibration import fit_kinematics
 
     fit = fit_kinematics(
         lambda p: make({**arm, **p}), {k: float(arm[k]) for k in free}, points, free=free

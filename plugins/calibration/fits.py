@@ -17,16 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from armtree.calibration import correction_mapping, update_calibration_file
-from armtree.hand_eye import DegenerateData, MarkerView, solve
-from armtree.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
-from armtree.perception.frames import (
+from armtree.config.calibration import correction_mapping, update_calibration_file
+from armtree.maths.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
+from armtree.maths.perception.frames import (
     EYE_IN_HAND,
     LinearCorrection,
     along_ray_to_height,
     estimate_camera_offset,
     tool_to_marker,
 )
+from armtree.maths.perception.hand_eye import DegenerateData, MarkerView, solve
 
 
 class Refused(ValueError):
@@ -149,7 +149,7 @@ def hand_eye(poses: list[dict[str, Any]], rig: Any, methods: Sequence[str]) -> d
 
 
 def _workcell(rig: Any) -> Any:
-    from armtree.workcell import workcell_of
+    from armtree.config.workcell import workcell_of
 
     return workcell_of(getattr(rig, "profile", None))
 

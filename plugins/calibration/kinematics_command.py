@@ -26,11 +26,11 @@ from typing import Any
 import numpy as np
 import yaml
 
-from armtree.cli import seed_value
-from armtree.clock import VirtualClock
-from armtree.emulation import FirmwareEmulator
+from armtree.api.clock import VirtualClock
+from armtree.api.emulation import FirmwareEmulator
+from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError
-from armtree.motion.kinematic_calibration import (
+from armtree.maths.motion.kinematic_calibration import (
     CalibrationPoints,
     KinematicFit,
     fit_kinematics,
@@ -110,7 +110,7 @@ def run_kinematics(args: argparse.Namespace) -> int:
         raise ConfigError(f"-o {args.output}: the calibration is written as .yaml")
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise ConfigError(f"--plot {args.plot}: the plot is written as .png")
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     args.rig = args.rig or "sim_dobot"
     profile = load_profile(args.rig)
@@ -218,8 +218,8 @@ def _simulate(
     from rich.console import Console
     from rich.progress import Progress
 
-    from armtree.plugin_manager import get_plugin_manager
-    from armtree.rig_builder import build_rig
+    from armtree.hooks.plugin_manager import get_plugin_manager
+    from armtree.runtime.rig_builder import build_rig
 
     if args.simulate < 1:
         raise ConfigError(f"--simulate {args.simulate}: give a positive number of points")

@@ -45,7 +45,7 @@ def seen_keep_outs(
 
 
 def declared_keep_outs(scene: Any, margin: float = 0.0) -> list[KeepOut]:
-    """The profile's obstacles (a :class:`~armtree.motion.scene.Scene`) as keep-outs: each
+    """The profile's obstacles (a :class:`~armtree.maths.motion.scene.Scene`) as keep-outs: each
     box's or mesh's footprint enclosed in a disc grown by ``margin`` mm."""
     out = []
     for box in getattr(scene, "boxes", ()):

@@ -13,7 +13,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from armtree.measuring import Measurement, MeasuringDevice
+from armtree.api.measuring import Measurement, MeasuringDevice
 
 
 class OperatorMeasuringDevice(MeasuringDevice):

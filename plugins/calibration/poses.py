@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 
 #: Fraction of the half image a marker may use (its centre stays this far in from the edge).
 VIEW_MARGIN = 0.8

@@ -16,7 +16,7 @@ from typing import Any
 import py_trees
 
 import armtree
-from armtree.display import NullView
+from armtree.runtime.display import NullView
 
 from .operator import OperatorMeasuringDevice
 
@@ -82,11 +82,11 @@ def run_tree(
     tree: str, rig: str, overrides: list[str], seed: int, title: str, manager: Any = None
 ) -> Any:
     """Run ``tree`` on profile ``rig`` with a progress bar; the RunResult and the Run."""
-    from armtree.runtime import Run
-    from armtree.tree_loader import load_tree
+    from armtree.loader.tree_loader import load_tree
+    from armtree.runtime.runner import Run
 
     if manager is None:
-        from armtree.plugin_manager import PluginManager
+        from armtree.hooks.plugin_manager import PluginManager
 
         manager = PluginManager()
         manager.load_entry_points()

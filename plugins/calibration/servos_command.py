@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from armtree.calibration import update_calibration_file
+from armtree.config.calibration import update_calibration_file
 from armtree.errors import ConfigError
 
 
@@ -33,11 +33,11 @@ def configure_servos(kinds: argparse._SubParsersAction) -> argparse.ArgumentPars
 
 def run_servos(args: argparse.Namespace) -> int:
     """Calibrate, write the file, print what each servo measured; 0, or ConfigError."""
-    from armtree.profile import load_profile
+    from armtree.loader.profile import load_profile
 
     manager = getattr(args, "manager", None)
     if manager is None:
-        from armtree.plugin_manager import get_plugin_manager
+        from armtree.hooks.plugin_manager import get_plugin_manager
 
         manager = get_plugin_manager()
     out = Path(args.output or "calibration.yaml")

@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from armtree.hand_eye import lateral_residuals
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.hand_eye import lateral_residuals
 from armtree.plugins.skills.actions import ArmHome, SkillFailure, fmt
 from armtree.plugins.skills.base import Procedure
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.frames import EYE_IN_HAND
 from armtree.plugins.skills.actions import Look, Move, SkillFailure, fmt
 from armtree.plugins.skills.arm_skill import ArmSkill
 from armtree.plugins.skills.base import Procedure, Skill

@@ -6,16 +6,16 @@ from typing import Any
 
 import numpy as np
 
-from armtree.clock import Clock
-from armtree.component_config import check_config
-from armtree.imaging import (
+from armtree.api.clock import Clock
+from armtree.api.imaging import (
     INTRINSICS_PARAMS,
     IntrinsicsBySize,
     extrinsics_from,
     intrinsics_from_config,
 )
-from armtree.params import Param
-from armtree.rig import Camera, Frame, RigContext
+from armtree.api.rig import Camera, Frame, RigContext
+from armtree.config.component_config import check_config
+from armtree.config.params import Param
 
 
 class FrameSourceCamera(Camera):

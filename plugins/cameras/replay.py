@@ -21,11 +21,11 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.component_config import config_error
+from armtree.api.imaging import video_fps
+from armtree.api.rig import Frame, RigContext
+from armtree.config.component_config import config_error
+from armtree.config.params import Param
 from armtree.errors import ConfigError, HardwareFault
-from armtree.imaging import video_fps
-from armtree.params import Param
-from armtree.rig import Frame, RigContext
 
 from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
 

@@ -32,7 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.rig import MotionStatus, frame_index
+from armtree.api.rig import MotionStatus, frame_index
 
 from . import stats
 from .episode import PARTIAL, VIDEO_FILE, Episode

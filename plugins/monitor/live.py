@@ -15,7 +15,7 @@ import threading
 import time
 from typing import Any
 
-from armtree.runlog import jsonable
+from armtree.runtime.runlog import jsonable
 
 from .observer import TickRate, TickSample
 from .recording import detections_json, jpeg

@@ -1,7 +1,7 @@
 """The tree as the monitor page draws it, and a tick's statuses as one letter per node.
 
 Nodes are numbered depth first from the root, the order of
-:attr:`armtree.runtime.Run.nodes`; a tick's statuses travel as a string with
+:attr:`armtree.runtime.runner.Run.nodes`; a tick's statuses travel as a string with
 one letter per node (``R`` running, ``S`` success, ``F`` failure, ``I`` invalid).
 """
 
@@ -12,8 +12,8 @@ from typing import Any
 
 import py_trees
 
-from armtree.params import Binding
-from armtree.runlog import jsonable
+from armtree.config.params import Binding
+from armtree.runtime.runlog import jsonable
 
 #: One letter per status name.
 CODES: dict[str, str] = {"INVALID": "I", "RUNNING": "R", "SUCCESS": "S", "FAILURE": "F"}

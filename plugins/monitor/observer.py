@@ -16,7 +16,7 @@ from typing import Any
 
 from py_trees.blackboard import Blackboard
 
-from armtree.runlog import jsonable
+from armtree.runtime.runlog import jsonable
 
 from .model import describe_tree, status_letters
 

@@ -40,7 +40,7 @@ import cv2
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from armtree.runlog import jsonable
+from armtree.runtime.runlog import jsonable
 
 from . import schemas
 from .model import NAMES

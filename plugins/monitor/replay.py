@@ -14,7 +14,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from armtree.interrupts import EXIT_INTERRUPTED
+from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 if TYPE_CHECKING:  # the web server loads when a replay is served, not with the plugin
     from .recorded import Recording

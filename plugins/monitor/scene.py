@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.perception.frames import camera_in_base
+from armtree.maths.perception.frames import camera_in_base
 
 from .taps import RigTaps
 

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.rig import Detection, Frame
+from armtree.api.rig import Detection, Frame
 
 
 @dataclass(frozen=True)

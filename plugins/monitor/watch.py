@@ -4,7 +4,7 @@ A thread polls the files' modification times. A change is loaded with the
 run's own options (profile, ``--set`` overrides, plugins) and validated as
 ``run-tree`` would; a tree that fails is reported in the terminal and on the
 page, and the running tree goes on. One that loads is handed to
-:meth:`armtree.runtime.Run.replace_tree`, which swaps it in at the next safe
+:meth:`armtree.runtime.runner.Run.replace_tree`, which swaps it in at the next safe
 point (no motion under way, nothing held unless the new tree starts by
 handling it).
 """
@@ -98,7 +98,7 @@ class TreeWatcher:
             self._load()
 
     def _load(self) -> None:
-        from armtree.tree_loader import load_tree
+        from armtree.loader.tree_loader import load_tree
 
         settings = self.run.settings
         try:

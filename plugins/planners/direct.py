@@ -1,7 +1,7 @@
 """The ``direct`` planner: a straight joint-space move, validated before it is returned.
 
 Seed 002's motion algorithm: the target's inverse-kinematics solutions are
-tried nearest-first (:meth:`armtree.rig.Planner.plan_to`), and each straight
+tried nearest-first (:meth:`armtree.api.rig.Planner.plan_to`), and each straight
 move is validated (limits, collisions, singularity margin) before use.
 """
 
@@ -13,16 +13,16 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Planner
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.kinematics import KinematicModel
-from armtree.motion.scene import Scene
-from armtree.motion.start_contact import StartContactRecovery
-from armtree.motion.validation import check_config, validate_samples
-from armtree.motion.workspace import ArmWorkspace
-from armtree.params import Param
-from armtree.profile import profile_section
-from armtree.rig import Planner
+from armtree.loader.profile import profile_section
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.kinematics import KinematicModel
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.start_contact import StartContactRecovery
+from armtree.maths.motion.validation import check_config, validate_samples
+from armtree.maths.motion.workspace import ArmWorkspace
 
 
 class DirectPlanner(Planner):
@@ -47,7 +47,7 @@ class DirectPlanner(Planner):
         """``[start, goal]`` ``(2, n)`` deg / mm, or PlanningError naming why not.
 
         A start in a shallow collision gets ``[start, free, goal]``: a short move
-        out of the contact first (:class:`~armtree.motion.start_contact.StartContactRecovery`).
+        out of the contact first (:class:`~armtree.maths.motion.start_contact.StartContactRecovery`).
         """
         start, escape = self.start_contact.check(start)
         if escape is not None:
@@ -119,7 +119,7 @@ def validate_start(config: Mapping[str, Any], profile: Any) -> None:
         return
     manager = profile.manager
     if manager is None:
-        from armtree.plugin_manager import get_plugin_manager
+        from armtree.hooks.plugin_manager import get_plugin_manager
 
         manager = get_plugin_manager()
     build_model = getattr(manager.registry.get("arm", arm["type"]).factory, "model", None)

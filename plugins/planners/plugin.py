@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
-from armtree.rig import Planner
+from armtree.api.rig import Planner
 
 from .direct import direct_factory
 from .prm import prm_factory
@@ -26,7 +26,7 @@ def armtree_commands() -> dict[str, Any]:
 
 @armtree.hookimpl
 def armtree_run_started(run: Any) -> None:
-    """Connect the rig's planner to the run log (:attr:`armtree.rig.Planner.report`).
+    """Connect the rig's planner to the run log (:attr:`armtree.api.rig.Planner.report`).
 
     A planner asked again and again from the same believed start (every inverse
     kinematics solution, every scan pose) reports stepping out of its contact once.

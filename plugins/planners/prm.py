@@ -27,15 +27,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import platformdirs
 
+from armtree.api.rig import Planner
+from armtree.config.params import Param
 from armtree.errors import ConfigError, PlanningError
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.kinematics import KinematicModel
-from armtree.motion.start_contact import StartContactRecovery
-from armtree.motion.validation import check_config
-from armtree.motion.workspace import ArmWorkspace
-from armtree.params import Param
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.kinematics import KinematicModel
+from armtree.maths.motion.start_contact import StartContactRecovery
+from armtree.maths.motion.validation import check_config
+from armtree.maths.motion.workspace import ArmWorkspace
 from armtree.plugins.planners.direct import CHECK_PARAMS, planner_checker, validate_start
-from armtree.rig import Planner
 
 if TYPE_CHECKING:  # networkx and scipy load when a roadmap is built, not with the plugin
     import networkx as nx
@@ -293,7 +293,7 @@ class PRMPlanner(Planner):
         Raises PlanningError with reason ``not_finite``, ``outside_limits``,
         ``start_in_collision``, ``goal_in_collision`` or ``disconnected``. A start in a
         shallow collision first steps out of it
-        (:class:`~armtree.motion.start_contact.StartContactRecovery`).
+        (:class:`~armtree.maths.motion.start_contact.StartContactRecovery`).
         """
         start, escape = self.start_contact.check(start)
         if escape is not None:

@@ -17,14 +17,14 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError
-from armtree.motion.scene import Scene
-from armtree.motion.workspace import ArmWorkspace, Covering
-from armtree.profile import profile_source
+from armtree.loader.profile import profile_source
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.workspace import ArmWorkspace, Covering
 
 
 def arm_model(profile: Any, manager: Any = None) -> Any:
     """The profile's arm model, built without opening a port (the arm factory's ``model``)."""
-    from armtree.plugin_manager import get_plugin_manager
+    from armtree.hooks.plugin_manager import get_plugin_manager
 
     manager = manager or getattr(profile, "manager", None) or get_plugin_manager()
     config = profile.component("arm") if hasattr(profile, "component") else profile["arm"]
@@ -56,7 +56,7 @@ class WorkspaceCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Cover, print a summary, plot if asked. ConfigError (exit 2) for bad input."""
-        from armtree.profile import load_profile
+        from armtree.loader.profile import load_profile
 
         if not (args.delta > 0 and math.isfinite(args.delta)):
             raise ConfigError(f"--delta must be a positive number of mm, got {args.delta}")

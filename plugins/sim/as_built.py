@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.measuring import Measurement, MeasuringDevice
+from armtree.api.measuring import Measurement, MeasuringDevice
 
 from .geometry import rpy_matrix
 

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Camera, Frame, RigContext, frame_index
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.params import Param
-from armtree.rig import Camera, Frame, RigContext, frame_index
 
 from .drawing import world_drawables
 from .geometry import look_at, pose, rpy_matrix

@@ -23,10 +23,10 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
-from armtree.emulation import SHARED_KEY as EMULATOR_KEY
-from armtree.params import check_value
-from armtree.profile import profile_error, profile_section
-from armtree.profile_sections import ProfileSection
+from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.config.params import check_value
+from armtree.config.profile_sections import ProfileSection
+from armtree.loader.profile import profile_error, profile_section
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera

@@ -19,7 +19,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.rig import Frame
+from armtree.api.rig import Frame
 
 from .geometry import UNIT_BOX
 

@@ -20,7 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import TagSpec
 from armtree.errors import ConfigError, shown
+from armtree.loader.profile import profile_error, profile_section, tag_spec
 from armtree.plugins.trackers.families import (
     HAMMING,
     MarkerFamily,
@@ -29,8 +31,6 @@ from armtree.plugins.trackers.families import (
     max_corrected_bits,
     tracker_family,
 )
-from armtree.profile import profile_error, profile_section, tag_spec
-from armtree.rig import TagSpec
 
 from .as_built import AsBuilt, parse_as_built
 from .duckybot import DuckybotParams, Leg, RouteSpec

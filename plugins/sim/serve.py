@@ -32,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from armtree.cli import add_set_option, seed_value
-from armtree.clock import WallClock
-from armtree.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.clock import WallClock
+from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.rig import Rig, RigContext
+from armtree.cli.commandline import add_set_option, seed_value
 from armtree.errors import ConfigError
-from armtree.interrupts import EXIT_INTERRUPTED
-from armtree.rig import Rig, RigContext
+from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .camera import SimCamera
 from .mjpeg import MjpegServer
@@ -273,11 +273,11 @@ class ServeSimCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Serve until Ctrl-C or SIGTERM; print the score; exit 130 (2 for bad input)."""
-        from armtree.profile import load_profile
+        from armtree.loader.profile import load_profile
 
         manager = getattr(args, "manager", None)
         if manager is None:
-            from armtree.plugin_manager import get_plugin_manager
+            from armtree.hooks.plugin_manager import get_plugin_manager
 
             manager = get_plugin_manager()
         if not 1 <= args.quality <= 100:
@@ -347,15 +347,15 @@ def _declared_outcomes(tree: str | None, profile: Any, manager: Any) -> list[Any
     """
     if tree is None:
         return None
-    from armtree.tree_loader import load_tree
+    from armtree.loader.tree_loader import load_tree
 
     return list(load_tree(tree, rig=profile, manager=manager).expect or ())
 
 
 def _judged_outcomes(expectations: list[Any], bench: SimBench, profile: Any, manager: Any) -> str:
     """One ``expect:`` line per declared outcome, judged on the served world now."""
-    from armtree.display import EXPECT_MARKS
-    from armtree.outcomes import judge, predicates_for
+    from armtree.api.outcomes.expect import judge, predicates_for
+    from armtree.runtime.display import EXPECT_MARKS
 
     if not expectations:
         return "expect: the tree declares no outcomes"

@@ -1,4 +1,4 @@
-"""The simulated world as ``expect:`` predicates read it (:class:`armtree.outcomes.WorldTruth`).
+"""The simulated world as ``expect:`` predicates read it (:class:`armtree.api.outcomes.WorldTruth`).
 
 :func:`world_truth` reports a running world's ground truth at the end of a run;
 :func:`scene_truth` the nominal world a profile describes, for checking names
@@ -13,9 +13,8 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-from armtree.outcomes import WorldObject, WorldTruth
-from armtree.outcomes.truth import DUCKYBOTS, MARKERS, TOOL
-from armtree.profile import profile_section
+from armtree.api.outcomes.truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
+from armtree.loader.profile import profile_section
 
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.worldview import SceneObject
+from armtree.api.worldview import SceneObject
 
 from .recording import KIND_COLORS
 from .world import World

@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from armtree.calibration import calibration_of
+from armtree.api.rig import MotionHandle, MotionStatus
+from armtree.config.calibration import calibration_of
 from armtree.errors import PlanningError, Unreachable
-from armtree.rig import MotionHandle, MotionStatus
 
 from .eye import Sighting, Tally, eye_of
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
-from armtree.perception.frames import EYE_IN_HAND, tool_for_camera_over
+from armtree.maths.perception.frames import EYE_IN_HAND, tool_for_camera_over
 
 from .actions import SkillFailure, fmt
 from .base import Skill

@@ -18,10 +18,10 @@ import numpy as np
 from py_trees.common import Status
 
 import armtree
-from armtree.params import Binding
-from armtree.profile import Profile, profile_source
-from armtree.rig import MotionHandle
-from armtree.workcell import Workcell, workcell_of
+from armtree.api.rig import MotionHandle
+from armtree.config.params import Binding
+from armtree.config.workcell import Workcell, workcell_of
+from armtree.loader.profile import Profile, profile_source
 
 from .actions import Action, SkillFailure, State
 

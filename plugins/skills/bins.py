@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.workcell import Bin
+from armtree.config.workcell import Bin
 
 from .reach import reachable
 

@@ -23,7 +23,7 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.frames import EYE_IN_HAND
 
 from .actions import SkillFailure, fmt
 from .base import Skill, as_list

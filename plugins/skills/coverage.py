@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from armtree.perception.frames import EYE_IN_HAND, camera_in_base
-from armtree.workcell import workcell_of
+from armtree.config.workcell import workcell_of
+from armtree.maths.perception.frames import EYE_IN_HAND, camera_in_base
 
 from .arm_skill import camera_over
 from .survey import survey_points

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from armtree.calibration import calibration_of
-from armtree.perception.frames import camera_in_base, marker_in_base
-from armtree.rig import Detection
-from armtree.workcell import workcell_of
+from armtree.api.rig import Detection
+from armtree.config.calibration import calibration_of
+from armtree.config.workcell import workcell_of
+from armtree.maths.perception.frames import camera_in_base, marker_in_base
 
 
 @dataclass
@@ -190,7 +190,7 @@ class Tally:
                 self.roles.add(s.role)
         if not wanted:
             # asked only here: the aruco tracker counts these when asked; a tracker
-            # that does not subclass armtree.rig.Tracker counts none
+            # that does not subclass armtree.api.rig.Tracker counts none
             self.unread = max(self.unread, int(getattr(tracker, "unread", 0)))
 
     def describe(self, family: str | None) -> str:

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.motion.collision import obb_overlap
+from armtree.maths.motion.collision import obb_overlap
 
 from .eye import eye_of
 

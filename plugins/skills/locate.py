@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from armtree import PlanningError, Unreachable
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.frames import EYE_IN_HAND
 
 from .actions import Look, Move
 from .arm_skill import ArmSkill, camera_over

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
-from armtree.params import Binding
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.config.params import Binding
+from armtree.maths.perception.frames import EYE_IN_HAND
 
 from .actions import ArmHome, Grip, Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper

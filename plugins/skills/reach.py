@@ -4,14 +4,14 @@ A tree says "approach 60 mm above" or "scan at 120 mm"; a Dobot V1.0 within
 seed 004's conservative joint limits reaches only a few centimetres of height,
 so a skill asks here for the closest position the arm's model can reach
 instead of failing. Everything is a batched inverse-kinematics query on the
-rig's :class:`~armtree.motion.kinematics.KinematicModel`; positions in mm.
+rig's :class:`~armtree.maths.motion.kinematics.KinematicModel`; positions in mm.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 
 
 def reachable(model: KinematicModel, points: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param, Unreachable
-from armtree.perception.frames import EYE_IN_HAND, along_ray_to_height
+from armtree.maths.perception.frames import EYE_IN_HAND, along_ray_to_height
 
 from .actions import Look, Move, SkillFailure, fmt
 from .base import Procedure

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 
 #: Growth of each link box (mm): half a marker's diagonal and some slack.
 SIGHT_MARGIN_MM = 20.0

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from armtree.workcell import Survey
+from armtree.config.workcell import Survey
 
 
 def sweep_legs(start: float, lo: float, hi: float, step: float, sweeps: int) -> list[list[float]]:

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
-from armtree.perception.filters import PoseFilter
-from armtree.perception.frames import EYE_IN_HAND
+from armtree.maths.perception.filters import PoseFilter
+from armtree.maths.perception.frames import EYE_IN_HAND
 
 from .actions import Look, Move, Pause, SkillFailure, fmt
 from .arm_skill import ArmSkill, camera_over

@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from armtree.rig import Detection
+from armtree.api.rig import Detection
 
 
 def annotate(

@@ -27,10 +27,10 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.component_config import check_config, config_error
+from armtree.api.rig import Detection, Frame, RigContext, Tracker
+from armtree.config.component_config import check_config, config_error
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.params import Param
-from armtree.rig import Detection, Frame, RigContext, Tracker
 
 from .common import TagRoles, finish_detection, probe
 from .kernels import apart_from, framed_by_light
@@ -204,7 +204,7 @@ class ArucoTracker(Tracker):
     @property
     def unread(self) -> int:
         """Marker-like shapes in the last detect()'s frame that read as no marker of the
-        dictionary (see :class:`armtree.rig.Tracker`).
+        dictionary (see :class:`armtree.api.rig.Tracker`).
 
         Counted when first asked, from dark quadrilaterals of the frame thresholded at
         Otsu's level (OpenCV's detector drops a candidate inside a larger one, such as a
@@ -237,7 +237,7 @@ class ArucoTracker(Tracker):
     def detect(self, frame: Frame) -> list[Detection]:
         """Every marker of the dictionary in ``frame``; poses when size and intrinsics are known.
 
-        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        Sets :attr:`unread` (see :class:`armtree.api.rig.Tracker`).
         """
         image = frame.image
         colour = (

@@ -16,8 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from armtree.api.imaging import Intrinsics
 from armtree.errors import ConfigError
-from armtree.imaging import Intrinsics
 
 from .aruco import get_dictionary
 from .preprocess import to_gray

@@ -18,10 +18,10 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
+from armtree.api.imaging import Intrinsics, intrinsics_from_config
+from armtree.api.rig import Detection, Frame, RigContext
 from armtree.errors import ConfigError
-from armtree.imaging import Intrinsics, intrinsics_from_config
-from armtree.rig import Detection, Frame, RigContext
 
 from .annotate import annotate
 from .aruco import APRILTAG_FAMILIES, get_dictionary
@@ -35,7 +35,7 @@ def registry_of(args: argparse.Namespace) -> Any:
     """The plugin registry the CLI built (or the process's shared one)."""
     manager = getattr(args, "manager", None)
     if manager is None:
-        from armtree.plugin_manager import get_plugin_manager
+        from armtree.hooks.plugin_manager import get_plugin_manager
 
         manager = get_plugin_manager()
     return manager.registry
@@ -99,7 +99,7 @@ class DetectCommand:
         """Detect, print, draw; the exit code (0, or ConfigError for bad input)."""
         profile = None
         if args.rig:
-            from armtree.profile import load_profile
+            from armtree.loader.profile import load_profile
 
             profile = load_profile(args.rig)
         tracker = self._tracker(args, profile)
@@ -189,7 +189,7 @@ class DetectCommand:
             return float(args.fps)
         videos = [p for p in args.images if is_video(p)]
         if videos:
-            from armtree.imaging import video_fps
+            from armtree.api.imaging import video_fps
 
             fps = video_fps(videos[0])
             if fps:

@@ -17,9 +17,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.component_config import config_error
-from armtree.profile import profile_section, tag_spec
-from armtree.rig import Detection, Frame, TagSpec
+from armtree.api.rig import Detection, Frame, TagSpec
+from armtree.config.component_config import config_error
+from armtree.loader.profile import profile_section, tag_spec
 
 
 def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from armtree.rig import Frame, Tracker
+from armtree.api.rig import Frame, Tracker
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.component_config import check_config
-from armtree.params import Param
-from armtree.rig import Detection, Frame, RigContext, Tracker
+from armtree.api.rig import Detection, Frame, RigContext, Tracker
+from armtree.config.component_config import check_config
+from armtree.config.params import Param
 
 from .common import TagRoles, finish_detection, probe
 from .hamming_code import CODEWORDS, GRID
@@ -197,7 +197,7 @@ class HammingTracker(Tracker):
     def detect(self, frame: Frame) -> list[Detection]:
         """Every Hamming marker in ``frame``; poses when its size and intrinsics are known.
 
-        Sets :attr:`unread` (see :class:`armtree.rig.Tracker`).
+        Sets :attr:`unread` (see :class:`armtree.api.rig.Tracker`).
         """
         gray = to_gray(frame.image)
         quads = self.candidates(gray)

@@ -15,8 +15,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from armtree.api.imaging import Intrinsics, distortion_from, load_calibration
 from armtree.errors import ConfigError
-from armtree.imaging import Intrinsics, distortion_from, load_calibration
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".webm", ".mpg", ".mpeg", ".m4v", ".wmv")
 

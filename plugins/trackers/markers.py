@@ -17,7 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.rig import Frame
+from armtree.api.rig import Frame
 
 from . import hamming_code
 from .aruco import get_dictionary

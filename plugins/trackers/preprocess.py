@@ -20,8 +20,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.component_config import check_config, config_error
-from armtree.params import Param
+from armtree.config.component_config import check_config, config_error
+from armtree.config.params import Param
 
 from .kernels import clockwise_quads
 

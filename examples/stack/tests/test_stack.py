@@ -8,9 +8,9 @@ from pathlib import Path
 
 import armtree
 import pytest
-from armtree.cli import run_tree_main
-from armtree.plugin_checks import deep_problems
-from armtree.plugin_manager import get_plugin_manager
+from armtree.cli.commandline import run_tree_main
+from armtree.hooks.plugin_checks import deep_problems
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 ROOT = Path(__file__).resolve().parents[1]
 TREE = ROOT / "trees" / "stack.yaml"

@@ -6,7 +6,7 @@ import time
 
 import pytest
 import serial
-from armtree.clock import WallClock
+from armtree.api.clock import WallClock
 
 from armtree_uarm_swift_pro.plugin import emulator
 

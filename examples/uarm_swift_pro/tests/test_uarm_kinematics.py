@@ -71,7 +71,7 @@ def test_the_arms_angle_is_a_coupled_limit():
 def test_the_workspace_constraints_agree_with_the_inverse_kinematics():
     # armtree's workspace tool and planners test targets with the constraints; a point
     # the constraints accept must have an IK solution within the limits, and back.
-    from armtree.motion.workspace import ArmWorkspace
+    from armtree.maths.motion.workspace import ArmWorkspace
 
     workspace = ArmWorkspace(MODEL)
     assert workspace.kind == "model" and workspace.has_covering

@@ -9,12 +9,12 @@ from pathlib import Path
 import armtree
 import numpy as np
 import pytest
-from armtree.cli import run_tree_main
-from armtree.clock import VirtualClock, WallClock
+from armtree.api.clock import VirtualClock, WallClock
+from armtree.cli.commandline import run_tree_main
 from armtree.errors import HardwareFault
-from armtree.plugin_checks import deep_problems
-from armtree.plugin_manager import get_plugin_manager
-from armtree.rig_builder import build_rig
+from armtree.hooks.plugin_checks import deep_problems
+from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.runtime.rig_builder import build_rig
 
 from armtree_uarm_swift_pro.driver import SwiftProDriver
 from armtree_uarm_swift_pro.emulator import SwiftProEmulator

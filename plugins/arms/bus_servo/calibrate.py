@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from armtree.clock import WallClock
-from armtree.emulation import SHARED_KEY
+from armtree.api.clock import WallClock
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import MotionHandle, MotionStatus, RigContext
 from armtree.errors import HardwareFault
-from armtree.rig import MotionHandle, MotionStatus, RigContext
 
 from .calibration import MIDDLE, ServoCalibration
 from .driver import BusServoDriver

@@ -42,15 +42,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, PlanningError, Unreachable
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.trajectory import Trajectory
-from armtree.motion.urdf import UrdfModel
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.trajectory import Trajectory
+from armtree.maths.motion.urdf import UrdfModel
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.plugins.arms.common.streaming import TrajectoryStream, timed_path
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import dynamixel, feetech
 from .bus import Packet, PacketReader, decode_value, encode_value, ids_text

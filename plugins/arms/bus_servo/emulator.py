@@ -30,10 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.clock import Clock
-from armtree.motion.kinematics import KinematicModel
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
+from armtree.maths.motion.kinematics import KinematicModel
 from armtree.plugins.arms.common.pty_emulator import FAULTS, PtyEmulator
-from armtree.rig import ToolState
 
 from . import bus
 from .bus import BROADCAST, Packet, PacketReader, Protocol

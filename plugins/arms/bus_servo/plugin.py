@@ -14,14 +14,14 @@ from collections.abc import Mapping
 from typing import Any
 
 import armtree
-from armtree.clock import Clock
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.urdf import UrdfModel
-from armtree.params import Param
+from armtree.api.clock import Clock
+from armtree.api.rig import RigContext
+from armtree.config.params import Param
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.urdf import UrdfModel
 from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.plugins.arms.common.pty_emulator import FAULTS
-from armtree.rig import RigContext
 
 from .calibrate import calibrate_servos
 from .calibration import MIDDLE

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from armtree.config.resolve import resolve
 from armtree.errors import ConfigError, shown
-from armtree.motion.urdf import UrdfModel, load_urdf
-from armtree.resolve import resolve
+from armtree.maths.motion.urdf import UrdfModel, load_urdf
 
 from .bus import MAX_ID
 from .calibration import ServoCalibration, parse_calibration

@@ -52,8 +52,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from armtree.emulation import SHARED_KEY
-from armtree.rig import RigContext
+from armtree.api.emulation import SHARED_KEY
+from armtree.api.rig import RigContext
 
 from .barrier import StepBarrier
 from .checks import check_joint_target, check_position_target
@@ -67,7 +67,7 @@ def serve_in_run(emulator: PtyEmulator, context: RigContext) -> str:
     """Start ``emulator`` for a run and return its device path.
 
     Its ``step`` joins ``context.steppers``, its ``close`` ``context.closers``,
-    and it is published as ``context.shared[armtree.emulation.SHARED_KEY]``
+    and it is published as ``context.shared[armtree.api.emulation.SHARED_KEY]``
     for the simulated world.
     """
     path = emulator.start()

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree.errors import Unreachable
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 
 
 def check_joint_target(model: KinematicModel, q: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from armtree.motion.kinematics import KinematicModel
+from armtree.maths.motion.kinematics import KinematicModel
 
 #: How far outside its limits a reported joint may be before it is not believed
 #: (degrees, or mm for a prismatic joint): encoders and calibration drift a little.

@@ -44,9 +44,9 @@ from abc import abstractmethod
 
 import numpy as np
 
-from armtree.clock import Clock
-from armtree.emulation import FirmwareEmulator
-from armtree.motion.kinematics import KinematicModel
+from armtree.api.clock import Clock
+from armtree.api.emulation import FirmwareEmulator
+from armtree.maths.motion.kinematics import KinematicModel
 
 from .barrier import StepBarrier
 from .motion import JointState

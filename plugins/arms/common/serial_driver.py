@@ -9,7 +9,7 @@ byte is sent. A subclass writes the protocol:
 * :meth:`SerialArmDriver.on_time` takes the actions due at a time (polls,
   retries, streaming steps), also on the I/O thread;
 * :meth:`SerialArmDriver.handshake_done` says when :meth:`connect` may return;
-* the :class:`~armtree.rig.ArmDriver` methods (moves, suction, stop).
+* the :class:`~armtree.api.rig.ArmDriver` methods (moves, suction, stop).
 
 It calls :meth:`SerialArmDriver.write` to send, :meth:`SerialArmDriver.mark_alive`
 when a valid frame or reply arrives, and :meth:`SerialArmDriver.lose_link`
@@ -31,10 +31,10 @@ from collections.abc import Callable
 import numpy as np
 import serial
 
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ArmDriver, MotionHandle, MotionStatus
 from armtree.errors import HardwareFault, Unreachable
-from armtree.motion.kinematics import KinematicModel
-from armtree.rig import ArmDriver, MotionHandle, MotionStatus
+from armtree.maths.motion.kinematics import KinematicModel
 
 from .barrier import StepBarrier
 from .checks import check_joint_target, check_position_target

@@ -3,7 +3,7 @@
 An SSC-32 takes a target and a time and moves every listed servo there at a
 constant speed: no acceleration limit, no via-points; bus servos given a goal
 and a speed (or a time) do the same. To drive an arm along a
-cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.motion.trajectory`) the
+cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.maths.motion.trajectory`) the
 host sends, every ``period`` seconds, the trajectory's position ``lead``
 seconds ahead with that ramp time. Each ramp starts from where the servos are
 when it arrives, so a late send leaves no lag behind: the chords stay within
@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.start_contact import START_CONTACT_MM
-from armtree.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.start_contact import START_CONTACT_MM
+from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 
 #: The shortest ramp sent (s): the last set point of a trajectory sent late.
 MIN_RAMP_S = 0.02
@@ -93,7 +93,7 @@ def timed_path(
     Raises :class:`~armtree.errors.PlanningError` (reason ``outside_limits``,
     ``too_fast``, ``collision``, ...) saying where along it the path fails. A path from
     a start believed in a shallow contact is taken when its first move only leaves the
-    contact (:func:`~armtree.motion.start_contact.leaving_run`); the arm then comes to
+    contact (:func:`~armtree.maths.motion.start_contact.leaving_run`); the arm then comes to
     rest at the end of that move.
     """
     joints = checker.model.joints

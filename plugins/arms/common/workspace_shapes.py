@@ -1,7 +1,7 @@
 """The reachable workspaces of the arm families the built-in plugins drive, as constraints.
 
-Each function gives a :class:`~armtree.motion.workspace.WorkspaceShape` that
-:class:`~armtree.motion.workspace.ArmWorkspace` covers (seed 003) and tests
+Each function gives a :class:`~armtree.maths.motion.workspace.WorkspaceShape` that
+:class:`~armtree.maths.motion.workspace.ArmWorkspace` covers (seed 003) and tests
 points against: the Dobot family (seed 004's geometry: base, rear arm, forearm
 and a level tool at a horizontal offset; the Dobot V1.0 and the Magician) and
 SCARA arms (a vertical axis and two planar links; the VICRA). Units: mm and
@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from armtree.motion import interval as iv
-from armtree.motion.interval import Interval
-from armtree.motion.kinematics import KinematicModel
-from armtree.motion.workspace import (
+from armtree.maths.motion import interval as iv
+from armtree.maths.motion.interval import Interval
+from armtree.maths.motion.kinematics import KinematicModel
+from armtree.maths.motion.workspace import (
     ConstraintSystem,
     WorkspaceShape,
     limits_constraint,

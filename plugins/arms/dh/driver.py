@@ -28,14 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, PlanningError, Unreachable
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.motion.trajectory import Trajectory
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
+from armtree.maths.motion.trajectory import Trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
 from armtree.plugins.arms.common.streaming import TrajectoryStream, timed_path
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import ssc32 as S
 from .kinematics import DHModel

@@ -22,9 +22,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 from armtree.plugins.arms.common.pty_emulator import PtyEmulator
-from armtree.rig import ToolState
 
 from . import ssc32 as S
 from .kinematics import DHModel

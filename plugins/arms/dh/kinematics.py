@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from armtree.errors import ConfigError, Unreachable
-from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
+from armtree.maths.motion.kinematics import Joint, KinematicModel, LinkBox
 
 from .planar import PlanarWrist
 

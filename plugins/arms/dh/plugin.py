@@ -7,13 +7,13 @@ from typing import Any
 import numpy as np
 
 import armtree
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import RigContext
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.motion.collision import CollisionChecker
-from armtree.motion.scene import Scene
-from armtree.params import Param
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.scene import Scene
 from armtree.plugins.arms.common import driver_port, on_emulator
-from armtree.rig import RigContext
 
 from .driver import TRAJECTORY_KINDS, SSC32Driver
 from .emulator import SSC32Emulator

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 from armtree.plugins.arms.common.pty_emulator import PtyEmulator
-from armtree.rig import ToolState
 
 from . import protocol as P
 from .kinematics import MagicianModel

@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import RigContext
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.params import Param
 from armtree.plugins.arms.common import driver_port, on_emulator
-from armtree.rig import RigContext
 
 from .driver import MagicianDriver
 from .emulator import MagicianEmulator

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 from armtree.errors import Unreachable
-from armtree.rig import ToolState
 
 from ..common import PtyEmulator
 from ..common.motion import LineMove

@@ -24,8 +24,8 @@ import enum
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus
 from armtree.errors import HardwareFault
-from armtree.rig import MotionHandle, MotionStatus
 
 from ..common import SerialArmDriver
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
-from armtree.motion.workspace import WorkspaceShape
+from armtree.maths.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.maths.motion.workspace import WorkspaceShape
 
 from ..common.workspace_shapes import dobot_shape
 

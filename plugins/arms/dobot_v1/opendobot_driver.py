@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, Unreachable
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from ..common import JointMove, SerialArmDriver
 from ..common.plausibility import StatusGuard

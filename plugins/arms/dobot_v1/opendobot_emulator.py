@@ -20,8 +20,8 @@ import struct
 
 import numpy as np
 
-from armtree.clock import Clock
-from armtree.rig import ToolState
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 
 from ..common import PtyEmulator
 from . import opendobot as od

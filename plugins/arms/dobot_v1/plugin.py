@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 
 import armtree
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ArmDriver, RigContext
+from armtree.config.params import Param
 from armtree.errors import ConfigError
-from armtree.params import Param
-from armtree.rig import ArmDriver, RigContext
 
 from ..common import PtyEmulator, driver_port, on_emulator
 from .driver import DobotV1Driver

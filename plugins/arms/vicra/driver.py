@@ -23,11 +23,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common.framing import LineParser
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import gcode as G
 from .kinematics import VicraModel

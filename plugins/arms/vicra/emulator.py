@@ -29,10 +29,10 @@ import math
 
 import numpy as np
 
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 from armtree.plugins.arms.common.framing import LineParser
 from armtree.plugins.arms.common.pty_emulator import PtyEmulator
-from armtree.rig import ToolState
 
 from . import gcode as G
 from .kinematics import VicraModel

@@ -21,8 +21,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from armtree.motion.kinematics import Joint, KinematicModel, LinkBox
-from armtree.motion.workspace import WorkspaceShape
+from armtree.maths.motion.kinematics import Joint, KinematicModel, LinkBox
+from armtree.maths.motion.workspace import WorkspaceShape
 
 from ..common.workspace_shapes import scara_shape
 

@@ -26,9 +26,9 @@ import threading
 from collections.abc import Callable
 
 import numpy as np
+from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, Unreachable
 from armtree.plugins.arms.common import LineParser, SerialArmDriver
-from armtree.rig import MotionHandle, MotionStatus, ToolState
 
 from . import protocol as P
 from .kinematics import SwiftProModel

@@ -39,10 +39,10 @@ import collections
 import math
 
 import numpy as np
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import ToolState
 from armtree.errors import Unreachable
 from armtree.plugins.arms.common import LineMove, PtyEmulator
-from armtree.rig import ToolState
 
 from . import protocol as P
 from .kinematics import MODES, SwiftProModel

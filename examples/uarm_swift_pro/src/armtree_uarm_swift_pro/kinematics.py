@@ -23,10 +23,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import armtree.motion.interval as iv
+import armtree.maths.motion.interval as iv
 import numpy as np
-from armtree.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
-from armtree.motion.workspace import sector_constraint
+from armtree.maths.motion.kinematics import Constraint, Joint, KinematicModel, LinkBox
+from armtree.maths.motion.workspace import sector_constraint
 
 #: Lower and upper arm lengths, mm (ARM_A, ARM_B).
 LOWER_ARM, UPPER_ARM = 142.07, 158.81
@@ -97,12 +97,12 @@ class SwiftProModel(KinematicModel):
     def workspace_constraints(self, p: Any) -> list[Any]:
         """Reachability of tool points ``p`` ``(..., 3)`` mm as ``g_j(p) <= 0``.
 
-        The inverse kinematics in interval-friendly operations (:mod:`armtree.motion.interval`),
+        The inverse kinematics in interval-friendly operations (:mod:`armtree.maths.motion.interval`),
         so ``armtree workspace`` can cover the workspace with boxes (seed 003) and the
         planners test targets exactly: the wrist within the arms' reach, ``left``,
         ``right`` and the arms' angle within their limits (elbow-up: the other branch
         never fits them), and the base's half-turn (x >= 0). Works on points
-        (arrays) and on boxes (:class:`armtree.motion.interval.Interval`).
+        (arrays) and on boxes (:class:`armtree.maths.motion.interval.Interval`).
         """
         deg = 180.0 / np.pi
         radial = iv.hypot(p[..., 0], p[..., 1]) - self.front - SHOULDER_OUT

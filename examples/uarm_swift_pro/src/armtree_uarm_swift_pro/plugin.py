@@ -13,9 +13,9 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
-from armtree.clock import Clock
+from armtree.api.clock import Clock
+from armtree.api.rig import RigContext
 from armtree.plugins.arms.common import driver_port, on_emulator
-from armtree.rig import RigContext
 
 from .driver import SwiftProDriver
 from .emulator import SwiftProEmulator
