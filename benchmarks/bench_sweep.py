@@ -26,7 +26,7 @@ def _sweep(tree: str, rig: str, seeds: str, out: Path, extra: list[str]) -> floa
     command = [
         sys.executable,
         "-m",
-        "armtree.cli.commandline",
+        "armtree.cli",
         "sweep",
         tree,
         "--rig",

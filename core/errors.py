@@ -3,8 +3,28 @@
 from __future__ import annotations
 
 import reprlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
+
+
+def did_you_mean(
+    name: str, options: Iterable[str], *, cutoff: float = 0.6, list_up_to: int = 12
+) -> str:
+    """``"; did you mean 'x'?"`` for the closest option, else the choices when few.
+
+    The choices are listed when there are at most ``list_up_to`` of them, and nothing is
+    said otherwise (a long list helps nobody); ``cutoff`` is difflib's similarity ratio.
+    """
+    import difflib  # only an error message pays for it
+
+    options = sorted(set(options))  # a place and a body may share a name
+    close = difflib.get_close_matches(name, options, n=1, cutoff=cutoff)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    if len(options) <= list_up_to:
+        return f"; choose one of: {', '.join(options)}" if options else ""
+    return ""
 
 
 class ConfigError(ValueError):

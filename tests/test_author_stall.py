@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from plugin_author import run_tree, write
 
+from armtree.config.profile_sections import DEFAULT_STALL_S
 from armtree.runtime.run_start import DEFAULT_SIM_TIMEOUT_S
-from armtree.runtime.stall_watch import DEFAULT_STALL_S, MOTION_TOL, StallWatch
+from armtree.runtime.stall_watch import MOTION_TOL, StallWatch
 
 SKILLS = """
     import py_trees

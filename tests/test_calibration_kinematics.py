@@ -279,7 +279,7 @@ def test_bad_options_are_config_errors(argv, message):
 def test_cli_exit_codes(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("j0,j1,j2,x,y,z\n0,1,2,3,4\n")
-    cli = [sys.executable, "-m", "armtree.cli.commandline", "calibrate", "kinematics"]
+    cli = [sys.executable, "-m", "armtree.cli", "calibrate", "kinematics"]
     run = subprocess.run([*cli, "--points", str(bad)], capture_output=True, text=True, timeout=60)
     assert run.returncode == 2 and f"{bad}:2" in run.stderr
     run = subprocess.run(

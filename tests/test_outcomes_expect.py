@@ -336,7 +336,7 @@ def test_on_a_rig_without_ground_truth_names_come_from_tags_and_places(tmp_path)
 
 PLUGIN = '''
 import armtree
-from armtree.api.outcomes import Judgement, Predicate
+from armtree.api.outcomes.predicates import Judgement, Predicate
 
 
 class Upright(Predicate):

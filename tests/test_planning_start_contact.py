@@ -20,9 +20,14 @@ from armtree.errors import PlanningError
 from armtree.loader.profile import load_profile
 from armtree.maths.motion.collision import TOUCH_TOL, CollisionChecker, obb_overlap
 from armtree.maths.motion.geometry import BOX_CORNER_SIGNS, BOX_TRIANGLES, from_rpy_deg
-from armtree.maths.motion.penetration import box_box_depth, box_triangles_depth, penetrations
+from armtree.maths.motion.penetration import (
+    START_CONTACT_MM,
+    box_box_depth,
+    box_triangles_depth,
+    leaving_run,
+    penetrations,
+)
 from armtree.maths.motion.scene import Scene
-from armtree.maths.motion.start_contact import START_CONTACT_MM, leaving_run
 from armtree.maths.motion.tritri import intersect_pairs
 from armtree.maths.motion.validation import validate_samples
 from armtree.plugins.arms.dh.plugin import dh_factory

@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from armtree.config.profile_sections import PROFILE_KEYS
 from armtree.errors import ConfigError
-from armtree.loader.profile import PROFILE_KEYS, load_profile
+from armtree.loader.profile import load_profile
 from armtree.maths.motion.scene import Scene
 
 # A simulated Dobot whose world and tags agree; each test breaks one line of it.
@@ -68,7 +69,7 @@ def test_armtree_check_refuses_overlapping_world_objects_at_the_entry(tmp_path):
     rig = write(tmp_path, SIM.replace("at: [92, 160]", "at: [125, -140]"))
     tree = write(tmp_path, "rig: rig.yaml\nroot:\n  success: {}\n", "tree.yaml")
     done = subprocess.run(
-        [sys.executable, "-m", "armtree.cli.commandline", "check", str(tree)],
+        [sys.executable, "-m", "armtree.cli", "check", str(tree)],
         capture_output=True,
         text=True,
         timeout=120,

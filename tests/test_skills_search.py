@@ -11,7 +11,8 @@ from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: 
 
 import armtree
 from armtree.config.params import Binding
-from armtree.plugins.skills.search import CleanUp, Search, sweep_angles
+from armtree.plugins.skills.search import CleanUp, Search
+from armtree.plugins.skills.survey import sweep_angles
 
 
 def on_arc(deg, r=200.0, z=0.0):

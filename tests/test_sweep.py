@@ -372,7 +372,7 @@ def test_ctrl_c_halts_the_runs_and_writes_a_partial_report(work):
         [
             sys.executable,
             "-m",
-            "armtree.cli.commandline",
+            "armtree.cli",
             "sweep",
             "seeds.yaml",
             "--seeds",

@@ -226,18 +226,18 @@ def test_cli_exit_codes(frames_dir):
     folder, _ = frames_dir
     (folder / "text.png").write_text("hello")
     bad = subprocess.run(
-        [sys.executable, "-m", "armtree.cli.commandline", "detect", str(folder / "text.png")],
+        [sys.executable, "-m", "armtree.cli", "detect", str(folder / "text.png")],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert bad.returncode == 2 and "text.png" in bad.stderr and "Traceback" not in bad.stderr
     good = subprocess.run(
-        [sys.executable, "-m", "armtree.cli.commandline", "detect", "--tracker", "hamming", "--json", str(folder / "three.png")],
+        [sys.executable, "-m", "armtree.cli", "detect", "--tracker", "hamming", "--json", str(folder / "three.png")],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert good.returncode == 0, good.stderr
     assert len(json.loads(good.stdout)["detections"]) == 3
     later = subprocess.run(
-        [sys.executable, "-m", "armtree.cli.commandline", "calibrate", "kinematics"],
+        [sys.executable, "-m", "armtree.cli", "calibrate", "kinematics"],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert later.returncode == 2 and "--points FILE or --simulate N" in later.stderr

@@ -62,7 +62,7 @@ def test_cli_subprocess(tmp_path):
         [
             sys.executable,
             "-m",
-            "armtree.cli.commandline",
+            "armtree.cli",
             "workspace",
             "--rig",
             "sim_dobot",
@@ -78,7 +78,7 @@ def test_cli_subprocess(tmp_path):
     assert done.returncode == 0, done.stderr
     assert png.exists() and "dobot_v1 workspace" in done.stdout
     bad = subprocess.run(
-        [sys.executable, "-m", "armtree.cli.commandline", "workspace", "--rig", "no_such_rig"],
+        [sys.executable, "-m", "armtree.cli", "workspace", "--rig", "no_such_rig"],
         capture_output=True,
         text=True,
         timeout=120,

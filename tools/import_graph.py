@@ -39,14 +39,30 @@ def sources() -> dict[str, tuple[Path, bool]]:
     return found
 
 
-def graph() -> nx.DiGraph:
-    """Module -> module it imports, for every import statement of the package."""
+def _type_only(tree: ast.Module) -> set[int]:
+    """ids of the import statements under ``if TYPE_CHECKING:``."""
+    return {
+        id(n)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for n in ast.walk(node)
+    }
+
+
+def imports(type_only_allowed_in: str | None = None) -> list[tuple[str, str, int, str]]:
+    """(importer, imported module, line, statement) for every import of an armtree module
+    by the package (less the type-only ones of ``type_only_allowed_in``, when given)."""
     modules = sources()
-    g = nx.DiGraph()
-    g.add_nodes_from(modules)
+    found = []
     for module, (path, is_package) in modules.items():
         package = module if is_package else module.rsplit(".", 1)[0]
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        source = path.read_text()
+        lines = source.splitlines()
+        tree = ast.parse(source, str(path))
+        skip = _type_only(tree) if module == type_only_allowed_in else set()
+        for node in ast.walk(tree):
+            if id(node) in skip:
+                continue
             if isinstance(node, ast.Import):
                 targets = [alias.name for alias in node.names]
             elif isinstance(node, ast.ImportFrom):
@@ -67,7 +83,15 @@ def graph() -> nx.DiGraph:
                 while target and target not in modules:
                     target = target.rpartition(".")[0]
                 if target and target != module:
-                    g.add_edge(module, target)
+                    found.append((module, target, node.lineno, lines[node.lineno - 1].strip()))
+    return found
+
+
+def graph(type_only_allowed_in: str | None = None) -> nx.DiGraph:
+    """Module -> module it imports, for every import statement of the package."""
+    g = nx.DiGraph()
+    g.add_nodes_from(sources())
+    g.add_edges_from((a, b) for a, b, _, _ in imports(type_only_allowed_in))
     return g
 
 
@@ -85,10 +109,9 @@ def any_count(top: str) -> int:
     )
 
 
-def measure() -> dict:
+def measure(type_only_allowed_in: str | None = None) -> dict:
     modules = sources()
-    g = graph()
-    # The package's own __init__ re-exports are a view of the package, not a layer.
+    g = graph(type_only_allowed_in)
     cycles = [sorted(c) for c in nx.strongly_connected_components(g) if len(c) > 1]
     cycles.sort(key=len, reverse=True)
     dag = nx.condensation(g)
@@ -112,8 +135,13 @@ def measure() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true")
+    parser.add_argument(
+        "--allow-type-only-in",
+        metavar="MODULE",
+        help="leave out this module's TYPE_CHECKING imports (armtree.hooks.hookspecs)",
+    )
     args = parser.parse_args()
-    m = measure()
+    m = measure(args.allow_type_only_in)
     if args.json:
         print(json.dumps(m, indent=1))
         return

@@ -180,14 +180,32 @@ KEEP_AT_TOP = {"__init__.py", "__init__.pyi", "py.typed", "errors.py", "__pycach
 #: Names moved between modules by later commits: (module, name) -> the module that
 #: defines it now. Applied to an import of the name from the old module once the old
 #: module no longer binds it and the new one defines it.
-SYMBOLS: dict[tuple[str, str], str] = {}
+SYMBOLS: dict[tuple[str, str], str] = {
+    ("armtree.hooks.plugin_manager", "did_you_mean"): "armtree.errors",
+    ("armtree.loader.profile", "profile_section"): "armtree.config.profile_access",
+    ("armtree.loader.profile", "profile_source"): "armtree.config.profile_access",
+    ("armtree.loader.profile", "profile_error"): "armtree.config.profile_access",
+    ("armtree.loader.node_builder", "node_kind"): "armtree.api.factories",
+    ("armtree.loader.node_builder", "construct"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "LEAF"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "COMPOSITE"): "armtree.api.factories",
+    ("armtree.hooks.builtin_behaviours", "DECORATOR"): "armtree.api.factories",
+    ("armtree.loader.profile", "PROFILE_KEYS"): "armtree.config.profile_sections",
+    ("armtree.loader.profile", "COMPONENT_SECTIONS"): "armtree.config.profile_sections",
+    ("armtree.runtime.watchdog", "DEFAULT_TICK_S"): "armtree.config.profile_sections",
+    ("armtree.runtime.watchdog", "MAX_TICK_S"): "armtree.config.profile_sections",
+    ("armtree.maths.motion.start_contact", "leaving_run"): "armtree.maths.motion.penetration",
+    ("armtree.api.outcomes.expect", "Expectation"): "armtree.api.outcomes.predicates",
+    ("armtree.loader.node_builder", "node_name"): "armtree.loader.node_names",
+    ("armtree.maths.motion.start_contact", "START_CONTACT_MM"): "armtree.maths.motion.penetration",
+}
 
 #: The last part of a dotted name that makes it a file name, not a module's attribute
 #: (``armtree.schema.json`` is the shipped schema file).
 FILE_SUFFIXES = {"json", "yaml", "yml", "md", "txt", "toml", "png", "html", "py", "csv", "stl"}
 
-#: The files this script must not rewrite: itself (its tables name the old modules).
-SELF = "tools/relayout.py"
+#: The files this script must not rewrite: itself and its test (they name old modules).
+SELF = {"tools/relayout.py", "tests/test_relayout.py"}
 
 DOTTED = re.compile(r"(?<![\w.])armtree((?:\.[A-Za-z_]\w*)+)")
 PATH = re.compile(r"(?<![\w./-])(core|armtree)/(\w+(?:\.\w+)*(?:/\w+(?:\.\w+)*)*/?)")
@@ -204,6 +222,8 @@ class Plan:
     moves: list[tuple[str, str]] = field(default_factory=list)
     #: old path -> new path of every tracked file under a moved path.
     file_moves: dict[str, str] = field(default_factory=dict)
+    #: What each core module binds, by its new name (see :func:`index_names`).
+    index: dict[str, Names] = field(default_factory=dict)
 
 
 def run(*args: str, root: Path, check: bool = True) -> str:
@@ -327,13 +347,48 @@ SPECIAL = [
     # the new-plugin templates moved with the scaffold into the cli package
     (re.compile(r'files\("armtree"\)(\s*/\s*"templates")'), r'files("armtree.cli")\1'),
 ]
+#: Applied once the cli package runs as a module (``python -m armtree.cli``, its
+#: __main__.py): the old ``-m armtree.cli`` first became ``-m armtree.cli.commandline``.
+MAIN_SPECIAL = [
+    (re.compile(r'(-m",\s*")armtree\.cli\.commandline(")'), r"\1armtree.cli\2"),
+    (re.compile(r"(-m )armtree\.cli\.commandline\b"), r"\1armtree.cli"),
+]
+
+
+#: A one-line ``from armtree... import a, b`` in text that is not parsed as Python:
+#: templates, docs, and strings in code (a test writing a plugin file).
+FROM_LINE = re.compile(
+    r"(?<![\w.])from (armtree(?:\.[A-Za-z_]\w*)+) import ([A-Za-z_]\w*(?:, [A-Za-z_]\w*)*)"
+)
+
+
+def rewrite_from_lines(text: str, p: Plan) -> str:
+    """Point such imports at the module that defines each name (as for parsed ones)."""
+
+    def one(m: re.Match) -> str:
+        groups: dict[str, list[str]] = {}
+        for name in m.group(2).split(", "):
+            module, real = origin(m.group(1), name, p.index)
+            groups.setdefault(module, []).append(name if real == name else f"{real} as {name}")
+        if list(groups) == [m.group(1)]:
+            return m.group(0)
+        line_start = text.rfind("\n", 0, m.start()) + 1
+        indent = text[line_start : m.start()]
+        joiner = "\n" + indent if indent.strip() == "" else "; "
+        return joiner.join(f"from {mod} import {', '.join(names)}" for mod, names in groups.items())
+
+    return FROM_LINE.sub(one, text)
 
 
 def rewrite_text(text: str, p: Plan) -> str:
     text = rewrite_dotted(text, p)
+    text = rewrite_from_lines(text, p)
     text = rewrite_paths(text, p)
     for pattern, repl in SPECIAL:
         text = pattern.sub(repl, text)
+    if (p.root / "core" / "cli" / "__main__.py").is_file():
+        for pattern, repl in MAIN_SPECIAL:
+            text = pattern.sub(repl, text)
     return text
 
 
@@ -609,12 +664,13 @@ def main(argv: list[str] | None = None) -> int:
 
     sources: dict[str, str] = {}
     for path in run("git", "ls-files", root=root).splitlines():
-        if path == SELF or not (root / path).is_file():
+        if path in SELF or not (root / path).is_file():
             continue
         source = text_of(root / path)
         if source is not None:
             sources[path] = source
     index = index_names({k: v for k, v in sources.items() if k.endswith(".py")}, p)
+    p.index = index
     rewritten: dict[str, str] = {}
     for path, source in sources.items():
         dest = p.file_moves.get(path, path)

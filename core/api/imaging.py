@@ -27,8 +27,8 @@ import yaml
 
 from armtree.config.component_config import config_error
 from armtree.config.params import Param
+from armtree.config.profile_access import profile_source
 from armtree.errors import ConfigError
-from armtree.loader.profile import profile_source
 
 #: The keys every camera type accepts for its intrinsics and mounting.
 INTRINSICS_PARAMS: tuple[Param, ...] = (

@@ -28,6 +28,7 @@ from armtree.loader.schema import build_schema
 from armtree.loader.tree import Tree
 from armtree.loader.tree_loader import load_tree
 
+from .commandline import add_tree_arguments
 from .hook_reference import HooksCommand
 from .scaffold import NewPluginCommand
 
@@ -37,19 +38,6 @@ def _manager(args: argparse.Namespace) -> PluginManager:
     if manager is not None:
         return manager
     return get_plugin_manager(getattr(args, "plugin", None) or ())
-
-
-def _tree_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("tree", metavar="TREE", help="tree file or name of a shipped tree")
-    parser.add_argument("--rig", metavar="PROFILE", help="hardware profile (default: the tree's)")
-    parser.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a profile value (arm.port=/dev/ttyUSB0) or set a blackboard value",
-    )
 
 
 def _load(args: argparse.Namespace) -> Tree:
@@ -65,7 +53,7 @@ class Check:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add TREE, --rig and --set."""
-        _tree_arguments(parser)
+        add_tree_arguments(parser)
 
     def run(self, args: argparse.Namespace) -> int:
         """Load and validate; print a one-line summary. Raises ConfigError when invalid."""
@@ -130,7 +118,7 @@ class Show:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add TREE, --rig, --set, --format and -o."""
-        _tree_arguments(parser)
+        add_tree_arguments(parser)
         parser.add_argument("--format", choices=("ascii", "dot", "png"), default="ascii")
         parser.add_argument(
             "-o",

@@ -90,6 +90,15 @@ def seed_value(text: str) -> int:
     return seed
 
 
+def add_tree_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``TREE``, ``--rig PROFILE`` and ``--set KEY=VALUE`` as ``armtree check`` takes them."""
+    parser.add_argument("tree", metavar="TREE", help="tree file or name of a shipped tree")
+    parser.add_argument("--rig", metavar="PROFILE", help="hardware profile (default: the tree's)")
+    add_set_option(
+        parser, "override a profile value (arm.port=/dev/ttyUSB0) or set a blackboard value"
+    )
+
+
 def blocked_names(values: Sequence[str] | None) -> list[str]:
     """The plugin names of ``-p no:NAME`` options; anything else is a usage error."""
     names = []
@@ -377,9 +386,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.manager = manager
     debug = bool(getattr(args, "debug", False))
     return guarded(lambda: int(commands[args.command].run(args) or 0), debug)
-
-
-if __name__ == "__main__":
-    from .console import armtree
-
-    sys.exit(armtree())

@@ -18,9 +18,9 @@ import sys
 from pathlib import Path
 
 from armtree.config.params import REQUIRED, Param
+from armtree.config.profile_sections import COMPONENT_SECTIONS
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Registry, get_plugin_manager
-from armtree.loader.profile import COMPONENT_SECTIONS
 
 from .docgen import replace_generated
 

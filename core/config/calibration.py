@@ -30,10 +30,10 @@ from typing import Any
 
 import yaml
 
-from armtree.errors import ConfigError
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, did_you_mean
 from armtree.maths.perception.frames import LinearCorrection
 
+from .profile_access import profile_section
 from .yamlio import MarkedDict, error_at
 
 #: The keys of ``calibration:``.
@@ -120,8 +120,6 @@ def _correction(value: Any) -> LinearCorrection | None:
 
 def calibration_of(profile: Any) -> Calibration:
     """The :class:`Calibration` of a profile (a :class:`~armtree.loader.profile.Profile` or mapping)."""
-    from armtree.loader.profile import profile_section
-
     section = profile_section(profile, "calibration") or {}
     if not isinstance(section, Mapping):
         return Calibration()

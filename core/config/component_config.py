@@ -7,13 +7,12 @@ did-you-mean for an unknown key.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from armtree.errors import ConfigError
-from armtree.loader.profile import profile_error
+from armtree.config.profile_access import profile_error
+from armtree.errors import ConfigError, did_you_mean
 
 from .params import Param, check_value
 
@@ -47,8 +46,7 @@ def check_config(
         if key == "type":
             continue
         if key not in known:
-            close = difflib.get_close_matches(str(key), list(known), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(known)}"
+            hint = did_you_mean(str(key), known, list_up_to=len(known))
             raise config_error(where, f"{section}", f"unknown key {key!r}{hint}")
         if value is None and known[key].default is None:
             values[key] = None

@@ -12,11 +12,41 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from armtree.errors import ConfigError
-    from armtree.loader.profile import Profile
+from armtree.errors import ConfigError
+
+#: Profile section -> component kind in the plugin registry.
+COMPONENT_SECTIONS: dict[str, str] = {
+    "arm": "arm",
+    "camera": "camera",
+    "tracker": "tracker",
+    "planner": "planner",
+}
+#: Every top-level key armtree itself knows (plugins register more through
+#: ``armtree_profile_sections``).
+PROFILE_KEYS = (
+    "profile",
+    "description",
+    *COMPONENT_SECTIONS,
+    "tags",
+    "places",
+    "table",
+    "obstacles",
+    "workcell",
+    "plugins",
+    "watchdog",
+    "include",
+    "calibration",
+)
+#: Default limit of one tick, wall seconds (profiles set ``watchdog: {tick_s: ...}``).
+DEFAULT_TICK_S = 120.0
+#: Largest limit a profile may set, wall seconds.
+MAX_TICK_S = 3600.0
+#: Seconds of run time without progress that make a stall, unless the profile says.
+DEFAULT_STALL_S = 60.0
+#: Largest ``stall_s`` a profile may give, s (a day).
+MAX_STALL_S = 86_400.0
 
 #: JSON Schema type -> the Python types a loaded YAML value of that type has.
 _JSON_TYPES: dict[str, tuple[type, ...]] = {
@@ -52,7 +82,8 @@ class ProfileSection:
     """
 
     schema: dict[str, Any] = field(default_factory=dict)
-    check: Callable[[Profile], list[ConfigError]] | None = None
+    #: Called with the loaded :class:`~armtree.loader.profile.Profile`.
+    check: Callable[[Any], list[ConfigError]] | None = None
 
     @property
     def summary(self) -> str:

@@ -34,9 +34,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from armtree.errors import ConfigError
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, did_you_mean
 
+from .profile_access import profile_section
 from .yamlio import MarkedDict, MarkedList, error_at
 
 #: The survey shapes and what each takes.
@@ -551,8 +551,6 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
 
 def workcell_of(profile: Any) -> Workcell:
     """The :class:`Workcell` of a profile (a :class:`~armtree.loader.profile.Profile` or a plain mapping)."""
-    from armtree.loader.profile import profile_section
-
     table = profile_section(profile, "table")
     table_z = table.get("z") if isinstance(table, Mapping) else table
     return parse_workcell(

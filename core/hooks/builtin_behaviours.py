@@ -32,11 +32,10 @@ from py_trees import common
 from py_trees import decorators as pd
 
 from armtree.api.behaviour import Behaviour
+from armtree.api.factories import COMPOSITE, DECORATOR, LEAF
 from armtree.config.params import Param
 
 from .hookspecs import hookimpl
-
-LEAF, COMPOSITE, DECORATOR = "leaf", "composite", "decorator"
 
 #: Comparison operators a tree may name.
 OPERATORS: dict[str, Callable[[Any, Any], bool]] = {

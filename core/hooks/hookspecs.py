@@ -28,8 +28,8 @@ if TYPE_CHECKING:
 
     from armtree.api.outcomes.truth import WorldTruth
     from armtree.api.rig import Rig, RigContext
+    from armtree.api.sweep import Sweep
     from armtree.api.worldview import SceneObject
-    from armtree.cli.sweep.hooks import Sweep
     from armtree.config.profile_sections import ProfileSection
     from armtree.errors import ConfigError
     from armtree.loader.profile import Profile
@@ -116,12 +116,12 @@ def armtree_predicates() -> dict[str, Any]:
 
     :return: ``{key: predicate}``; ``key`` is what an entry writes to use it
         (``{object: ducky, upright: true}`` uses ``upright``) and ``predicate``
-        an :class:`armtree.api.outcomes.Predicate` (or a subclass, instantiated once).
+        an :class:`armtree.api.outcomes.predicates.Predicate` (or a subclass, instantiated once).
         Its ``SUBJECT`` says whether entries name ``object:``/``objects:``,
         ``VALUE`` and ``OPTIONS`` give the JSON Schema of the key's value and of
         further keys, ``check(entry, world)`` returns load-time problems against
         the nominal world and ``judge(entry, obj, world)`` a
-        :class:`armtree.api.outcomes.Judgement` on the ground truth at the end of a
+        :class:`armtree.api.outcomes.predicates.Judgement` on the ground truth at the end of a
         run (once per object, or once with ``obj=None``). Plugin data for it
         travels in ``WorldTruth.extra``. The built-in keys (``on``, ``in``,
         ``at``, ``held``, ``collisions``, ``missed_steps``, ``parked``,
@@ -243,7 +243,7 @@ def armtree_world_inventory(profile: Profile) -> WorldTruth | None:
     """The nominal world of a profile, for checking the names in a tree's ``expect:``.
 
     :param profile: the validated profile the tree will run on.
-    :return: a :class:`armtree.api.outcomes.WorldTruth` with the world's bodies,
+    :return: a :class:`armtree.api.outcomes.truth.WorldTruth` with the world's bodies,
         tag roles and places as the profile describes them (seed 0), or None
         when this plugin does not model the profile's world. The first answer
         that is not None is used; with none, the names of the profile's tag
@@ -345,7 +345,7 @@ def armtree_ground_truth(run: Run) -> WorldTruth | None:
     """The world as it really is at the end of the run, to judge the tree's ``expect:``.
 
     :param run: the run, halted, before ``armtree_run_finished``.
-    :return: a :class:`armtree.api.outcomes.WorldTruth`, or None when this plugin
+    :return: a :class:`armtree.api.outcomes.truth.WorldTruth`, or None when this plugin
         does not know the run's world (real hardware: expectations are then
         reported as not checked). The first answer that is not None is used.
 

@@ -33,8 +33,12 @@ from packaging.requirements import InvalidRequirement, Requirement
 from packaging.specifiers import InvalidSpecifier, SpecifierSet
 from packaging.version import InvalidVersion, Version
 
+from armtree.api.factories import COMPOSITE, DECORATOR, LEAF, construct, node_kind
+from armtree.config.constructor_params import declared_params, name_argument, takes_signature_params
 from armtree.config.params import Param
+from armtree.config.profile_sections import PROFILE_KEYS, ProfileSection
 from armtree.errors import ConfigError
+from armtree.maths.motion.kinematics import KinematicModel
 
 #: The module attribute in which a plugin names the armtree versions it supports.
 REQUIRES_ATTRIBUTE = "ARMTREE_REQUIRES"
@@ -329,15 +333,6 @@ LIFECYCLE: tuple[tuple[str, tuple[Any, ...], dict[str, Any], str], ...] = (
 
 
 def _check_behaviour(factory: Any, report: _Reporter, params_ok: bool) -> None:
-    from armtree.config.constructor_params import (
-        declared_params,
-        name_argument,
-        takes_signature_params,
-    )
-    from armtree.loader.node_builder import node_kind
-
-    from .builtin_behaviours import COMPOSITE, DECORATOR
-
     if not isinstance(factory, type):
         return  # an adapter (NodeType) or a function: only what it builds can tell
     if not issubclass(factory, py_trees.behaviour.Behaviour):
@@ -460,9 +455,6 @@ def _check_predicate(predicate: Any, report: _Reporter) -> None:
 
 
 def _check_profile_section(name: str, section: Any, report: _Reporter) -> None:
-    from armtree.config.profile_sections import ProfileSection
-    from armtree.loader.profile import PROFILE_KEYS
-
     if name in PROFILE_KEYS:
         report.add(section, "name", f"armtree's own section {name!r}", "a name of the plugin's own")
     if not isinstance(section, ProfileSection):
@@ -502,9 +494,6 @@ def _defaults(component: Any) -> dict[str, Any]:
 
 
 def _check_construction(component: Any, report: _Reporter) -> None:
-    from armtree.loader.node_builder import construct, node_kind
-
-    from .builtin_behaviours import LEAF
 
     factory = component.factory
     if node_kind(factory) != LEAF or any(p.required for p in component.params):
@@ -528,8 +517,6 @@ def _check_construction(component: Any, report: _Reporter) -> None:
 
 
 def _check_model(component: Any, report: _Reporter, notes: list[str]) -> None:
-    from armtree.maths.motion.kinematics import KinematicModel
-
     make = component.factory.model
     config = {"type": component.name, **_defaults(component)}
     try:

@@ -20,7 +20,7 @@ from typing import Any
 import pluggy
 
 from armtree.config.constructor_params import declared_params
-from armtree.errors import ConfigError, Mark
+from armtree.errors import ConfigError, Mark, did_you_mean
 
 from . import hookspecs
 from .hook_calls import attributing, plugin_of, type_name
@@ -425,19 +425,6 @@ class Registry:
                 line=where.line if where else None,
                 column=where.column if where else None,
             ) from None
-
-
-def did_you_mean(name: str, options: Iterable[str]) -> str:
-    """``"; did you mean 'x'?"`` for the closest option, or a list of the choices."""
-    import difflib
-
-    options = sorted(set(options))  # a place and a body may share a name
-    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
-    if close:
-        return f"; did you mean {close[0]!r}?"
-    if len(options) <= 12:
-        return f"; choose one of: {', '.join(options)}" if options else ""
-    return ""
 
 
 #: Managers shared by the process, keyed by (plugins, blocked, autoload). This cache is

@@ -5,8 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from armtree.config.yamlio import error_at
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 
 from .profile import Override
 

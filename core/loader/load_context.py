@@ -10,8 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from armtree.config.yamlio import MarkedDict, error_at, load_yaml_file
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 
 
 @dataclass

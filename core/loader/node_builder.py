@@ -13,23 +13,20 @@ import traceback as tb_module
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import py_trees
 
-from armtree.config.constructor_params import name_argument, takes_signature_params
+from armtree.api.factories import COMPOSITE, DECORATOR, LEAF, construct, node_kind
 from armtree.config.yamlio import MarkedDict, MarkedList
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.builtin_behaviours import COMPOSITE, DECORATOR, LEAF
-from armtree.hooks.plugin_manager import Registry, did_you_mean
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
+from armtree.hooks.plugin_manager import Registry
 
 from .load_context import LoadContext, LoadErrors
+from .node_names import node_name
 from .node_params import NodeParams, PendingNode
+from .subtree_include import SubtreeIncludes
 from .tree import NodeInfo
-from .tree_params import has_missing, substitute
-
-if TYPE_CHECKING:
-    from .subtree_include import SubtreeIncludes
 
 #: Most nodes one tree may build, its subtrees included (ten subtrees of ten subtrees
 #: of ... would otherwise multiply without bound).
@@ -41,32 +38,6 @@ _TAKES = {
     DECORATOR: "a mapping with child and its options",
     LEAF: "a mapping of its parameters",
 }
-
-
-def node_kind(factory: Any) -> str:
-    """``"leaf"``, ``"composite"`` or ``"decorator"`` for a registered behaviour factory."""
-    kind = getattr(factory, "KIND", None)
-    if kind in (LEAF, COMPOSITE, DECORATOR):
-        return kind
-    if isinstance(factory, type):
-        if issubclass(factory, py_trees.decorators.Decorator):
-            return DECORATOR
-        if issubclass(factory, py_trees.composites.Composite):
-            return COMPOSITE
-    return LEAF
-
-
-def construct(factory: Any, name: str, params: dict[str, Any]) -> py_trees.behaviour.Behaviour:
-    """Build one node: ``factory(name, **params)``; a plain py_trees behaviour gets its name
-    the way its constructor takes it (``name=``, first argument, or set afterwards)."""
-    how = name_argument(factory) if takes_signature_params(factory) else "positional"
-    if how == "keyword":
-        return factory(name=name, **params)
-    if how == "positional":
-        return factory(name, **params)
-    behaviour = factory(**params)
-    behaviour.name = name
-    return behaviour
 
 
 def constructor_failure(component: Any, exc: BaseException) -> str:
@@ -112,35 +83,11 @@ def _source_file(factory: Any) -> str | None:
 _NOT_PLUGINS = tuple(
     str(folder) + os.sep
     for folder in (
-        Path(__file__).resolve().parent,
+        Path(__file__).resolve().parents[1],  # the armtree package
         Path(py_trees.__file__).resolve().parent,
         sysconfig.get_paths()["stdlib"],
     )
 )
-
-
-def node_name(options: MarkedDict, ntype: str, ctx: LoadContext, errors: LoadErrors) -> str:
-    """The node's ``name`` option (popped from ``options``), checked; ``ntype`` without one."""
-    if "name" not in options:
-        return ntype
-    raw = options.pop("name")
-    value = substitute(raw, ctx.params)
-    if has_missing(value):
-        return ntype
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = str(value)
-    if not isinstance(value, str) or not value:
-        errors.error(
-            f"name: expected a non-empty string, got {shown(raw)}", options.value_mark("name"), ctx
-        )
-        return ntype
-    if "/" in value:
-        errors.error(
-            f"name: {shown(value)} may not contain '/' (it separates paths)",
-            options.value_mark("name"),
-            ctx,
-        )
-    return value
 
 
 @dataclass(kw_only=True)

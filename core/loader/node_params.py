@@ -14,8 +14,7 @@ from armtree.api.behaviour import Behaviour
 from armtree.config.constructor_params import declared_params
 from armtree.config.params import Binding, Param, check_value
 from armtree.config.yamlio import MarkedDict, plain
-from armtree.errors import Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import Mark, did_you_mean, shown
 
 from .blackboard_use import BlackboardUse
 from .load_context import LoadContext, LoadErrors

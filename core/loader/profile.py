@@ -43,40 +43,25 @@ from typing import Any
 from armtree.api.rig import TagSpec
 from armtree.config.calibration import check_calibration
 from armtree.config.params import check_value
+from armtree.config.profile_access import component_config
 from armtree.config.profile_include import apply_includes
+from armtree.config.profile_sections import (
+    COMPONENT_SECTIONS,
+    DEFAULT_STALL_S,
+    DEFAULT_TICK_S,
+    MAX_STALL_S,
+    MAX_TICK_S,
+    PROFILE_KEYS,
+)
 from armtree.config.resolve import available, resolve
 from armtree.config.workcell import check_workcell
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
-from armtree.errors import ConfigError, Mark, shown
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.hook_calls import call_isolated, plugin_of
 from armtree.hooks.plugin_checks import rig_problems
-from armtree.hooks.plugin_manager import PluginManager, did_you_mean, get_plugin_manager
+from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 from armtree.maths.motion.scene import Scene
-from armtree.runtime.stall_watch import DEFAULT_STALL_S, MAX_STALL_S
-from armtree.runtime.watchdog import DEFAULT_TICK_S, MAX_TICK_S
 
-#: Profile section -> component kind in the plugin registry.
-COMPONENT_SECTIONS: dict[str, str] = {
-    "arm": "arm",
-    "camera": "camera",
-    "tracker": "tracker",
-    "planner": "planner",
-}
-#: Every top-level key armtree itself knows (plugins register more: :func:`section_names`).
-PROFILE_KEYS = (
-    "profile",
-    "description",
-    *COMPONENT_SECTIONS,
-    "tags",
-    "places",
-    "table",
-    "obstacles",
-    "workcell",
-    "plugins",
-    "watchdog",
-    "include",
-    "calibration",
-)
 #: Sections a profile must have.
 REQUIRED_SECTIONS = ("arm",)
 #: Keys that name the profile rather than configure it (``--set`` cannot address them).
@@ -307,40 +292,6 @@ class Profile:
         marked = _remark(data, self.marks, "")
         marked._included = True  # the includes are in already; --set include= adds more
         return _finish(marked, self.source, list(overrides), manager or self.manager, None)
-
-
-def profile_section(profile: Any, key: str, default: Any = None) -> Any:
-    """Top-level section ``key`` of a :class:`Profile` or of a plain profile mapping.
-
-    Components receive the Profile; tests and embedding code may pass a mapping
-    (or an object with the section as an attribute). ``default`` when absent.
-    """
-    if profile is None:
-        return default
-    data = getattr(profile, "data", profile)
-    if isinstance(data, Mapping):
-        return data.get(key, default)
-    return getattr(profile, key, default)
-
-
-def profile_source(profile: Any) -> str | None:
-    """The file a :class:`Profile` was loaded from, as a string; ``None`` when unknown.
-
-    Plain profile mappings (tests, embedding code) have no file.
-    """
-    source = getattr(profile, "source", None)
-    return str(source) if source else None
-
-
-def profile_error(profile: Any, path: str, message: str) -> ConfigError:
-    """A :class:`ConfigError` ``"PATH: MESSAGE"`` about the value at dotted ``path``.
-
-    A :class:`Profile` places it at the value's file, line and column
-    (:meth:`Profile.error`); a plain mapping gives one naming no file.
-    """
-    if isinstance(profile, Profile):
-        return profile.error(path, message)
-    return ConfigError(f"{path}: {message}", file=profile_source(profile))
 
 
 def load_profile(
@@ -1091,3 +1042,19 @@ def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
         items.item_marks = [marks.get(f"{prefix}.{i}") for i in range(len(data))]
         return items
     return data
+
+
+def arm_grips(registry: Any, profile: Any) -> str | bool | None:
+    """What the profile's arm holds things with (its factory's ``grips_with(config)``):
+    ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
+    config = component_config(profile, "arm")
+    name = config.get("type") if isinstance(config, Mapping) else None
+    if not isinstance(name, str) or not registry.has("arm", name):
+        return True
+    grips = getattr(registry.get("arm", name).factory, "grips_with", None)
+    if not callable(grips):
+        return True
+    try:
+        return grips(dict(config))
+    except (ConfigError, ValueError, TypeError, KeyError):
+        return True  # the profile's own checks report why

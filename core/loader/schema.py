@@ -12,18 +12,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from armtree.api.factories import COMPOSITE, DECORATOR, node_kind
 from armtree.api.outcomes.predicates import BUILTIN_PREDICATES, Predicate
 from armtree.config.calibration import calibration_schema
 from armtree.config.constructor_params import declared_params
 from armtree.config.params import Param
+from armtree.config.profile_sections import COMPONENT_SECTIONS, MAX_STALL_S, MAX_TICK_S
 from armtree.config.workcell import workcell_schema
-from armtree.hooks.builtin_behaviours import COMPOSITE, DECORATOR
 from armtree.hooks.plugin_manager import Registry
-from armtree.runtime.stall_watch import MAX_STALL_S
-from armtree.runtime.watchdog import MAX_TICK_S
 
-from .node_builder import node_kind
-from .profile import COMPONENT_SECTIONS, OBSTACLE_SHAPES
+from .profile import OBSTACLE_SHAPES
 from .subtree_include import SUBTREE_KEYS
 
 DRAFT = "http://json-schema.org/draft-07/schema#"

@@ -14,11 +14,10 @@ from typing import Any
 
 from armtree.config.resolve import available, resolve
 from armtree.config.yamlio import MarkedDict
-from armtree.errors import Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import Mark, did_you_mean, shown
 
 from .load_context import LoadContext, LoadErrors, TreeFiles
-from .node_builder import node_name
+from .node_names import node_name
 from .tree_keys import TreeKeys
 from .tree_params import TreeParams, placeholders, substitute
 

@@ -33,7 +33,7 @@ class Tree:
     its :class:`NodeInfo`; ``profile`` is the validated hardware profile
     (``None`` when the tree needs no rig); ``blackboard`` holds the initial
     values (the file's plus ``--set`` overrides); ``tick_hz`` is the tick rate;
-    ``expect`` the outcomes the file declares (:class:`armtree.api.outcomes.Expectation`),
+    ``expect`` the outcomes the file declares (:class:`armtree.api.outcomes.predicates.Expectation`),
     judged on the world at the end of every run; ``task`` the instruction the file
     gives (``task:``), what a dataset episode of the run is labelled with ("" for none).
     """

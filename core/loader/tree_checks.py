@@ -30,9 +30,9 @@ import numpy as np
 
 from armtree.config.workcell import workcell_of
 from armtree.config.yamlio import error_at
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
-from armtree.runtime.rig_builder import arm_grips
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
+
+from .profile import arm_grips
 
 #: A string that is written like a ``{key}`` binding, whatever is between the braces.
 LOOKS_BOUND = re.compile(r"^\s*\{.*\}\s*$", re.S)

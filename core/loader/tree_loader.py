@@ -71,34 +71,19 @@ from typing import Any
 
 from armtree.config.resolve import available, resolve
 from armtree.config.yamlio import MarkedDict
-from armtree.errors import ConfigError, Mark, shown
-from armtree.hooks.plugin_manager import PluginManager, Registry, did_you_mean, get_plugin_manager
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
+from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
 
 from .blackboard_use import BlackboardUse
 from .load_context import LoadContext, LoadErrors, TreeFiles
-from .node_builder import MAX_NODES, NodeBuilder, construct, node_kind
-from .node_params import NodeParams, is_bindable
+from .node_builder import NodeBuilder
+from .node_params import NodeParams
 from .profile import Profile, override_sections, parse_overrides
-from .subtree_include import MAX_INCLUDE_DEPTH, SUBTREE_KEYS, SubtreeIncludes
+from .subtree_include import SubtreeIncludes
 from .tree import NodeInfo, Tree
 from .tree_checks import RigChecks
-from .tree_keys import DEFAULT_TICK_HZ, TICK_HZ_RANGE, TREE_KEYS, TreeKeys, world_inventory
+from .tree_keys import TreeKeys
 from .tree_params import TreeParams
-
-# The loader's collaborators' public names, importable from here as before the split.
-__all__ = [
-    "DEFAULT_TICK_HZ",
-    "MAX_INCLUDE_DEPTH",
-    "MAX_NODES",
-    "SUBTREE_KEYS",
-    "TICK_HZ_RANGE",
-    "TREE_KEYS",
-    "construct",
-    "is_bindable",
-    "load_tree",
-    "node_kind",
-    "world_inventory",
-]
 
 
 def load_tree(

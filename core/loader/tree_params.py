@@ -9,8 +9,7 @@ from typing import Any
 
 from armtree.config.params import REQUIRED
 from armtree.config.yamlio import MarkedDict, MarkedList
-from armtree.errors import Mark, shown
-from armtree.hooks.plugin_manager import did_you_mean
+from armtree.errors import Mark, did_you_mean, shown
 
 #: Stands for a required file parameter that was not given, so that what depends on it
 #: is not reported a second time.

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import Any, Protocol, TextIO
 
 import py_trees
 from py_trees.common import Status
@@ -22,9 +22,27 @@ from rich.live import Live
 from rich.text import Text
 from rich.tree import Tree as RichTree
 
-if TYPE_CHECKING:
-    from .run_end import RunResult
-    from .runner import Run
+from armtree.api.clock import Clock
+from armtree.loader.tree import Tree
+
+from .run_end import RunResult
+
+
+class Run(Protocol):
+    """What a view reads of the run it shows (:class:`armtree.runtime.runner.Run`, which
+    hands itself to its view)."""
+
+    @property
+    def clock(self) -> Clock: ...
+    @property
+    def tree(self) -> Tree: ...
+    @property
+    def tick_hz(self) -> float: ...
+    @property
+    def tick_count(self) -> int: ...
+    @property
+    def overruns(self) -> int: ...
+
 
 #: (symbol, rich style) of each status.
 STYLES: dict[Status, tuple[str, str]] = {

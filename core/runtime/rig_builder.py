@@ -22,22 +22,15 @@ from typing import Any
 
 from armtree.api.clock import Clock
 from armtree.api.rig import ArmTool, Rig, RigContext, TagSpec
+from armtree.config.profile_access import component_config, profile_section, profile_source
 from armtree.errors import ConfigError, HardwareFault
 from armtree.hooks.plugin_manager import get_plugin_manager
-from armtree.loader.profile import profile_section, profile_source, tag_spec
+from armtree.loader.profile import arm_grips, tag_spec
 
 #: Profile sections that name a component, in build order.
 COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
 #: Sections that may stand for a physical device (the rest is software).
 DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera")
-
-
-def component_config(profile: Any, key: str) -> Any:
-    """A component's config with declared defaults filled in when the Profile offers that."""
-    component = getattr(profile, "component", None)
-    if callable(component):
-        return component(key)
-    return profile_section(profile, key)
 
 
 def uses_real_hardware(profile: Any, registry: Any = None) -> bool:
@@ -147,22 +140,6 @@ def build_rig(
         raise
     rig.start()
     return rig
-
-
-def arm_grips(registry: Any, profile: Any) -> str | bool | None:
-    """What the profile's arm holds things with (its factory's ``grips_with(config)``):
-    ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
-    config = component_config(profile, "arm")
-    name = config.get("type") if isinstance(config, Mapping) else None
-    if not isinstance(name, str) or not registry.has("arm", name):
-        return True
-    grips = getattr(registry.get("arm", name).factory, "grips_with", None)
-    if not callable(grips):
-        return True
-    try:
-        return grips(dict(config))
-    except (ConfigError, ValueError, TypeError, KeyError):
-        return True  # the profile's own checks report why
 
 
 def _factory(registry: Any, kind: str, config: Any, file: str | None) -> Any:

@@ -42,12 +42,12 @@ class RunResult:
     written to the run log.
 
     How the world saw it: ``expectations`` holds one
-    :class:`armtree.api.outcomes.ExpectationResult` per entry of the tree's
+    :class:`armtree.api.outcomes.expect.ExpectationResult` per entry of the tree's
     ``expect:``; ``verdict`` is ``success``, ``failure``, ``false success``
     (SUCCESS while an expectation failed: exit code 1), ``false failure``
     (FAILURE while every expectation held) or ``interrupted``. ``chain`` is
     the failure from the root down to the leaf that failed
-    (:class:`armtree.api.outcomes.NodeFailure` each, with its reason), ``absorbed``
+    (:class:`armtree.api.outcomes.failures.NodeFailure` each, with its reason), ``absorbed``
     the failures a retry or selector swallowed (as chains), ``events`` the
     notable events components reported (collisions, drops, missed steps,
     faults), each ``{"tick", "t", "event", "message", ...}``.

@@ -13,6 +13,7 @@ from typing import Any
 import py_trees
 
 from armtree.api.clock import Clock
+from armtree.config.profile_sections import DEFAULT_TICK_S
 from armtree.errors import HardwareFault
 
 from .failure_report import EXIT_HARDWARE, FailureReport
@@ -20,13 +21,7 @@ from .halting import Halter
 from .interrupts import EXIT_INTERRUPTED, Interrupts
 from .node_index import NodeIndex
 from .runlog import RunLog
-from .watchdog import (
-    DEFAULT_TICK_S,
-    TickWatchdog,
-    force_exit_later,
-    innermost_code,
-    running_behaviour,
-)
+from .watchdog import TickWatchdog, force_exit_later, innermost_code, running_behaviour
 
 
 @dataclass(kw_only=True, eq=False)

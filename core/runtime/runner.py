@@ -75,7 +75,7 @@ from .resources import Resources
 from .rig_builder import build_rig
 from .run_end import (
     RunEnding,
-    RunResult,  # importable from here as before
+    RunResult,
 )
 from .run_hooks import RunHooks
 from .run_start import choose_clock, choose_record_dir, open_log, plugin_manager
@@ -638,4 +638,4 @@ def run(
     ).execute()
 
 
-__all__ = ["Run", "RunResult", "run"]
+__all__ = ["Run", "run"]

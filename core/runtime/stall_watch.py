@@ -21,10 +21,8 @@ from typing import Any
 
 import numpy as np
 
-#: Seconds of run time without progress that make a stall, unless the profile says.
-DEFAULT_STALL_S = 60.0
-#: Largest ``stall_s`` a profile may give, s (a day).
-MAX_STALL_S = 86_400.0
+from armtree.config.profile_sections import DEFAULT_STALL_S
+
 #: Joint travel (degrees or mm) since the quiet began that counts as motion; below
 #: it, a real arm's reading jitter.
 MOTION_TOL = 0.05
@@ -111,4 +109,4 @@ def profile_stall_limit(profile: Any) -> float:
     return DEFAULT_STALL_S
 
 
-__all__ = ["DEFAULT_STALL_S", "MAX_STALL_S", "MOTION_TOL", "StallWatch", "profile_stall_limit"]
+__all__ = ["MOTION_TOL", "StallWatch", "profile_stall_limit"]

@@ -32,10 +32,6 @@ from collections.abc import Callable
 from types import FrameType
 from typing import Any
 
-#: Default limit of one tick, wall seconds (profiles set ``watchdog: {tick_s: ...}``).
-DEFAULT_TICK_S = 120.0
-#: Largest limit a profile may set, wall seconds.
-MAX_TICK_S = 3600.0
 #: How long an interrupt may wait for a tick to end before the tick is abandoned, wall s.
 INTERRUPT_GRACE_S = 0.25
 #: How often the watchdog looks, wall seconds.

@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from armtree import load_tree
+from armtree.api.factories import node_kind
 from armtree.config.params import Param
 from armtree.config.resolve import resolve
 from armtree.config.yamlio import load_yaml_file
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Component, Registry
-from armtree.loader.node_builder import node_kind
 
 from .mapping import CONDITIONS, MODEL_KINDS, exported
 from .reader import TREE_KEYS, read_tree

@@ -8,7 +8,6 @@ import numpy as np
 
 from armtree.api.clock import Clock
 from armtree.api.imaging import (
-    INTRINSICS_PARAMS,
     IntrinsicsBySize,
     extrinsics_from,
     intrinsics_from_config,
@@ -61,4 +60,4 @@ def camera_config(
     return values, intr, extrinsics_from(values["extrinsics"], where), where
 
 
-__all__ = ["INTRINSICS_PARAMS", "FrameSourceCamera", "camera_config"]
+__all__ = ["FrameSourceCamera", "camera_config"]

@@ -23,13 +23,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.api.imaging import IntrinsicsBySize
+from armtree.api.imaging import INTRINSICS_PARAMS, IntrinsicsBySize
 from armtree.api.rig import Frame, RigContext
 from armtree.config.component_config import config_error
 from armtree.config.params import Param
 from armtree.errors import HardwareFault
 
-from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
+from .base import FrameSourceCamera, camera_config
 
 # Read by OpenCV when FFmpeg is first used; -8 is FFmpeg's "quiet".
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")

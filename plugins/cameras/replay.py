@@ -21,13 +21,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.api.imaging import video_fps
+from armtree.api.imaging import INTRINSICS_PARAMS, video_fps
 from armtree.api.rig import Frame, RigContext
 from armtree.config.component_config import config_error
 from armtree.config.params import Param
 from armtree.errors import ConfigError, HardwareFault
 
-from .base import INTRINSICS_PARAMS, FrameSourceCamera, camera_config
+from .base import FrameSourceCamera, camera_config
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp")
 

@@ -15,8 +15,8 @@ import numpy as np
 
 from armtree.api.rig import Planner
 from armtree.config.params import Param
+from armtree.config.profile_access import profile_section
 from armtree.errors import ConfigError
-from armtree.loader.profile import profile_section
 from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.kinematics import KinematicModel
 from armtree.maths.motion.scene import Scene

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from armtree.config.profile_access import profile_source
 from armtree.errors import ConfigError
-from armtree.loader.profile import profile_source
 from armtree.maths.motion.scene import Scene
 from armtree.maths.motion.workspace import ArmWorkspace, Covering
 

@@ -25,8 +25,8 @@ from typing import Any
 import armtree
 from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.config.params import check_value
+from armtree.config.profile_access import profile_error, profile_section
 from armtree.config.profile_sections import ProfileSection
-from armtree.loader.profile import profile_error, profile_section
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
@@ -34,7 +34,7 @@ from .recording import Recorder, write_score
 from .scene import BASE_FAULTS, SceneSpec, body_error, parse_scene
 from .truth import scene_truth, world_truth
 from .view import scene_objects
-from .world import SHARED_KEY, World, WorldEvent, world_for
+from .world import World, WorldEvent, world_for
 
 
 class WorldStepper:
@@ -383,4 +383,4 @@ def score_line(score: dict[str, Any]) -> str:
     )
 
 
-__all__ = ["SHARED_KEY", "WorldStepper", "score_line"]
+__all__ = ["WorldStepper", "score_line"]

@@ -12,7 +12,6 @@ Coordinates are the robot base frame in millimetres (z up, the table top at
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -21,8 +20,9 @@ from typing import Any
 import numpy as np
 
 from armtree.api.rig import TagSpec
-from armtree.errors import ConfigError, shown
-from armtree.loader.profile import profile_error, profile_section, tag_spec
+from armtree.config.profile_access import profile_error, profile_section
+from armtree.errors import ConfigError, did_you_mean, shown
+from armtree.loader.profile import tag_spec
 from armtree.plugins.trackers.families import (
     HAMMING,
     MarkerFamily,
@@ -243,9 +243,8 @@ def _mapping(
         raise err(path, f"expected a mapping, got {value!r}")
     for key in value:
         if key not in keys:
-            close = difflib.get_close_matches(str(key), keys, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise err((*path, key), f"unknown key {key!r}{hint}; expected one of {', '.join(keys)}")
+            hint = did_you_mean(str(key), keys, list_up_to=len(keys))
+            raise err((*path, key), f"unknown key {key!r}{hint}")
     return value
 
 
@@ -403,8 +402,7 @@ def _parse_body(
     if kind is None:
         raise err(path, f"missing 'kind' (one of {', '.join(k for k in KINDS if k != 'duckybot')})")
     if kind not in KINDS or (forced_kind is None and kind == "duckybot"):
-        close = difflib.get_close_matches(str(kind), list(KINDS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        hint = did_you_mean(str(kind), KINDS, list_up_to=len(KINDS))
         what = (
             "duckybots go under world.duckybots"
             if kind == "duckybot"

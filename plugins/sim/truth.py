@@ -1,4 +1,4 @@
-"""The simulated world as ``expect:`` predicates read it (:class:`armtree.api.outcomes.WorldTruth`).
+"""The simulated world as ``expect:`` predicates read it (:class:`armtree.api.outcomes.truth.WorldTruth`).
 
 :func:`world_truth` reports a running world's ground truth at the end of a run;
 :func:`scene_truth` the nominal world a profile describes, for checking names
@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from armtree.api.outcomes.truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
-from armtree.loader.profile import profile_section
+from armtree.config.profile_access import profile_section
 
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World

@@ -20,8 +20,9 @@ from py_trees.common import Status
 import armtree
 from armtree.api.rig import MotionHandle
 from armtree.config.params import Binding
+from armtree.config.profile_access import profile_source
 from armtree.config.workcell import Workcell, workcell_of
-from armtree.loader.profile import Profile, profile_source
+from armtree.loader.profile import Profile
 
 from .actions import Action, SkillFailure, State
 
@@ -306,4 +307,4 @@ def as_list(xyz: np.ndarray) -> list[float]:
     return [round(float(v), 3) for v in np.asarray(xyz, dtype=float).reshape(-1)[:3]]
 
 
-__all__ = ["ActionFailed", "Process", "Skill", "SkillFailure", "as_list", "resolve_point"]
+__all__ = ["ActionFailed", "Process", "Skill", "as_list", "resolve_point"]

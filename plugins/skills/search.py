@@ -22,7 +22,7 @@ from .base import ActionFailed, Procedure, as_list
 from .bins import contents_of
 from .eye import Sighting, Tally
 from .manipulation import bin_drop, release_at, release_steps
-from .survey import survey_points, sweep_angles
+from .survey import survey_points
 
 
 @dataclass
@@ -334,4 +334,4 @@ class Search(ArmSkill):
         )
 
 
-__all__ = ["CleanUp", "Search", "sweep_angles"]
+__all__ = ["CleanUp", "Search"]

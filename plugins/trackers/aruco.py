@@ -20,7 +20,6 @@ at three to four pixels a cell its decoder misses some markers in every frame.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,7 +29,7 @@ import numpy as np
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config, config_error
 from armtree.config.params import Param
-from armtree.errors import ConfigError
+from armtree.errors import ConfigError, did_you_mean
 
 from .common import TagRoles, finish_detection, probe
 from .kernels import apart_from, framed_by_light
@@ -71,8 +70,7 @@ def get_dictionary(name: str, where: Any = None) -> cv2.aruco.Dictionary:
     key = str(name).strip().lower()
     key = key.removeprefix("dict_")
     if key not in names:
-        close = difflib.get_close_matches(key, list(names), n=1, cutoff=0.5)
-        hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(sorted(names))}"
+        hint = did_you_mean(key, names, cutoff=0.5, list_up_to=len(names))
         message = f"unknown ArUco dictionary {name!r}{hint}"
         raise (
             ConfigError(message)
@@ -106,8 +104,7 @@ def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) 
     known = [a for a in dir(params) if not a.startswith("_") and not callable(getattr(params, a))]
     for key, value in (overrides or {}).items():
         if key not in known:
-            close = difflib.get_close_matches(str(key), known, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = did_you_mean(str(key), known, list_up_to=0)
             raise config_error(where, "tracker.detector", f"unknown ArUco parameter {key!r}{hint}")
         if key == "cornerRefinementMethod" and isinstance(value, str):
             if value.lower() not in _REFINEMENT:

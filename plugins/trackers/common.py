@@ -19,7 +19,8 @@ import numpy as np
 
 from armtree.api.rig import Detection, Frame, TagSpec
 from armtree.config.component_config import config_error
-from armtree.loader.profile import profile_section, tag_spec
+from armtree.config.profile_access import profile_section
+from armtree.loader.profile import tag_spec
 
 
 def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:

@@ -154,7 +154,6 @@ def max_corrected_bits(config: Any) -> int:
 
 
 __all__ = [
-    "APRILTAG_FAMILIES",
     "HAMMING",
     "MarkerFamily",
     "apriltag_dictionary",

@@ -25,42 +25,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
-from armtree.errors import ConfigError, Mark
+from armtree.errors import ConfigError, Mark, did_you_mean
 
-from .predicates import BUILTIN_PREDICATES, Predicate
+from .predicates import BUILTIN_PREDICATES, Expectation, Predicate
 from .truth import WorldObject, WorldTruth
 
 #: Keys that name what an entry is about: at least one of, or every one of.
 SUBJECT_KEYS = ("object", "objects")
 
 PASS, FAIL, NOT_CHECKED = "pass", "fail", "not checked"
-
-
-@dataclass(frozen=True)
-class Expectation:
-    """One entry of ``expect:``: the predicate's key and value, its subject and options.
-
-    ``subject`` holds the names or tag roles given with ``object:`` /
-    ``objects:`` (empty for predicates about the whole world); ``every`` is True
-    for ``objects:``. ``options`` has the predicate's defaults filled in.
-    """
-
-    predicate: str
-    value: Any
-    subject: tuple[str, ...] = ()
-    every: bool = False
-    options: Mapping[str, Any] = field(default_factory=dict)
-    written: Mapping[str, Any] = field(default_factory=dict)
-    mark: Mark | None = None
-
-    def text(self, predicates: Mapping[str, Predicate] | None = None) -> str:
-        """The claim in words: ``"ducky on duckybot"``, ``"every trash in garbage_bin"``."""
-        predicate = (predicates or BUILTIN_PREDICATES).get(self.predicate)
-        claim = predicate.describe(self) if predicate else f"{self.predicate}: {self.value}"
-        if not self.subject:
-            return claim
-        who = ", ".join(self.subject)
-        return f"{'every ' if self.every else ''}{who} {claim}"
 
 
 @dataclass(frozen=True)
@@ -144,8 +117,6 @@ def _parse_entry(
     predicates: Mapping[str, Predicate],
     errors: list[ConfigError],
 ) -> Expectation | None:
-    from armtree.hooks.plugin_manager import did_you_mean
-
     names = ", ".join(sorted(predicates))
     if isinstance(entry, MarkedDict) and True in entry:
         entry = _on_as_text(entry)

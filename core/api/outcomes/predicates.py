@@ -15,15 +15,42 @@ takes no object. Millimetres.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from armtree.errors import Mark, did_you_mean
 
 from .truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
 
-if TYPE_CHECKING:
-    from .expect import Expectation
-
 NAME_SCHEMA: dict[str, Any] = {"type": "string", "description": "a body's name or a tag role"}
+
+
+@dataclass(frozen=True)
+class Expectation:
+    """One entry of ``expect:``: the predicate's key and value, its subject and options.
+
+    ``subject`` holds the names or tag roles given with ``object:`` /
+    ``objects:`` (empty for predicates about the whole world); ``every`` is True
+    for ``objects:``. ``options`` has the predicate's defaults filled in.
+    """
+
+    predicate: str
+    value: Any
+    subject: tuple[str, ...] = ()
+    every: bool = False
+    options: Mapping[str, Any] = field(default_factory=dict)
+    written: Mapping[str, Any] = field(default_factory=dict)
+    mark: Mark | None = None
+
+    def text(self, predicates: Mapping[str, Predicate] | None = None) -> str:
+        """The claim in words: ``"ducky on duckybot"``, ``"every trash in garbage_bin"``."""
+        predicate = (predicates or BUILTIN_PREDICATES).get(self.predicate)
+        claim = predicate.describe(self) if predicate else f"{self.predicate}: {self.value}"
+        if not self.subject:
+            return claim
+        who = ", ".join(self.subject)
+        return f"{'every ' if self.every else ''}{who} {claim}"
 
 
 @dataclass(frozen=True)
@@ -72,8 +99,6 @@ def _targets(world: WorldTruth, ref: str) -> set[str]:
 
 def _unknown(world: WorldTruth, ref: Any, what: str, places: bool = False) -> str | None:
     """A message when ``ref`` is not a name this world knows, else None."""
-    from armtree.hooks.plugin_manager import did_you_mean
-
     if not isinstance(ref, str) or not ref:
         return f"expected the name of {what}, got {ref!r}"
     if world.knows(ref) or (places and ref in world.places):

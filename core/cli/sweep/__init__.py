@@ -8,9 +8,3 @@
 * :mod:`.report`: ``report.md``, ``sweep.json`` and the histograms;
 * :mod:`.command`: the command line, the progress bar, Ctrl-C.
 """
-
-from __future__ import annotations
-
-from .command import SweepCommand
-
-__all__ = ["SweepCommand"]

@@ -33,10 +33,12 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from armtree.api.sweep import Sweep
+from armtree.cli.commandline import add_tree_arguments
 from armtree.errors import ConfigError
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
-from .hooks import Sweep, SweepHooks, add_plugin_options, plugin_settings
+from .hooks import SweepHooks, add_plugin_options, plugin_settings
 from .options import check_address, parse_seeds
 from .report import summarise, write_report
 from .task import DIED, Outcome, RunTask
@@ -51,9 +53,7 @@ CHECKPOINT_S = 300.0
 def configure(parser: argparse.ArgumentParser, manager: Any = None) -> None:
     """The sweep's options: TREE, --rig and --set as ``armtree check`` takes them, its own,
     and those the plugins of ``manager`` add (``armtree_sweep_options``)."""
-    from armtree.cli.builtin_commands import _tree_arguments
-
-    _tree_arguments(parser)
+    add_tree_arguments(parser)
     parser.add_argument("--seeds", required=True, metavar="A-B", help="seeds to run, e.g. 1-1000")
     parser.add_argument(
         "--workers",

@@ -10,38 +10,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
+from armtree.api.sweep import Sweep
 from armtree.hooks.hook_calls import call_isolated
 
 #: The parser default naming the options the plugins added (their ``dest``).
 PLUGIN_DESTS = "sweep_plugin_options"
-
-
-@dataclass
-class Sweep:
-    """A sweep as its hooks see it: the loaded tree, the seeds, the report folder,
-    the plugins' option values (handed to every run), what plugins keep for it (each
-    under a key of its own) and closers run at its end, newest first, whatever happened."""
-
-    tree: Any
-    seeds: Sequence[int]
-    out: Path
-    settings: dict[str, Any] = field(default_factory=dict)
-    plugin_state: dict[str, Any] = field(default_factory=dict)
-    closers: list[Callable[[], None]] = field(default_factory=list)
-
-    def close(self) -> None:
-        """Run the closers, newest first; one that raises does not keep the rest."""
-        while self.closers:
-            closer = self.closers.pop()
-            try:
-                closer()
-            except Exception as exc:  # noqa: BLE001 - reported, the others still run
-                print(f"warning: closing the sweep: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
 def add_plugin_options(parser: argparse.ArgumentParser, manager: Any) -> None:
@@ -86,4 +61,4 @@ class SweepHooks:
             )
 
 
-__all__ = ["Sweep", "SweepHooks", "add_plugin_options", "plugin_settings"]
+__all__ = ["SweepHooks", "add_plugin_options", "plugin_settings"]

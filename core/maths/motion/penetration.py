@@ -22,6 +22,9 @@ import numpy as np
 from .collision import TOUCH_TOL, CollisionChecker, Contact
 from .geometry import BOX_CORNER_SIGNS
 
+#: The deepest start contact (mm) a planner steps out of; a deeper one is refused.
+START_CONTACT_MM = 5.0
+
 #: A contact's identity across configurations: (kind, link box index, what it hits).
 #: ``kind`` is ``table``, ``box`` (an obstacle box), ``mesh`` or ``self`` (another link box).
 ContactKey = tuple[str, int, int]
@@ -145,3 +148,32 @@ def _sat_depth(a: np.ndarray, b: np.ndarray, axes: np.ndarray) -> np.ndarray:
     pb = np.einsum("...qi,...ki->...kq", b, unit)
     overlap = np.minimum(pa.max(axis=-1) - pb.min(axis=-1), pb.max(axis=-1) - pa.min(axis=-1))
     return np.where(usable, overlap, np.inf).min(axis=-1)
+
+
+def leaving_run(
+    checker: CollisionChecker, samples: np.ndarray, max_depth: float = START_CONTACT_MM
+) -> int | None:
+    """How many leading ``samples`` ``(N, n)`` are in collision, if they only leave it.
+
+    The first sample's contacts must be at most ``max_depth`` mm deep, and each
+    following sample in collision may only keep those contacts, none deeper than
+    the sample before; the first free sample ends the run. None when that fails
+    or no sample is free.
+    """
+    q = np.asarray(samples, dtype=float)
+    first = penetrations(checker, q[0])
+    if not first or max(p.depth_mm for p in first) > max_depth:
+        return None
+    keys = [p.key for p in first]
+    before = np.array([p.depth_mm for p in first])
+    for k in range(1, len(q)):
+        if not checker.collides(q[k]):
+            return k
+        now = penetrations(checker, q[k])
+        if any(p.key not in keys for p in now):
+            return None
+        depth = signed_depths(checker, q[k], keys)
+        if np.any(depth > before + 1e-9):
+            return None
+        before = depth
+    return None

@@ -211,10 +211,9 @@ def _place_blocked(name: str, point: np.ndarray, blocker: str) -> str:
 
 
 def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
-    # imported here: armtree.loader.profile builds Scenes, so it imports this module first
-    from armtree.loader.profile import profile_source
-
-    source = profile_source(profile)
+    # duck-typed: the maths reads a Profile (or a mapping) without importing config
+    source = getattr(profile, "source", None)
+    source = str(source) if source else None
     if isinstance(profile, Mapping):
         return profile, source
     data = getattr(profile, "data", None)
@@ -231,9 +230,12 @@ class _Fail:
         self.profile = profile
 
     def __call__(self, path: str, message: str) -> ConfigError:
-        from armtree.loader.profile import profile_error
-
-        err = profile_error(self.profile, path, message)
+        error = getattr(self.profile, "error", None)
+        if callable(error) and not isinstance(self.profile, Mapping):
+            err = error(path, message)  # a Profile knows where the value was written
+        else:
+            source = getattr(self.profile, "source", None)
+            err = ConfigError(f"{path}: {message}", file=str(source) if source else None)
         # positioned by the dotted path; shown with list items as [i]
         err.message = re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", path) + f": {message}"
         return err

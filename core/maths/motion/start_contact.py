@@ -7,7 +7,7 @@ FixStartStateCollision adapter does) a planner may plan from the nearest
 collision-free configuration instead, reached by a short straight joint move
 along which every contact only gets shallower. :func:`escape_start` finds that
 move for contacts at most :data:`START_CONTACT_MM` deep and refuses deeper ones;
-:func:`leaving_run` is the check a path validator makes of a path that starts in
+:func:`~armtree.maths.motion.penetration.leaving_run` is the check a path validator makes of a path that starts in
 contact. Depths are mm (:mod:`armtree.maths.motion.penetration`); joints deg / mm.
 """
 
@@ -21,10 +21,8 @@ import numpy as np
 from armtree.errors import PlanningError
 
 from .collision import CollisionChecker
-from .penetration import Penetration, penetrations, signed_depths
-
-#: The deepest start contact (mm) a planner steps out of; a deeper one is refused.
-START_CONTACT_MM = 5.0
+from .penetration import START_CONTACT_MM, Penetration, leaving_run, penetrations, signed_depths
+from .validation import check_config
 
 #: How far past touching (mm) the escape aims, so the free configuration is not on the edge.
 CLEARANCE_MM = 0.2
@@ -98,35 +96,6 @@ def escape_start(
     return StartEscape(q0, free, tuple(found), unit)
 
 
-def leaving_run(
-    checker: CollisionChecker, samples: np.ndarray, max_depth: float = START_CONTACT_MM
-) -> int | None:
-    """How many leading ``samples`` ``(N, n)`` are in collision, if they only leave it.
-
-    The first sample's contacts must be at most ``max_depth`` mm deep, and each
-    following sample in collision may only keep those contacts, none deeper than
-    the sample before; the first free sample ends the run. None when that fails
-    or no sample is free.
-    """
-    q = np.asarray(samples, dtype=float)
-    first = penetrations(checker, q[0])
-    if not first or max(p.depth_mm for p in first) > max_depth:
-        return None
-    keys = [p.key for p in first]
-    before = np.array([p.depth_mm for p in first])
-    for k in range(1, len(q)):
-        if not checker.collides(q[k]):
-            return k
-        now = penetrations(checker, q[k])
-        if any(p.key not in keys for p in now):
-            return None
-        depth = signed_depths(checker, q[k], keys)
-        if np.any(depth > before + 1e-9):
-            return None
-        before = depth
-    return None
-
-
 def _segment(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     t = np.linspace(0.0, 1.0, ESCAPE_SAMPLES + 1)[:, None]
     return q0 + t * (q1 - q0)
@@ -195,8 +164,6 @@ class StartContactRecovery:
         PlanningError as ``check_config`` raises it, or (reason ``start_in_collision``)
         naming the depths when the contact is deeper than ``max_depth`` mm.
         """
-        from .validation import check_config  # it checks paths with this module's help
-
         try:
             return check_config(self.checker, start, "start"), None
         except PlanningError as exc:

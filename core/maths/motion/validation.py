@@ -16,7 +16,7 @@ from armtree.errors import PlanningError
 
 from .collision import CollisionChecker
 from .kinematics import KinematicModel
-from .start_contact import leaving_run
+from .penetration import leaving_run
 
 
 def smallest_singular_value(model: KinematicModel, q: np.ndarray) -> np.ndarray:
@@ -107,7 +107,7 @@ def validate_samples(
     it (seed 002, validatePath). ``times`` (s) only label the message. With
     ``start_contact_mm`` > 0 the first sample is where the arm is, and a path may
     begin in a contact at most that deep (mm) if it only leaves it
-    (:func:`~armtree.maths.motion.start_contact.leaving_run`).
+    (:func:`~armtree.maths.motion.penetration.leaving_run`).
     """
     model = checker.model
     q = np.asarray(samples, dtype=float).reshape(-1, model.dof)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armtree.maths.motion.collision import CollisionChecker
-from armtree.maths.motion.start_contact import START_CONTACT_MM
+from armtree.maths.motion.penetration import START_CONTACT_MM
 from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 
 #: The shortest ramp sent (s): the last set point of a trajectory sent late.
@@ -93,7 +93,7 @@ def timed_path(
     Raises :class:`~armtree.errors.PlanningError` (reason ``outside_limits``,
     ``too_fast``, ``collision``, ...) saying where along it the path fails. A path from
     a start believed in a shallow contact is taken when its first move only leaves the
-    contact (:func:`~armtree.maths.motion.start_contact.leaving_run`); the arm then comes to
+    contact (:func:`~armtree.maths.motion.penetration.leaving_run`); the arm then comes to
     rest at the end of that move.
     """
     joints = checker.model.joints

@@ -21,9 +21,9 @@ from typing import Any
 import armtree
 import numpy as np
 import py_trees
+from armtree.api.factories import construct
 from armtree.config.constructor_params import declared_params
 from armtree.hooks.plugin_manager import get_plugin_manager
-from armtree.loader.node_builder import construct
 from armtree.maths.perception.frames import camera_in_base, marker_in_base
 from py_trees.common import Status
 
