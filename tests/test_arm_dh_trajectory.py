@@ -177,7 +177,7 @@ def test_a_servo_slip_lasts_until_the_servo_is_next_commanded(sim):
 
 def test_a_stream_sent_late_aims_as_far_ahead_as_it_was_behind():
     from armtree.maths.motion.trajectory import plan_trajectory
-    from armtree.plugins.arms.dh.streaming import MIN_RAMP_S, TrajectoryStream
+    from armtree.plugins.arms.common.streaming import MIN_RAMP_S, TrajectoryStream
 
     trajectory = plan_trajectory(np.array([[0.0], [90.0]]), durations=[1.0])
     stream = TrajectoryStream(trajectory, t0=10.0, period=0.05)

@@ -152,7 +152,7 @@ ANSWER_S = 20.0
 REFUSE_S = 0.5
 
 
-@pytest.mark.parametrize("profile", ["dobot_v1", "dobot_magician", "vicra"])
+@pytest.mark.parametrize("profile", ["dobot_v1", "dobot_magician", "vicra", "so101", "koch"])
 def test_detect_port_probe_names_the_arm_an_emulated_port_answers_as(profile):
     others = [p for p in PROBES if p != profile]
     emu = emulator(profile)

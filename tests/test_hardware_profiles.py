@@ -17,13 +17,15 @@ import armtree
 from armtree.config.resolve import available
 from armtree.plugins.sim.camera import camera_extrinsics
 
-REAL = ("dobot_v1", "dobot_v1_opendobot", "dobot_magician", "vicra", "dh_ssc32")
+REAL = ("dobot_v1", "dobot_v1_opendobot", "dobot_magician", "vicra", "dh_ssc32", "so101", "koch")
 TWINS = {
     "dobot_v1": "sim_dobot",
     "dobot_v1_opendobot": "sim_dobot",
     "dobot_magician": "sim_magician",
     "vicra": "sim_vicra",
     "dh_ssc32": "sim_dh",
+    "so101": "sim_so101",
+    "koch": "sim_koch",
 }
 TREES = ("load_ducky", "clean_up", "pick_and_place", "touch_tag", "track")
 

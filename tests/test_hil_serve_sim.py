@@ -6,8 +6,9 @@ dobot_v1.yaml`` points the shipped real-hardware profile at them and runs the
 hardware code path (pyserial on a tty, OpenCV capture of a stream, the wall
 clock). Real processes and real signals throughout: the run succeeds and the
 served world agrees; Ctrl-C on the run exits 130; Ctrl-C on serve-sim mid-run
-loses the run's link (exit 3) and serve-sim exits 130 with the world's score. The Magician
-profile runs the same task against ``serve-sim sim_magician``.
+loses the run's link (exit 3) and serve-sim exits 130 with the world's score; the SO-101's
+real profile does the same against ``serve-sim sim_so101``. The Magician and the Koch
+profiles run the same task against their served worlds, which score it.
 """
 
 import json
@@ -98,15 +99,18 @@ def result_record(record: Path) -> dict:
 
 @pytest.mark.slow
 @pytest.mark.timeout(400)  # three runs in real time: ~60 s on an idle machine, more when busy
-def test_load_ducky_on_dobot_v1_profile_against_served_sim_world(tmp_path):
-    bench = Bench("sim_dobot", tmp_path)
+@pytest.mark.parametrize(
+    ("sim", "real"), [("sim_dobot", "dobot_v1.yaml"), ("sim_so101", "so101.yaml")]
+)
+def test_load_ducky_on_a_real_profile_against_its_served_sim_world(tmp_path, sim, real):
+    bench = Bench(sim, tmp_path)
     try:
         assert bench.port.startswith("/dev/pts/")
         assert bench.url.startswith("http://127.0.0.1:") and bench.url.endswith("/camera.mjpg")
-        assert "--rig dobot_v1.yaml" in bench.hint
+        assert f"--rig {real}" in bench.hint
 
         # 1. The whole task through the hardware code path.
-        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "ok", tmp_path)
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path)
         out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
         assert "result: SUCCESS" in out
@@ -116,7 +120,7 @@ def test_load_ducky_on_dobot_v1_profile_against_served_sim_world(tmp_path):
         assert start["clock"] == "wall"
 
         # 2. Ctrl-C on the run: halted within a tick, exit 130, log flushed.
-        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "int", tmp_path)
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "int", tmp_path)
         wait_for_ticks(tmp_path / "int", run)
         run.send_signal(signal.SIGINT)
         out, err = run.communicate(timeout=END_S)
@@ -125,7 +129,7 @@ def test_load_ducky_on_dobot_v1_profile_against_served_sim_world(tmp_path):
 
         # 3. Ctrl-C on serve-sim mid-run: the run loses its link (exit 3), serve-sim
         #    exits 130 and scores the world, where run 1 left the ducky on the Duckybot.
-        run = start_run(bench, "load_ducky.yaml", "dobot_v1.yaml", tmp_path / "lost", tmp_path)
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "lost", tmp_path)
         wait_for_ticks(tmp_path / "lost", run)
         code, served = bench.interrupt()
         assert code == 130
@@ -157,11 +161,14 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.timeout(300)  # a whole run in real time
-def test_load_ducky_on_dobot_magician_profile_against_served_sim_world(tmp_path):
-    bench = Bench("sim_magician", tmp_path, "--tree", "load_ducky.yaml")
+@pytest.mark.parametrize(
+    ("sim", "real"), [("sim_magician", "dobot_magician.yaml"), ("sim_koch", "koch.yaml")]
+)
+def test_load_ducky_on_a_real_profile_scored_by_its_served_world(tmp_path, sim, real):
+    bench = Bench(sim, tmp_path, "--tree", "load_ducky.yaml")
     try:
-        assert bench.hint.startswith("run-tree load_ducky.yaml --rig dobot_magician.yaml")
-        run = start_run(bench, "load_ducky.yaml", "dobot_magician.yaml", tmp_path / "ok", tmp_path)
+        assert bench.hint.startswith(f"run-tree load_ducky.yaml --rig {real}")
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path)
         out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
         assert result_record(tmp_path / "ok")["status"] == "SUCCESS"

@@ -112,3 +112,34 @@ def test_places_of_a_shipped_profile_go_only_where_the_user_says(tmp_path):
         places_file(profile, None)
     copy = places_file(profile, str(tmp_path / "mine.yaml"))
     assert copy.read_text() == resolve("sim_dobot", "profile").read_text()
+
+
+@pytest.mark.parametrize("rig_name", ["sim_so101", "sim_koch"])
+def test_jogging_a_bus_servo_arm_shows_counts_and_degrees_and_records_places(rig_name, tmp_path):
+    from armtree.plugins.arms.jog import limits_text
+
+    profile = load_profile(rig_name)
+    target = places_file(profile, str(tmp_path / "mine.yaml"))
+    rig = build_rig(profile, get_plugin_manager(), WallClock())
+    try:
+        jogger = Jogger(rig, step_index=3)  # 10 degrees
+        q0 = rig.arm.joints().copy()
+        handle = jogger.jog_joint(1)
+        assert handle.wait(15) and handle.error is None, jogger.message
+        assert rig.arm.joints()[0] == pytest.approx(q0[0] + 10.0, abs=0.1)
+        name, position, limits = limits_text(rig)[0]
+        assert name == "shoulder_pan" and position.split()[1] == "deg"
+        assert float(position.split()[0]) == pytest.approx(q0[0] + 10.0, abs=0.1)
+        counts = int(position.split("(")[1].split()[0])
+        cal = profile.component("arm")["calibration"]["shoulder_pan"]
+        assert counts == pytest.approx(2048 + (q0[0] + 10.0) * 4096 / 360, abs=1.5)
+        assert cal["range_min"] < counts < cal["range_max"]
+        jogger.toggle_mode()
+        z0 = rig.arm.pose()[2, 3]
+        handle = jogger.jog_axis("z", -1)
+        assert handle.wait(15) and handle.error is None, jogger.message
+        assert rig.arm.pose()[2, 3] == pytest.approx(z0 - 10.0, abs=0.3)
+        xyz = jogger.record("spot_b", target)
+    finally:
+        rig.close()
+    assert f"  spot_b: [{xyz[0]:.1f}, {xyz[1]:.1f}, {xyz[2]:.1f}]" in target.read_text()

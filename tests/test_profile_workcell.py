@@ -28,7 +28,9 @@ def errors(tmp_path, body: str) -> list[str]:
     return [f"{e.line}:{e.column}: {e.message}" for e in info.value.errors]
 
 
-@pytest.mark.parametrize("name", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"])
+@pytest.mark.parametrize(
+    "name", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh", "sim_so101", "sim_koch"]
+)
 def test_the_sim_profiles_carry_what_their_skills_need(name):
     cell = workcell_of(armtree.load_profile(name))
     assert cell.table_z_mm is not None and cell.clearance_z_mm is not None

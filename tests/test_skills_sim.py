@@ -134,7 +134,9 @@ EXPECTING = [
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("rig", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"])
+@pytest.mark.parametrize(
+    "rig", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh", "sim_so101", "sim_koch"]
+)
 @pytest.mark.parametrize(("tree_name", "overrides"), EXPECTING, ids=[t[0] for t in EXPECTING])
 def test_every_shipped_tree_keeps_its_own_expectations_on_every_sim_rig(tree_name, overrides, rig):
     # a tree's SUCCESS that its own expect: contradicts is a false success (exit 1)

@@ -223,7 +223,9 @@ def test_touch_tag_tree_servos_over_the_tag_within_3_mm(tmp_path, manager):
     assert np.linalg.norm(tool - (np.array(arc(25.0)) + [0, 0, 20])) < 3.0
 
 
-@pytest.mark.parametrize("rig", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"])
+@pytest.mark.parametrize(
+    "rig", ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh", "sim_so101", "sim_koch"]
+)
 @pytest.mark.parametrize("name", available("tree"))
 def test_every_shipped_tree_loads_unchanged_on_every_sim_rig(name, rig):
     tree = load_tree(name, rig=rig, overrides=["tag=duckybot"] if name == "search" else [])

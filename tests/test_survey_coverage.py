@@ -23,7 +23,7 @@ from armtree.config.workcell import workcell_of
 from armtree.plugins.skills.coverage import unseen
 from armtree.runtime.rig_builder import build_rig
 
-SIM_PROFILES = ("sim_dobot", "sim_magician", "sim_vicra", "sim_dh")
+SIM_PROFILES = ("sim_dobot", "sim_magician", "sim_vicra", "sim_dh", "sim_so101", "sim_koch")
 
 
 def region_points(spec: dict, z: float, step: float = 5.0) -> np.ndarray:

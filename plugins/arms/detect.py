@@ -6,8 +6,10 @@ driver of every shipped real-hardware profile in turn (:data:`PROBES`: their
 ``arm`` sections, with the port replaced) and reports the ones whose handshake
 succeeds. A handshake only reads: the Dobot V1.0 listens for status frames, the
 Magician reads its pose, open-dobot asks for its board, Marlin resets its line
-counter, the SSC-32 prints its version; nothing moves. Ports can be named on the
-command line (``/dev/pts/N`` of an emulator is not a USB device and is not listed).
+counter, the SSC-32 prints its version, the bus servos answer pings and say their
+model; nothing moves. Ports can be named on the command line (``/dev/pts/N`` of an
+emulator is not a USB device and is not listed). A driver with a ``probe()`` (one
+whose connect would change settings) is probed with it instead of ``connect()``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ PROBES: tuple[str, ...] = (
     "dobot_magician",
     "vicra",
     "dh_ssc32",
+    "so101",
+    "koch",
 )
 #: USB vendor ids of the boards and adapters arms come with (the USB-IF assignments).
 VENDORS = {
@@ -37,7 +41,7 @@ VENDORS = {
     0x2A03: "Arduino (dog hunter)",
     0x1A86: "QinHeng (CH340 USB serial)",
     0x10C4: "Silicon Labs (CP210x USB serial)",
-    0x0403: "FTDI (USB serial)",
+    0x0403: "FTDI (USB serial; the U2D2 of Dynamixel arms)",
     0x067B: "Prolific (PL2303 USB serial)",
 }
 
@@ -104,7 +108,7 @@ def probe_port(
         driver = factory(config, context)
         driver.connect_timeout = timeout
         try:
-            driver.connect()
+            getattr(driver, "probe", driver.connect)()
         except HardwareFault as exc:
             tried[name] = exc.message
             unusable = ("no such serial port", "not a serial port", "busy", "permission")
@@ -182,6 +186,15 @@ def _print_table(ports: list[PortInfo], probed: bool) -> None:
             row.append(", ".join(p.answers) or "[red]no arm answered[/red]")
         table.add_row(*row)
     console.print(table)
+    for p in ports:
+        if p.vid == 0x0403 and p.device.startswith("/dev/ttyUSB"):
+            # an FTDI adapter holds each read back 16 ms by default: servo buses crawl
+            name = p.device.rsplit("/", 1)[-1]
+            console.print(
+                f"{p.device}: FTDI adapter; for a servo bus lower its latency timer: "
+                f"echo 1 | sudo tee /sys/bus/usb-serial/devices/{name}/latency_timer",
+                highlight=False,
+            )
     if probed:
         for p in ports:
             if p.answers:

@@ -146,11 +146,18 @@ class Jogger:
 
 
 def limits_text(rig: Rig) -> list[tuple[str, str, str]]:
-    """``(name, position, limits)`` per joint, for the table."""
+    """``(name, position, limits)`` per joint, for the table; a driver that reads servo
+    counts (``joint_counts()``, bus servos) shows them beside the angle."""
     arm = rig.arm
     q = arm.joints()
+    read = getattr(arm, "joint_counts", None)
+    counts = read() if callable(read) else [None] * len(q)
     return [
-        (j.name, f"{q[i]:8.2f} {j.unit}", f"{j.lower:g} .. {j.upper:g}")
+        (
+            j.name,
+            f"{q[i]:8.2f} {j.unit}" + ("" if counts[i] is None else f" ({counts[i]} counts)"),
+            f"{j.lower:g} .. {j.upper:g}",
+        )
         for i, j in enumerate(arm.model.joints)
     ]
 

@@ -1,4 +1,4 @@
-"""``armtree calibrate camera|hand-eye|correction|camera-offset|kinematics``.
+"""``armtree calibrate camera|hand-eye|correction|camera-offset|kinematics|servos``.
 
 With ``--rig PROFILE`` (and no offline input) ``hand-eye``, ``correction``,
 ``camera-offset`` and ``kinematics`` run their tree (``trees/calibrate_*.yaml``):
@@ -19,6 +19,8 @@ x axis) and 2 (then moved along base y at the same height).
 
 ``kinematics``: the least-squares kinematic calibration of seed 004 ("Model
 Validation", Fig. 6), in :mod:`.kinematics_command`.
+
+``servos``: a bus-servo arm's homing offsets and ranges, in :mod:`.servos_command`.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from armtree.plugins.trackers.inputs import (
 )
 
 from .kinematics_command import configure_kinematics, run_kinematics
+from .servos_command import configure_servos, run_servos
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp")
 
@@ -140,11 +143,14 @@ class CalibrateCommand:
         kin.add_argument(
             "--poses", type=int, default=27, help="--rig without --points: poses to measure"
         )
+        configure_servos(kinds)
 
     def run(self, args: argparse.Namespace) -> int:
         """Run the chosen calibration; 0, 1 when the data cannot calibrate, ConfigError for bad input."""
         if args.kind == "camera":
             return self._camera(args)
+        if args.kind == "servos":
+            return run_servos(args)
         if args.kind == "hand-eye":
             if args.images is None and args.rig is not None:
                 return _tree(args, "hand_eye", plan="three_positions" if args.method == "three-positions" else "spread",

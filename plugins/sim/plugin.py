@@ -31,7 +31,7 @@ from armtree.config.profile_sections import ProfileSection
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
 from .recording import Recorder, write_score
-from .scene import SceneSpec, body_error, parse_scene
+from .scene import BASE_FAULTS, SceneSpec, body_error, parse_scene
 from .truth import scene_truth, world_truth
 from .view import scene_objects
 from .world import World, WorldEvent, world_for
@@ -148,7 +148,24 @@ def check_world(profile: Any) -> list[armtree.ConfigError]:
     return [
         *_table_disagrees(profile, scene),
         *_joints_exist(profile, scene),
+        *_faults_taken(profile, scene),
         *_as_built_errors(profile, scene),
+    ]
+
+
+def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+    """``world.faults`` must be faults the arm's emulator takes (its factory's ``faults``)."""
+    component = _arm_factory(profile)
+    taken = getattr(getattr(component, "factory", None), "faults", BASE_FAULTS)
+    arm = (profile_section(profile, "arm") or {}).get("type")
+    return [
+        profile_error(
+            profile,
+            f"world.faults.{name}",
+            f"the {arm} arm's emulator does not take this fault (it takes: {', '.join(taken)})",
+        )
+        for name in scene.faults
+        if component is not None and name not in taken
     ]
 
 

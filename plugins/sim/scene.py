@@ -721,7 +721,7 @@ def _body_path(body: ObjectSpec) -> tuple[Any, ...]:
 
 def _parse_faults(err: _Errors, value: Any) -> tuple[dict[str, dict[str, float]], SlipSpec | None]:
     """One-shot faults for the emulator's ``inject``, and random missed steps under load."""
-    spec = _mapping(err, ("world", "faults"), value, ("missed_steps", "corrupt", "drop", "cut"))
+    spec = _mapping(err, ("world", "faults"), value, tuple(_FAULT_OPTIONS))
     out: dict[str, dict[str, float]] = {}
     slips = None
     for name, options in spec.items():
@@ -757,7 +757,14 @@ _FAULT_OPTIONS: dict[str, dict[str, tuple[float, float]]] = {
     "drop": {"rate": (0.0, 1.0), "count": (0, 1e9)},
     "cut": {"silent": (0, 1)},
     "missed_steps": {"joint": (0, 63), "amount": (-360.0, 360.0)},
+    # servo buses (the arm's factory lists the faults its emulator takes: ``faults``)
+    "lost_replies": {"rate": (0.0, 1.0), "count": (0, 1e9)},
+    "latency": {"seconds": (0.0, 10.0)},
+    "overload": {"joint": (0, 63), "id": (0, 252), "after_s": (0.0, 1e6)},
+    "overheat": {"joint": (0, 63), "id": (0, 252), "after_s": (0.0, 1e6)},
 }
+#: The faults every arm emulator takes (an arm factory's ``faults`` may list more).
+BASE_FAULTS = ("missed_steps", "corrupt", "drop", "cut")
 
 
 def _one_shot(err: _Errors, path: tuple[Any, ...], name: str, options: Mapping) -> dict[str, float]:

@@ -51,6 +51,8 @@ REAL_PROFILES = {
     ("dobot_magician", None): "dobot_magician.yaml",
     ("vicra", None): "vicra.yaml",
     ("dh", None): "dh_ssc32.yaml",
+    ("so101", None): "so101.yaml",
+    ("koch", None): "koch.yaml",
 }
 #: How often the world is stepped, Hz (the emulator runs at its own rate).
 WORLD_HZ = 100.0

@@ -12,6 +12,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -144,7 +145,8 @@ class KinematicModel(ABC):
         target = np.asarray(target, dtype=float)
         if not np.isfinite(target).all():
             raise Unreachable(f"target {target.tolist()} is not finite")
-        sols = self.ik_all(target)
+        ref = self.home if near is None else np.asarray(near, dtype=float)
+        sols = self.ik_all(target, **self.ik_starts(ref))
         sols = sols[np.isfinite(sols).all(axis=-1)]
         if len(sols) == 0:
             shown = target[:3, 3] if target.shape == (4, 4) else target
@@ -152,8 +154,13 @@ class KinematicModel(ABC):
                 f"{self.name}: target {np.round(shown, 2).tolist()} mm is outside the workspace "
                 "or the joint limits"
             )
-        ref = self.home if near is None else np.asarray(near, dtype=float)
         return sols[np.argmin(np.linalg.norm(sols - ref, axis=-1))]
+
+    def ik_starts(self, near: np.ndarray) -> dict[str, Any]:
+        """What :meth:`ik` passes :meth:`ik_all` to find a solution near ``near`` (degrees /
+        mm): nothing by default; a numerical solver's model returns its starts, ``near``
+        first."""
+        return {}
 
     def jacobian(self, q: np.ndarray, eps: float = 1e-4) -> np.ndarray:
         """Positional Jacobian ``(..., 3, n)`` in mm per degree (or mm per mm), central differences."""

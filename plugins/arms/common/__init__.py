@@ -1,6 +1,6 @@
 """Shared infrastructure of the arm plugins: emulator base, serial driver base, helpers.
 
-Every arm plugin (dobot_v1, dobot_magician, vicra, dh) is built from these
+Every arm plugin (dobot_v1, dobot_magician, vicra, dh, bus_servo) is built from these
 parts; the API below is stable.
 
 Modules
@@ -20,7 +20,8 @@ Modules
 ``barrier``       :class:`StepBarrier`, the in-process handshake that makes a driver
                   and its emulator deterministic on a virtual clock.
 ``framing``       resynchronising parsers (:class:`FixedFrameParser`,
-                  :class:`LengthPrefixedParser`, :class:`LineParser`) and
+                  :class:`LengthPrefixedParser`, :class:`CountedLengthParser`,
+                  :class:`LineParser`) and
                   :func:`identify_foreign_protocol`.
 ``motion``        :class:`JointMove` (synchronised trapezoid, braking),
                   :class:`LineMove` (a straight tool line through IK) and

@@ -129,6 +129,46 @@ class LengthPrefixedParser(_HeaderSyncParser):
         return h + 1 + n + self.trailer_len
 
 
+class CountedLengthParser(_HeaderSyncParser):
+    """Frames whose length field counts the bytes after it: servo bus packets.
+
+    The frame starting with ``header`` holds a little-endian length of
+    ``length_size`` bytes at ``length_at`` (counted from the header's start)
+    and ends ``length`` bytes after that field: Feetech's ``FF FF ID LEN ...``
+    (``length_at=3``) and Dynamixel 2.0's ``FF FF FD 00 ID LEN_L LEN_H ...``
+    (``length_at=5``, two bytes). A length outside ``min_length..max_length``
+    cannot start a frame; ``check(frame) -> bool`` validates a complete one
+    (its checksum or CRC) and must not raise.
+    """
+
+    def __init__(
+        self,
+        header: bytes,
+        length_at: int,
+        check: Callable[[bytes], bool],
+        *,
+        length_size: int = 1,
+        min_length: int = 0,
+        max_length: int = 255,
+    ) -> None:
+        if length_at < len(header) or length_size not in (1, 2):
+            raise ValueError("the length field follows the header and is one or two bytes")
+        super().__init__(header, check)
+        self.length_at = length_at
+        self.length_size = length_size
+        self.min_length = min_length
+        self.max_length = max_length
+
+    def _frame_length(self, buf: bytearray) -> int | None:
+        end = self.length_at + self.length_size
+        if len(buf) < end:
+            return None
+        n = int.from_bytes(buf[self.length_at : end], "little")
+        if not self.min_length <= n <= self.max_length:
+            return 0
+        return end + n
+
+
 class LineParser:
     """Text lines ending in ``\\n`` (``\\r`` stripped), for G-code and Marlin replies.
 

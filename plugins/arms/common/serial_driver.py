@@ -245,8 +245,12 @@ class SerialArmDriver(ArmDriver):
         if not math.isfinite(self._last_alive):
             self._last_alive = self.clock.now()
 
-    def lose_link(self, message: str) -> None:
-        """The link is gone: record the fault, fail every motion, interrupt the run."""
+    def lose_link(self, message: str, reason: str | None = None) -> None:
+        """The link is gone: record the fault, fail every motion, interrupt the run.
+
+        ``reason`` is the interrupt's (default: ``link lost on DEVICE``); a device that
+        stopped itself (an overloaded servo) names that instead.
+        """
         with self._state_lock:
             if self._fault is not None:
                 return
@@ -258,7 +262,7 @@ class SerialArmDriver(ArmDriver):
         # The run hears of the fault before any behaviour sees its motion fail, so the
         # run ends as a hardware fault (exit 3), not as the tree's failure.
         if self._connected or self._reopening:
-            self.interrupt(f"link lost on {self.device}", fault)
+            self.interrupt(reason or f"link lost on {self.device}", fault)
         for handle in handles:
             handle.update(MotionStatus.FAILED, error=fault)
 

@@ -31,15 +31,14 @@ import numpy as np
 from armtree.api.rig import MotionHandle, MotionStatus, ToolState
 from armtree.errors import HardwareFault, PlanningError, Unreachable
 from armtree.maths.motion.collision import CollisionChecker
-from armtree.maths.motion.penetration import START_CONTACT_MM
 from armtree.maths.motion.scene import Scene
-from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
+from armtree.maths.motion.trajectory import Trajectory
 from armtree.plugins.arms.common.plausibility import StatusGuard
 from armtree.plugins.arms.common.serial_driver import SerialArmDriver
+from armtree.plugins.arms.common.streaming import TrajectoryStream, timed_path
 
 from . import ssc32 as S
 from .kinematics import DHModel
-from .streaming import TrajectoryStream
 
 #: Ways the driver times a motion (``arm.trajectory``).
 TRAJECTORY_KINDS = ("cubic", "quintic", "none")
@@ -380,35 +379,9 @@ class SSC32Driver(SerialArmDriver):
         return handle
 
     def time_path(self, path: np.ndarray, speed: float = 1.0) -> Trajectory:
-        """The validated trajectory through joint configurations ``path`` ``(N, n)``.
-
-        Raises :class:`PlanningError` (reason ``outside_limits``, ``too_fast``,
-        ``collision``, ...) saying where along it the path fails. A path from a
-        start believed in a shallow contact is taken when its first move only
-        leaves the contact (:func:`~armtree.maths.motion.start_contact.leaving_run`);
-        the arm then comes to rest at the end of that move.
-        """
-        scale = float(min(max(speed, 0.01), 1.0))
-        vmax = np.array([j.max_speed for j in self.model.joints]) * scale
-        amax = np.array([j.max_accel for j in self.model.joints]) * scale
-        trajectory = plan_trajectory(path, self.trajectory_kind, max_speed=vmax, max_accel=amax)
-        report = validate_trajectory(trajectory, self.checker)
-        if not report.ok and report.reason == "collision" and report.index == 0 and len(path) > 1:
-            # Believed in contact (a slipped step): come to rest where the first move leaves
-            # the contact (a straight move then), and go on from there.
-            path = np.asarray(path, dtype=float)
-            moved = np.any(np.abs(path[1:] - path[0]) > 1e-12, axis=1)
-            k = 1 + int(np.argmax(moved))
-            first, rest = (
-                plan_trajectory(p, self.trajectory_kind, max_speed=vmax, max_accel=amax)
-                for p in (path[: k + 1], path[k:])
-            )
-            trajectory = first.then(rest)
-            report = validate_trajectory(
-                trajectory, self.checker, start_contact_mm=START_CONTACT_MM
-            )
-        report.raise_if_bad()
-        return trajectory
+        """The validated trajectory through joint configurations ``path`` ``(N, n)``
+        (:func:`~armtree.plugins.arms.common.streaming.timed_path`)."""
+        return timed_path(path, self.trajectory_kind, self.checker, speed)
 
     def _checked_goal(self, q: np.ndarray) -> tuple[np.ndarray, dict[int, int]]:
         """``q`` within the limits and its pulses within the board's range; raises Unreachable."""

@@ -1,7 +1,8 @@
-"""Set points along a timed trajectory, for a servo board that only ramps linearly to them.
+"""Set points along a timed trajectory, for servos that only ramp linearly to them.
 
 An SSC-32 takes a target and a time and moves every listed servo there at a
-constant speed: no acceleration limit, no via-points. To drive an arm along a
+constant speed: no acceleration limit, no via-points; bus servos given a goal
+and a speed (or a time) do the same. To drive an arm along a
 cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.maths.motion.trajectory`) the
 host sends, every ``period`` seconds, the trajectory's position ``lead``
 seconds ahead with that ramp time. Each ramp starts from where the servos are
@@ -17,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armtree.maths.motion.trajectory import Trajectory
+from armtree.maths.motion.collision import CollisionChecker
+from armtree.maths.motion.penetration import START_CONTACT_MM
+from armtree.maths.motion.trajectory import Trajectory, plan_trajectory, validate_trajectory
 
 #: The shortest ramp sent (s): the last set point of a trajectory sent late.
 MIN_RAMP_S = 0.02
@@ -79,3 +82,37 @@ class TrajectoryStream:
         if self.duration <= 0:
             return 1.0
         return float(min(1.0, max(0.0, (now - self.t0) / self.duration)))
+
+
+def timed_path(
+    path: np.ndarray, kind: str, checker: CollisionChecker, speed: float = 1.0
+) -> Trajectory:
+    """The validated trajectory (``kind``: cubic or quintic) through joint configurations
+    ``path`` ``(N, n)``, within the joints' speed and acceleration limits scaled by ``speed``.
+
+    Raises :class:`~armtree.errors.PlanningError` (reason ``outside_limits``,
+    ``too_fast``, ``collision``, ...) saying where along it the path fails. A path from
+    a start believed in a shallow contact is taken when its first move only leaves the
+    contact (:func:`~armtree.maths.motion.penetration.leaving_run`); the arm then comes to
+    rest at the end of that move.
+    """
+    joints = checker.model.joints
+    scale = float(min(max(speed, 0.01), 1.0))
+    vmax = np.array([j.max_speed for j in joints]) * scale
+    amax = np.array([j.max_accel for j in joints]) * scale
+    trajectory = plan_trajectory(path, kind, max_speed=vmax, max_accel=amax)
+    report = validate_trajectory(trajectory, checker)
+    if not report.ok and report.reason == "collision" and report.index == 0 and len(path) > 1:
+        # Believed in contact (a slipped step): come to rest where the first move leaves
+        # the contact (a straight move then), and go on from there.
+        path = np.asarray(path, dtype=float)
+        moved = np.any(np.abs(path[1:] - path[0]) > 1e-12, axis=1)
+        k = 1 + int(np.argmax(moved))
+        first, rest = (
+            plan_trajectory(p, kind, max_speed=vmax, max_accel=amax)
+            for p in (path[: k + 1], path[k:])
+        )
+        trajectory = first.then(rest)
+        report = validate_trajectory(trajectory, checker, start_contact_mm=START_CONTACT_MM)
+    report.raise_if_bad()
+    return trajectory
