@@ -291,3 +291,16 @@ def test_a_fall_into_a_bin_is_not_a_drop():
     world, events = lift_and_let_go((0, 250), 120)
     assert [k for k, _ in events] == ["pick", "release", "land"]
     assert world.in_bin(world.bodies["trash"]) == "bin"
+
+
+def test_sort_that_could_not_put_an_object_away_fails_instead_of_a_false_success(tmp_path, capsys):
+    # Seed 11 on sim_dobot: the bin has no room within reach for the third trash, the
+    # absorbed put leaves it in the tool, and the sweep then covers the region.
+    tree = "sort.yaml"
+    args = [tree, "--rig", "sim_dobot", "--seed", "11", "--quiet"]
+    code = run_tree_main([*args, "--record", str(tmp_path / "run")])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert out.splitlines()[0] == "result: FAILURE  (exit 1)"
+    assert "FALSE SUCCESS" not in out
+    assert "failed at Sort/Nothing left in hand" in out

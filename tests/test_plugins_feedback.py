@@ -119,3 +119,36 @@ def test_running_feedback_is_logged_once_a_second_and_the_failure_reason_always(
         (2.95, "out of ticks: the lift never came"),
     ]
     assert records[-1]["status"] == "FAILURE"
+
+
+HOLDS = '''
+import armtree
+from py_trees.common import Status
+
+
+class Holds(armtree.Behaviour):
+    """Succeed at once, saying why."""
+
+    def update(self):
+        self.feedback_message = "the tool reports gripping"
+        return Status.SUCCESS
+
+
+@armtree.hookimpl
+def armtree_behaviours():
+    return {"holds": Holds}
+'''
+
+
+def test_an_inverted_success_names_the_childs_own_reason(tmp_path, capsys):
+    (tmp_path / "holds.py").write_text(HOLDS)
+    tree = tmp_path / "empty.yaml"
+    tree.write_text(
+        "plugins: [holds.py]\nroot:\n  inverter:\n    name: Hands empty\n"
+        "    child: {holds: {name: Still holding?}}\n"
+    )
+    code = run_tree_main([str(tree), "--quiet", "--record", str(tmp_path / "run")])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert "failed at Hands empty" in out
+    assert "(Still holding?: the tool reports gripping)" in out

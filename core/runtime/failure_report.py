@@ -144,6 +144,12 @@ class FailureReport:
         if failed is None:
             return End("FAILURE", "FAILURE")
         why = (getattr(failed, "feedback_message", "") or "").strip()
+        child = getattr(failed, "decorated", None)
+        said = (getattr(child, "feedback_message", "") or "").strip()
+        if said:
+            # A decorator that turned its child's verdict says only "success -> failure":
+            # the child's own words are the reason.
+            why = f"{why} ({child.name}: {said})" if why else f"{child.name}: {said}"
         return End(
             "FAILURE",
             f"the tree failed at {self.index.where(failed)}" + (f": {why}" if why else ""),
