@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 from armtree.loader.tree_loader import load_tree
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 from armtree.runtime.runner import Run
 
 CAMERA = "camera.position=[0,40,60]"

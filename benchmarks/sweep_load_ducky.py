@@ -58,7 +58,7 @@ def parse_seeds(text: str) -> list[int]:
 def one_run(tree: str, rig: str, seed: int, overrides: tuple[str, ...]) -> dict[str, Any]:
     """Run ``tree`` on ``rig`` with ``seed``; the record the summary is made of."""
     from armtree.loader.tree_loader import load_tree
-    from armtree.plugins.sim.plugin import sim_world
+    from armtree.plugins.sim.rig_world import sim_world
     from armtree.runtime.runner import Run
 
     wall0, cpu0 = time.perf_counter(), time.process_time()

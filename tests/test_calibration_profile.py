@@ -14,7 +14,7 @@ import armtree
 from armtree.api.clock import VirtualClock
 from armtree.config.calibration import calibration_of, update_calibration_file
 from armtree.hooks.plugin_manager import get_plugin_manager
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 from armtree.runtime.rig_builder import build_rig
 
 PROFILE = """\

@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 import armtree
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 
 
 def test_swapped_arm_type_drops_the_keys_only_the_previous_type_takes(tmp_path):

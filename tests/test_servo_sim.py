@@ -10,7 +10,7 @@ from test_profile_workcell import errors, load
 import armtree
 from armtree.config.workcell import ToolMarker, workcell_of
 from armtree.loader.tree_loader import load_tree
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 from armtree.runtime.runner import Run
 
 SERVO_TREE = """\

@@ -17,6 +17,7 @@ from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.api.rig import Rig, RigContext
 from armtree.plugins.sim import plugin
 from armtree.plugins.sim.camera import sim_camera
+from armtree.plugins.sim.rig_world import WorldStepper
 from armtree.plugins.sim.world import SHARED_KEY
 
 
@@ -47,10 +48,10 @@ def test_rig_ready_puts_the_arm_in_the_world_and_steps_it_after_the_emulator(bui
     rig, context, emulator = build()
     world = context.shared[SHARED_KEY]
     assert world.emulator is emulator
-    assert rig.steppers[0] == emulator.step and isinstance(rig.steppers[1], plugin.WorldStepper)
+    assert rig.steppers[0] == emulator.step and isinstance(rig.steppers[1], WorldStepper)
     assert not any(world is v for v in vars(rig).values()), "the rig never holds the world"
     plugin.armtree_rig_ready(rig=rig, context=context)
-    assert sum(isinstance(s, plugin.WorldStepper) for s in context.steppers) == 1, "idempotent"
+    assert sum(isinstance(s, WorldStepper) for s in context.steppers) == 1, "idempotent"
     emulator.target = emulator.model.ik(np.array([150.0, 0.0, 100.0]))
     rig.step(0.5)
     assert world.time == 0.5

@@ -17,7 +17,7 @@ from collections.abc import Iterable
 import pytest
 
 from armtree.loader.tree_loader import load_tree
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 from armtree.runtime.runner import Run
 
 #: These tests vary what a seed does to the nominal world (noise, drops); the worlds a

@@ -15,7 +15,7 @@ import pytest
 import armtree
 from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.tree_loader import load_tree
-from armtree.plugins.sim.plugin import sim_world
+from armtree.plugins.sim.rig_world import sim_world
 from armtree.runtime.runner import Run
 
 

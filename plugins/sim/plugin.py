@@ -23,48 +23,19 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
-from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.config.params import check_value
 from armtree.config.profile_access import profile_error, profile_section
 from armtree.config.profile_sections import ProfileSection
 
-from .as_built import SimMeasuringDevice
-from .camera import SimCamera, sim_camera
+from .camera import sim_camera
 from .recording import Recorder, write_score
-from .scene import BASE_FAULTS, SceneSpec, body_error, parse_scene
+from .rig_world import arm_factory, as_built_model, attach_world, uses_sim, world_stepper
+from .scene import BASE_FAULTS, SceneSpec, parse_scene
+from .scoring import score_line
+from .serve import ServeSimCommand
 from .truth import scene_truth, world_truth
 from .view import scene_objects
-from .world import World, WorldEvent, world_for
-
-
-class WorldStepper:
-    """The per-tick stepper of a world; the run hooks find the world through it.
-
-    It sits in the rig's steppers, which a skill is handed with the rig, so it keeps
-    the world, the camera and the recorder to itself: what judges a run gets the
-    world through :func:`sim_world`, which a skill cannot import.
-    """
-
-    def __init__(self, world: World, camera: SimCamera | None) -> None:
-        self._world = world
-        self._camera = camera
-        self._recorder: Recorder | None = None
-
-    def __call__(self, now: float) -> None:
-        self._world.step(now)
-        if self._recorder is not None:
-            self._recorder.step(now)
-
-
-def _uses_sim(profile: Any) -> bool:
-    arm = profile_section(profile, "arm") or {}
-    camera = profile_section(profile, "camera") or {}
-    return (
-        profile_section(profile, "world") is not None
-        or (isinstance(arm, dict) and arm.get("port") == "sim")
-        or (isinstance(camera, dict) and camera.get("type") == "sim")
-    )
-
+from .world import World, WorldEvent
 
 #: Profile sections the world is parsed from; when one is already invalid the world is not.
 _WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})
@@ -85,23 +56,6 @@ def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError
     ]
 
 
-def sim_world(run: Any) -> World | None:
-    """The simulated world of a run (or of a served bench), for judging it; None off the sim.
-
-    For tests, benchmarks and the sim's own hooks: skills never see it.
-    """
-    stepper = _stepper(run)
-    return None if stepper is None else stepper._world
-
-
-def _stepper(run: Any) -> WorldStepper | None:
-    rig = getattr(run, "rig", None)
-    for stepper in getattr(rig, "steppers", None) or ():
-        if isinstance(stepper, WorldStepper):
-            return stepper
-    return None
-
-
 @armtree.hookimpl
 def armtree_cameras() -> dict[str, Any]:
     """The ``sim`` camera."""
@@ -111,8 +65,6 @@ def armtree_cameras() -> dict[str, Any]:
 @armtree.hookimpl
 def armtree_commands() -> dict[str, Any]:
     """``armtree serve-sim``: the world served as a bench (arm on a pty, camera over HTTP)."""
-    from .serve import ServeSimCommand  # imports this module
-
     return {"serve-sim": ServeSimCommand}
 
 
@@ -139,7 +91,7 @@ def check_world(profile: Any) -> list[armtree.ConfigError]:
     table top. A profile that uses a sim part without ``world:`` gets the default
     world, which is checked the same way.
     """
-    if not _uses_sim(profile) or getattr(profile, "invalid", frozenset()) & _WORLD_INPUTS:
+    if not uses_sim(profile) or getattr(profile, "invalid", frozenset()) & _WORLD_INPUTS:
         return []
     try:
         scene = parse_scene(profile)
@@ -155,7 +107,7 @@ def check_world(profile: Any) -> list[armtree.ConfigError]:
 
 def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.faults`` must be faults the arm's emulator takes (its factory's ``faults``)."""
-    component = _arm_factory(profile)
+    component = arm_factory(profile)
     taken = getattr(getattr(component, "factory", None), "faults", BASE_FAULTS)
     arm = (profile_section(profile, "arm") or {}).get("type")
     return [
@@ -200,49 +152,13 @@ def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
 @armtree.hookimpl
 def armtree_rig_ready(rig: Any, context: Any) -> None:
     """Build the world, attach the emulated arm, and step the world after the emulators."""
-    if not _uses_sim(context.profile):
-        return
-    if any(isinstance(s, WorldStepper) for s in context.steppers):
-        return
-    world = world_for(context)
-    emulator = context.shared.get(EMULATOR_KEY)
-    if emulator is not None and world.emulator is None:
-        world.attach_arm(emulator, _as_built_model(context.profile, world.scene.as_built.arm))
-        for link, body in world.start_overlaps():
-            spec = world.bodies[body].spec
-            raise body_error(
-                context.profile, spec, f"{body} is inside the arm's {link} at its start pose"
-            )
-    camera = rig.camera if isinstance(rig.camera, SimCamera) else None
-    context.steppers.append(WorldStepper(world, camera))
-    if rig.reference is None:
-        rig.reference = SimMeasuringDevice(
-            world, world.scene.as_built.reference_noise_mm, seed=context.seed
-        )
-
-
-def _arm_factory(profile: Any) -> Any:
-    arm = profile_section(profile, "arm") or {}
-    manager = getattr(profile, "manager", None)
-    if manager is None or not manager.registry.has("arm", arm.get("type", "")):
-        return None
-    return manager.registry.get("arm", arm["type"])
-
-
-def _as_built_model(profile: Any, changes: dict[str, Any]) -> Any:
-    """The arm's kinematic model with ``world.as_built.arm`` laid over the profile's keys;
-    None when the arm is as the profile says."""
-    component = _arm_factory(profile)
-    make = getattr(getattr(component, "factory", None), "model", None)
-    if not changes or not callable(make):
-        return None
-    return make({**profile.component("arm"), **changes})
+    attach_world(rig, context)
 
 
 def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.as_built.arm`` must name the arm type's own keys with values it takes."""
     changes = scene.as_built.arm
-    component = _arm_factory(profile)
+    component = arm_factory(profile)
     if not changes or component is None:
         return []
     known = {p.name: p for p in component.params}
@@ -262,7 +178,7 @@ def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError
             out.append(profile_error(profile, path, str(exc)))
     if not out:
         try:
-            _as_built_model(profile, changes)
+            as_built_model(profile, changes)
         except (armtree.ConfigError, ValueError, TypeError) as exc:
             out.append(profile_error(profile, "world.as_built.arm", f"no arm is built so: {exc}"))
     return out
@@ -300,7 +216,7 @@ def _forward_events(run: Any, world: World) -> None:
 def armtree_run_started(run: Any) -> None:
     """Forward the world's events to the run; start recording videos when the run was
     given a record directory (``--record DIR``)."""
-    stepper = _stepper(run)
+    stepper = world_stepper(run)
     if stepper is None:
         return
     if not stepper._world.listeners:
@@ -318,14 +234,14 @@ def armtree_run_started(run: Any) -> None:
 @armtree.hookimpl
 def armtree_scene_objects(run: Any) -> list[Any] | None:
     """The world's table and bodies as boxes, for monitors and recordings."""
-    stepper = _stepper(run)
+    stepper = world_stepper(run)
     return None if stepper is None else scene_objects(stepper._world)
 
 
 @armtree.hookimpl
 def armtree_world_inventory(profile: Any) -> Any:
     """The profile's nominal world, for checking the names of a tree's ``expect:``."""
-    if not _uses_sim(profile):
+    if not uses_sim(profile):
         return None
     try:
         return scene_truth(parse_scene(profile), profile)
@@ -336,7 +252,7 @@ def armtree_world_inventory(profile: Any) -> Any:
 @armtree.hookimpl
 def armtree_ground_truth(run: Any) -> Any:
     """The world at the end of the run, once what was falling has landed."""
-    stepper = _stepper(run)
+    stepper = world_stepper(run)
     if stepper is None:
         return None
     stepper._world.settle()
@@ -346,7 +262,7 @@ def armtree_ground_truth(run: Any) -> Any:
 @armtree.hookimpl
 def armtree_run_finished(run: Any, result: Any) -> None:
     """Write the world's score (``score.json``) beside the run log and finish recordings."""
-    stepper = _stepper(run)
+    stepper = world_stepper(run)
     if stepper is None:
         return
     score = stepper._world.score()
@@ -367,20 +283,3 @@ def armtree_run_finished(run: Any, result: Any) -> None:
         details["score"] = score_line(score)
         if score_path is not None:
             details["score file"] = str(score_path)
-
-
-def score_line(score: dict[str, Any]) -> str:
-    """One line of a world's score for the run summary: ducky on a Duckybot, bins,
-    collisions and what the gripper holds."""
-    in_bin = ", ".join(score.get("in_bin") or ()) or "none"
-    return " · ".join(
-        (
-            f"ducky on duckybot: {'yes' if score.get('ducky_on_duckybot') else 'no'}",
-            f"in bin: {in_bin}",
-            f"collisions: {score.get('collision_count', 0)}",
-            f"held: {score.get('held') or 'none'}",
-        )
-    )
-
-
-__all__ = ["WorldStepper", "score_line"]

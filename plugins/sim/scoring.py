@@ -64,3 +64,17 @@ def world_score(world: World) -> dict[str, Any]:
         ],
         "events": len(world.events),
     }
+
+
+def score_line(score: dict[str, Any]) -> str:
+    """One line of a world's score for the run summary: ducky on a Duckybot, bins,
+    collisions and what the gripper holds."""
+    in_bin = ", ".join(score.get("in_bin") or ()) or "none"
+    return " · ".join(
+        (
+            f"ducky on duckybot: {'yes' if score.get('ducky_on_duckybot') else 'no'}",
+            f"in bin: {in_bin}",
+            f"collisions: {score.get('collision_count', 0)}",
+            f"held: {score.get('held') or 'none'}",
+        )
+    )

@@ -41,7 +41,8 @@ from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .camera import SimCamera
 from .mjpeg import MjpegServer
-from .plugin import WorldStepper, armtree_rig_ready, score_line
+from .rig_world import WorldStepper, attach_world
+from .scoring import score_line
 from .truth import world_truth
 
 #: The shipped real-hardware profile that matches a sim profile's arm, for the hint line.
@@ -132,9 +133,7 @@ class SimBench:
             self.context.closers.append(emulator.close)
             self.context.shared[EMULATOR_KEY] = emulator
             self.camera = SimCamera(self.camera_config, self.context)
-            armtree_rig_ready(
-                rig=Rig(self.profile, self.clock, camera=self.camera), context=self.context
-            )
+            attach_world(Rig(self.profile, self.clock, camera=self.camera), self.context)
             self._stepper = next(s for s in self.context.steppers if isinstance(s, WorldStepper))
             self.camera.start()
             self.server.start()
