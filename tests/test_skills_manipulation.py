@@ -296,7 +296,7 @@ def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
 def held_release(bias, at=(200.0, 0.0, 0.0)):
     """Eye-to-hand: a ducky held at the tool centre, joints that lost steps by ``bias``
     (base deg, reach mm, height mm), let go at [200, 0, 0] mm."""
-    from armtree.plugins.skills.eye import eye_of
+    from armtree.api.skill.eye import eye_of
     from armtree.plugins.skills.manipulation import Release
 
     held = Marker(0, np.array([at[0], at[1], 80.0]), held=True)

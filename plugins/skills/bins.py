@@ -21,9 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.skill.reach import reachable
 from armtree.config.workcell import Bin
-
-from .reach import reachable
 
 #: Gap kept between the held object's bottom and the rim or what lies under it (mm).
 CLEAR_MM = 4.0

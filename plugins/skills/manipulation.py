@@ -30,17 +30,19 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import ArmHome, Grip, Look, Move, Pause, SkillFailure, fmt
+from armtree.api.skill.arm import UP, ArmSkill, above
+from armtree.api.skill.base import ActionFailed, Procedure, as_list
+from armtree.api.skill.eye import eye_of
+from armtree.api.skill.reach import nearest_reachable, reachable
+from armtree.api.skill.sightline import out_of_view
 from armtree.config.params import Binding
 from armtree.maths.perception.frames import EYE_IN_HAND
 
-from .actions import ArmHome, Grip, Look, Move, Pause, SkillFailure, fmt
-from .arm_skill import UP, ArmSkill, above, grip_point, has_gripper
-from .base import ActionFailed, Procedure, as_list
 from .bins import Drop, contents_of, inside, plan_drop
-from .eye import eye_of
 from .footprint import clear_grip, neighbours
-from .locate import locate, look_over, nearest, out_of_view
-from .reach import nearest_reachable, reachable
+from .grip import GRIP, grip_point, has_gripper
+from .locate import locate, look_over, nearest
 
 #: A marker this much higher than the spot it was gripped at has risen with the tool (mm).
 RISEN_MM = 10.0
@@ -441,7 +443,7 @@ class Gripping(ArmSkill):
             "after a failed grip, home the arm on its own reference (missed steps undone)",
         ),
         Param("pose", "any", None, "mm", "output: where the object was picked", io="out"),
-        *ArmSkill.GRIP,
+        *GRIP,
         *ArmSkill.COMMON,
     )
     RESOURCES = ("arm", "tool")

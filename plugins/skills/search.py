@@ -15,14 +15,15 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import Grip, Look, Move, Pause, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill, above, camera_over
+from armtree.api.skill.base import ActionFailed, Procedure, as_list
+from armtree.api.skill.eye import Sighting, Tally
+from armtree.api.skill.survey import survey_points
 
-from .actions import Grip, Look, Move, Pause, SkillFailure, fmt
-from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
-from .base import ActionFailed, Procedure, as_list
 from .bins import contents_of
-from .eye import Sighting, Tally
+from .grip import GRIP, grip_point, has_gripper
 from .manipulation import bin_drop, release_at, release_steps
-from .survey import survey_points
 
 
 @dataclass
@@ -152,7 +153,7 @@ class CleanUpParams:
             minimum=1,
             maximum=100,
         ),
-        *ArmSkill.GRIP,
+        *GRIP,
     )
 
 
