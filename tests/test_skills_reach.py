@@ -8,7 +8,7 @@ from test_skills_fakes import CylModel, Marker, _clean_blackboard, make_rig, run
 
 from armtree.api.skill.reach import highest_reachable, nearest_reachable, reachable
 from armtree.config.params import Binding
-from armtree.plugins.skills.manipulation import Pick
+from armtree.plugins.skills.pick import Pick
 from armtree.plugins.skills.search import Search
 
 

@@ -8,7 +8,8 @@ from py_trees.common import Status
 from test_skills_fakes import TICK, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.config.params import Binding
-from armtree.plugins.skills.manipulation import Grasp, Release
+from armtree.plugins.skills.pick import Grasp
+from armtree.plugins.skills.place import Release
 from armtree.plugins.skills.steps import Approach, LookFor, SearchStep, Sweep
 
 #: The fake rig's survey: a ring of r = 200 mm, 20 degree steps from -100 to 100 degrees.

@@ -28,7 +28,8 @@ from armtree.api.skill.base import Skill, as_list
 from armtree.api.skill.eye import Sighting, eye_of
 from armtree.maths.perception.frames import EYE_IN_HAND
 
-from .manipulation import skipped, tool_engaged
+from .grip import tool_engaged
+from .locate import skipped
 
 
 class Condition(Skill):

@@ -1,4 +1,5 @@
-"""Where the tool takes hold of an object: the grip point within reach, and the tool's kind.
+"""Where the tool takes hold of an object: the grip point within reach, the tool's kind
+and whether it grips, and where a gripped marker sits on the tool.
 
 Positions are the tool centre in the arm's base frame, mm.
 """
@@ -13,6 +14,8 @@ from armtree import Param
 from armtree.api.skill.arm import UP, ArmSkill
 from armtree.api.skill.reach import lowest_reachable, reachable
 
+#: A gripper's jaws still hold an object gripped this fraction of its marker's side off centre.
+GRIP_HOLD = 0.2
 #: Parameters of skills that grip with the suction cup.
 GRIP = (
     Param(
@@ -60,4 +63,36 @@ def grip_point(
     return want
 
 
-__all__ = ["GRIP", "grip_point", "has_gripper"]
+def edge_toward_base(target: np.ndarray, size: float, yaw: float | None) -> float:
+    """Distance (mm) from a ``size`` mm marker's centre at ``target`` to its edge in the
+    direction of the arm's base: half its size across its sides, more across a corner;
+    half its size when its heading ``yaw`` (radians) is unknown."""
+    half = 0.5 * size
+    if yaw is None or np.hypot(target[0], target[1]) < 1e-6:
+        return half
+    angle = np.arctan2(-target[1], -target[0]) - yaw
+    return float(half / max(abs(np.cos(angle)), abs(np.sin(angle))))
+
+
+def tool_pose_at(rig: Any, xyz: np.ndarray) -> np.ndarray:
+    """The tool's pose (4x4) with its centre at ``xyz``, as the arm's model reaches it."""
+    model = rig.arm.model
+    return model.fk(model.ik(np.asarray(xyz, dtype=float), near=rig.arm.joints()))
+
+
+def tool_engaged(rig: Any) -> bool:
+    """True when the rig's tool reports gripping (``rig.tool.holding``: suction on, a gripper
+    nearer closed than open); False for a rig without one."""
+    tool = getattr(rig, "tool", None)
+    return tool is not None and bool(tool.holding)
+
+
+__all__ = [
+    "GRIP",
+    "GRIP_HOLD",
+    "edge_toward_base",
+    "grip_point",
+    "has_gripper",
+    "tool_engaged",
+    "tool_pose_at",
+]

@@ -10,6 +10,7 @@ reaches, before anyone grips or releases there. mm, base frame.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ import numpy as np
 
 from armtree.api.skill.actions import Look, Move
 from armtree.api.skill.arm import ArmSkill, camera_over
-from armtree.api.skill.base import Procedure
+from armtree.api.skill.base import ActionFailed, Procedure
 from armtree.api.skill.eye import Sighting, Tally, eye_of
 from armtree.api.skill.sightline import out_of_view
 from armtree.maths.perception.frames import EYE_IN_HAND
@@ -183,10 +184,26 @@ def locate(
     return Found(best if best is not None else seen, looks + 1, tally)
 
 
+def move_out_of_view(skill: ArmSkill, point: np.ndarray) -> Procedure:
+    """Eye-to-hand: take the arm to where it hides ``point`` least (a refused move stays put)."""
+    clear = out_of_view(skill, point)
+    if clear is None:
+        return
+    with contextlib.suppress(ActionFailed):
+        yield Move(skill.rig, clear, speed=skill.speed(), label="out of view")
+
+
+def skipped(value: Any) -> list[int]:
+    """Marker ids from a ``skip`` parameter's value (None or a list)."""
+    return [int(v) for v in value] if isinstance(value, (list, tuple)) else []
+
+
 __all__ = [
     "Found",
     "around",
     "locate",
     "look_over",
+    "move_out_of_view",
     "nearest",
+    "skipped",
 ]

@@ -21,9 +21,10 @@ from armtree.api.skill.base import ActionFailed, Procedure, as_list
 from armtree.api.skill.eye import Sighting, Tally
 from armtree.api.skill.survey import survey_points
 
+from .bin_drop import bin_drop
 from .bins import contents_of
 from .grip import GRIP, grip_point, has_gripper
-from .manipulation import bin_drop, release_at, release_steps
+from .release import release_at, release_steps
 
 
 @dataclass
@@ -81,7 +82,7 @@ def clean_one(
     approach = skill.param("approach_mm")
     name, cell = skill.param("bin"), skill.workcell
     if isinstance(name, str) and name in cell.bins and cell.table_z_mm is not None:
-        # spread across the bin's inside, clear of what is in it (manipulation's place does too)
+        # spread across the bin's inside, clear of what is in it (place does too)
         hang = float(grip[2] - cell.table_z_mm)
         drop = bin_drop(skill, name, bin_xyz, None, hang, skill.param("trash"), item.id)
         point = yield from release_at(skill, drop.tool, approach, skill.param("dwell_s"))

@@ -31,8 +31,7 @@ from armtree.api.skill.arm import ArmSkill, above, camera_over
 from armtree.api.skill.base import Procedure, as_list
 from armtree.api.skill.survey import survey_points
 
-from .locate import locate, nearest
-from .manipulation import skipped
+from .locate import locate, nearest, skipped
 from .search import SCAN_PARAMS
 
 #: Outputs of the actions that find a marker.
