@@ -297,7 +297,7 @@ def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
 def held_release(bias, at=(200.0, 0.0, 0.0)):
     """Eye-to-hand: a ducky held at the tool centre, joints that lost steps by ``bias``
     (base deg, reach mm, height mm), let go at [200, 0, 0] mm."""
-    from armtree.api.skill.eye import eye_of
+    from armtree.plugins.skills.held import HELD_KEY, Held
     from armtree.plugins.skills.place import Release
 
     held = Marker(0, np.array([at[0], at[1], 80.0]), held=True)
@@ -305,8 +305,9 @@ def held_release(bias, at=(200.0, 0.0, 0.0)):
     rig.world.held = held
     rig.arm.suction = True
     rig.arm.bias = np.asarray(bias, dtype=float)
-    eye_of(rig).held = np.array([0.0, 0.0, 0.0, 1.0])  # the grip left the marker at the tool
     node = Release("let go", at=list(at), object="ducky", verify=False)
+    # the grip a pick handed over: the marker at the tool centre
+    node.bb.set(HELD_KEY, Held(np.array([0.0, 0.0, 0.0, 1.0]), None), overwrite=True)
     status, _ = run(node, rig)
     return status, node, rig, held
 

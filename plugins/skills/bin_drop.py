@@ -34,7 +34,7 @@ def bin_drop(
     """
     rig = skill.rig
     spec = skill.workcell.bins[name]
-    contents = contents_of(rig).of(name)
+    contents = contents_of(skill.bb).of(name)
     view = eye_of(rig).last
     if view is not None:
         contents += [

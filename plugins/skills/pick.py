@@ -5,7 +5,8 @@ Seed 004 ("Loading a ducky"): the pump holds an object while the tool touches it
 The report's static ducky position needed frequent touch tests; here a place is only
 where to look: :func:`~.locate.locate` finds the tag around it, and a pick the camera
 contradicts (:mod:`.pick_check`) is a FAILURE with the measured numbers, which a retry
-in the tree can act on. Tool centre and marker centres in the base frame, mm.
+in the tree can act on. The grip goes to the release that follows on the blackboard
+(:mod:`.held`). Tool centre and marker centres in the base frame, mm.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from .grip import (
     tool_engaged,
     tool_pose_at,
 )
+from .held import HELD_KEY, Held, hand_over
 from .locate import locate, skipped
 from .pick_check import PickCheck
 
@@ -83,6 +85,10 @@ class Gripping(PickCheck):
     )
     RESOURCES = ("arm", "tool")
 
+    def __init__(self, name: str, **params: Any) -> None:
+        super().__init__(name, **params)
+        hand_over(self.bb)
+
     def grip(self, target: np.ndarray, tag: str | None, marker: int | None) -> Procedure:
         """Grip at ``target`` and check the grip; a failure lets go on purpose and skips the marker."""
         try:
@@ -106,14 +112,9 @@ class Gripping(PickCheck):
                 self.feedback_message = yield from self.verify_pick(
                     tag, marker, target, float(self.param("verify_tolerance_mm"))
                 )
-            # where the marker sits on the tool: the place check looks where it will land
-            eye = eye_of(self.rig)
             if marker is not None:
-                eye.forget(marker)  # no longer where it stood
-            with contextlib.suppress(ValueError):  # the grip point's IK (Unreachable)
-                eye.held = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(target, 1.0)
-            table = self.workcell.table_z_mm
-            eye.held_hang_mm = None if table is None else float(grip[2] - table)
+                eye_of(self.rig).forget(marker)  # no longer where it stood
+            self.hand_over(target, grip)
         except SkillFailure:
             if marker is not None:
                 self.add_skip(marker)
@@ -211,6 +212,17 @@ class Gripping(PickCheck):
             hits=[o.id for o in found.blocked_by],
         )
         return found.grip
+
+    def hand_over(self, target: np.ndarray, grip: np.ndarray) -> None:
+        """Write the grip to the blackboard (:data:`~.held.HELD_KEY`) for the release that
+        follows: where the marker at ``target`` sits on the tool gripping at ``grip`` (so
+        the place check looks where it will land), and how far the object hangs below it."""
+        in_tool = None
+        with contextlib.suppress(ValueError):  # the grip point's IK (Unreachable)
+            in_tool = np.linalg.inv(tool_pose_at(self.rig, grip)) @ np.append(target, 1.0)
+        table = self.workcell.table_z_mm
+        hang = None if table is None else float(grip[2] - table)
+        self.bb.set(HELD_KEY, Held(in_tool, hang), overwrite=True)
 
     def marker_yaw(self, marker: int | None) -> float | None:
         """The heading (radians) of marker ``marker`` in the camera's last view, if it is there."""

@@ -17,8 +17,9 @@ from armtree.api.skill.base import Procedure, as_list
 from armtree.api.skill.eye import eye_of
 
 from .bin_drop import bin_drop
-from .bins import Drop, contents_of
+from .bins import Drop, remember_drop, share_bins
 from .grip import tool_pose_at
+from .held import take, take_over
 from .locate import locate
 from .place_check import PlaceCheck
 from .release import release_at, release_steps
@@ -71,14 +72,19 @@ class PuttingDown(PlaceCheck):
     )
     RESOURCES = ("arm", "tool")
 
+    def __init__(self, name: str, **params: Any) -> None:
+        super().__init__(name, **params)
+        take_over(self.bb)  # the grip the pick before handed over
+        share_bins(self.bb)
+
     def put_down(self, target: np.ndarray, on_marker: bool) -> Procedure:
         """Let go over ``target`` (``workcell.release_offset_mm`` above a marker, at a place
         itself, across the inside of a bin the profile's ``workcell.bins`` describes) and
         check where the object went."""
         release = self.workcell.release_offset_mm if on_marker else 0.0
-        eye = eye_of(self.rig)
-        held, eye.held = eye.held, None
-        hang, eye.held_hang_mm = eye.held_hang_mm, None
+        grip = take(self.bb)
+        held = None if grip is None else grip.marker_in_tool
+        hang = None if grip is None else grip.hang_mm
         bin_name = None if on_marker else self.bin_at()
         marker = self.param("marker")
 
@@ -103,8 +109,8 @@ class PuttingDown(PlaceCheck):
         if bin_name is not None:
             # until the camera says otherwise it lies where it was let go, as high as that
             landing = point if expected is None else expected
-            contents_of(self.rig).record(
-                bin_name, self.bin_key(marker), np.array([*landing[:2], point[2]])
+            remember_drop(
+                self.bb, bin_name, self.bin_key(marker), np.array([*landing[:2], point[2]])
             )
         self.output("pose", as_list(released))
         obj = self.param("object")
@@ -123,10 +129,11 @@ class PuttingDown(PlaceCheck):
                 None if marker is None else int(marker),
                 expected,
             )
-            if bin_name is not None and marker is not None and eye.last is not None:
-                seen = next((s for s in eye.last.sightings if s.id == int(marker)), None)
+            last = eye_of(self.rig).last
+            if bin_name is not None and marker is not None and last is not None:
+                seen = next((s for s in last.sightings if s.id == int(marker)), None)
                 if seen is not None:
-                    contents_of(self.rig).record(bin_name, int(marker), seen.position)
+                    remember_drop(self.bb, bin_name, int(marker), seen.position)
         return released
 
     def bin_at(self) -> str | None:

@@ -22,7 +22,7 @@ from armtree.api.skill.eye import Sighting, Tally
 from armtree.api.skill.survey import survey_points
 
 from .bin_drop import bin_drop
-from .bins import contents_of
+from .bins import remember_drop, share_bins
 from .grip import GRIP, grip_point, has_gripper
 from .release import release_at, release_steps
 
@@ -86,7 +86,7 @@ def clean_one(
         hang = float(grip[2] - cell.table_z_mm)
         drop = bin_drop(skill, name, bin_xyz, None, hang, skill.param("trash"), item.id)
         point = yield from release_at(skill, drop.tool, approach, skill.param("dwell_s"))
-        contents_of(rig).record(name, item.id, np.array([*drop.landing, point[2]]))
+        remember_drop(skill.bb, name, item.id, np.array([*drop.landing, point[2]]))
     else:
         yield from release_steps(skill, bin_xyz, approach, 0.0, skill.param("dwell_s"))
     log.carried += 1
@@ -244,7 +244,16 @@ def clear_here(
         skill.feedback_message = log.summary()
 
 
-class CleanUp(ArmSkill):
+class ClearsTrash(ArmSkill):
+    """A skill that may carry trash to a bin: it shares the run's bin contents
+    (:data:`~.bins.BINS_KEY`) with the other skills that let go into bins."""
+
+    def __init__(self, name: str, **params: Any) -> None:
+        super().__init__(name, **params)
+        share_bins(self.bb)
+
+
+class CleanUp(ClearsTrash):
     """Pick every trash marker in view and drop it over the garbage bin, then come back.
 
     Looks from the current pose (or, with ``sweep``, from every scan pose of the
@@ -282,7 +291,7 @@ class CleanUp(ArmSkill):
         return log.carried
 
 
-class Search(ArmSkill):
+class Search(ClearsTrash):
     """Sweep the camera over the workspace until a tag of role ``tag`` is seen; output its pose.
 
     Scan poses put the camera over the points of the profile's
