@@ -26,6 +26,10 @@ _PUBLIC = {
     "Position": "armtree.config.params",
     "TagRole": "armtree.config.params",
     "Behaviour": "armtree.api.behaviour",
+    "Skill": "armtree.api.skill.base",
+    "ArmSkill": "armtree.api.skill.arm",
+    "Action": "armtree.api.skill.actions",
+    "SkillFailure": "armtree.api.skill.actions",
     "hookimpl": "armtree.hooks.hookspecs",
     "hookspec": "armtree.hooks.hookspecs",
     "Profile": "armtree.loader.profile",
@@ -39,6 +43,8 @@ _PUBLIC = {
 
 __all__ = [
     "REQUIRED",
+    "Action",
+    "ArmSkill",
     "Behaviour",
     "Binding",
     "ConfigError",
@@ -51,6 +57,8 @@ __all__ = [
     "Profile",
     "Run",
     "RunResult",
+    "Skill",
+    "SkillFailure",
     "TagRole",
     "Tree",
     "Unreachable",

@@ -1,5 +1,9 @@
 # The public names of armtree for type checkers; __init__.py looks them up on first use.
 from armtree.api.behaviour import Behaviour as Behaviour
+from armtree.api.skill.actions import Action as Action
+from armtree.api.skill.actions import SkillFailure as SkillFailure
+from armtree.api.skill.arm import ArmSkill as ArmSkill
+from armtree.api.skill.base import Skill as Skill
 from armtree.config.params import REQUIRED as REQUIRED
 from armtree.config.params import Binding as Binding
 from armtree.config.params import Param as Param

@@ -89,11 +89,11 @@ PARTS = {
     "tool": armtree.api.rig.Tool,
     "camera": armtree.api.rig.Camera,
 }
-#: What each prefix names on the page; ``self`` is a behaviour's, or in the emulator's
+#: What each prefix names on the page; ``self`` is a behaviour's (a skill's), or in the emulator's
 #: paragraph a ``PtyEmulator``'s.
 ON = {
     "rig": (Rig,),
-    "self": (armtree.Behaviour, PtyEmulator),
+    "self": (armtree.Behaviour, armtree.ArmSkill, PtyEmulator),
     "runtime": (Run,),
     "context": (RigContext,),
 }

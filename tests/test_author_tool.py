@@ -105,7 +105,7 @@ class Magnet(Tool):
 
 
 def test_a_plugin_tool_is_what_the_shipped_grip_step_uses():
-    from armtree.plugins.skills.actions import Grip, State
+    from armtree.api.skill.actions import Grip, State
 
     rig = Rig(profile=None, clock=VirtualClock(), tool=Magnet())
     step = Grip(rig, True)

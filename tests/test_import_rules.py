@@ -2,7 +2,7 @@
 (module level, inside a function, under TYPE_CHECKING) by the import-linter contracts in
 pyproject.toml: core's layers import only the layers below them, core never imports a
 plugin, the plugin packages do not import each other (the sim takes its marker images
-from the trackers; calibration uses skills and the trackers' calibration), and no
+from the trackers; calibration uses the trackers' calibration), and no
 package's modules or subpackages import each other in a circle.
 
 grimp, which import-linter reads packages with, finds a package's modules in its folder,

@@ -9,8 +9,8 @@ import pytest
 from test_profile_load import manager
 
 import armtree
+from armtree.api.skill.survey import grid_points, survey_points
 from armtree.config.workcell import Survey, parse_workcell, workcell_of
-from armtree.plugins.skills.survey import grid_points, survey_points
 
 
 def load(tmp_path, body: str):
@@ -196,7 +196,7 @@ def test_a_bin_names_a_place_and_gives_its_inside_and_rim(tmp_path):
 
 
 def test_a_marker_is_moved_along_the_camera_ray_onto_its_height():
-    from armtree.plugins.skills.eye import onto_plane
+    from armtree.api.skill.eye import onto_plane
 
     camera = np.eye(4)
     camera[:3, 3] = [300.0, 0.0, 650.0]

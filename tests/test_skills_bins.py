@@ -7,9 +7,9 @@ import math
 import numpy as np
 from test_skills_fakes import CylModel
 
+from armtree.api.skill.reach import reachable
 from armtree.config.workcell import Bin
 from armtree.plugins.skills.bins import CLEAR_MM, plan_drop
-from armtree.plugins.skills.reach import reachable
 
 BIN = Bin((74.0, 74.0), -15.0)
 PLACE = np.array([0.0, 185.0, 30.0])

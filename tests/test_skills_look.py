@@ -12,7 +12,7 @@ import numpy as np
 from test_skills_fakes import TICK, FakeCamera, Marker, make_rig
 
 from armtree.api.rig import Frame
-from armtree.plugins.skills.actions import Look, State
+from armtree.api.skill.actions import Look, State
 
 
 class PeriodicCamera(FakeCamera):

@@ -8,7 +8,8 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.config.params import Binding
-from armtree.plugins.skills.manipulation import Grasp, Pick, Place
+from armtree.plugins.skills.pick import Grasp, Pick
+from armtree.plugins.skills.place import Place
 
 
 def ducky(at=(185.0, -155.0, 0.0)):
@@ -284,7 +285,7 @@ def test_the_place_check_looks_around_the_target_when_the_view_over_it_misses():
 
 
 def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
-    from armtree.plugins.skills.manipulation import edge_toward_base
+    from armtree.plugins.skills.grip import edge_toward_base
 
     target = np.array([0.0, 200.0, -10.0])  # the base lies in -y
     assert edge_toward_base(target, 25.0, None) == pytest.approx(12.5)
@@ -296,16 +297,17 @@ def test_a_marker_turned_across_the_base_direction_is_gripped_farther_in():
 def held_release(bias, at=(200.0, 0.0, 0.0)):
     """Eye-to-hand: a ducky held at the tool centre, joints that lost steps by ``bias``
     (base deg, reach mm, height mm), let go at [200, 0, 0] mm."""
-    from armtree.plugins.skills.eye import eye_of
-    from armtree.plugins.skills.manipulation import Release
+    from armtree.plugins.skills.held import HELD_KEY, Held
+    from armtree.plugins.skills.place import Release
 
     held = Marker(0, np.array([at[0], at[1], 80.0]), held=True)
     rig = make_rig([held], mount="eye_to_hand")
     rig.world.held = held
     rig.arm.suction = True
     rig.arm.bias = np.asarray(bias, dtype=float)
-    eye_of(rig).held = np.array([0.0, 0.0, 0.0, 1.0])  # the grip left the marker at the tool
     node = Release("let go", at=list(at), object="ducky", verify=False)
+    # the grip a pick handed over: the marker at the tool centre
+    node.bb.set(HELD_KEY, Held(np.array([0.0, 0.0, 0.0, 1.0]), None), overwrite=True)
     status, _ = run(node, rig)
     return status, node, rig, held
 

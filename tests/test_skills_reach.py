@@ -6,9 +6,9 @@ from hypothesis import strategies as st
 from py_trees.common import Status
 from test_skills_fakes import CylModel, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
+from armtree.api.skill.reach import highest_reachable, nearest_reachable, reachable
 from armtree.config.params import Binding
-from armtree.plugins.skills.manipulation import Pick
-from armtree.plugins.skills.reach import highest_reachable, nearest_reachable, reachable
+from armtree.plugins.skills.pick import Pick
 from armtree.plugins.skills.search import Search
 
 

@@ -10,9 +10,9 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 import armtree
+from armtree.api.skill.survey import sweep_angles
 from armtree.config.params import Binding
 from armtree.plugins.skills.search import CleanUp, Search
-from armtree.plugins.skills.survey import sweep_angles
 
 
 def on_arc(deg, r=200.0, z=0.0):

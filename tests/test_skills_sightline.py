@@ -4,13 +4,18 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from armtree.api.skill.arm import camera_over
+from armtree.api.skill.reach import reachable
+from armtree.api.skill.sightline import (
+    hides,
+    joints_out_of_view,
+    out_of_view,
+    segment_hits_boxes,
+    shadow,
+)
+from armtree.api.skill.survey import survey_points
 from armtree.config.workcell import workcell_of
 from armtree.plugins.arms.vicra.kinematics import VicraModel
-from armtree.plugins.skills.arm_skill import camera_over
-from armtree.plugins.skills.locate import joints_out_of_view, out_of_view, shadow
-from armtree.plugins.skills.reach import reachable
-from armtree.plugins.skills.sightline import hides, segment_hits_boxes
-from armtree.plugins.skills.survey import survey_points
 
 
 def test_a_segment_crosses_a_box_only_where_it_passes_through_it():

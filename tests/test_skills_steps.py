@@ -1,14 +1,18 @@
 """The fine-grained actions on fake rigs: look, approach, grasp, release, sweep, search_step."""
 
+import dataclasses
 import math
 
 import numpy as np
 import py_trees
+import pytest
 from py_trees.common import Status
 from test_skills_fakes import TICK, Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.config.params import Binding
-from armtree.plugins.skills.manipulation import Grasp, Release
+from armtree.plugins.skills.held import HELD_KEY
+from armtree.plugins.skills.pick import Grasp
+from armtree.plugins.skills.place import Release
 from armtree.plugins.skills.steps import Approach, LookFor, SearchStep, Sweep
 
 #: The fake rig's survey: a ring of r = 200 mm, 20 degree steps from -100 to 100 degrees.
@@ -51,10 +55,19 @@ def test_grasp_then_release_move_the_object_and_check_both_ends():
     status, _ = run(grasp, rig)
     assert status is Status.SUCCESS, grasp.feedback_message
     assert rig.world.held is ducky and "spot is empty" in grasp.feedback_message
+    # the grip goes to the release on the blackboard: the marker where the tool touched it
+    held = py_trees.blackboard.Blackboard.get(HELD_KEY)
+    # the grip's height over the table: the fakes grip at the marker (offset 0), table z 0
+    assert held.hang_mm == pytest.approx(0.0, abs=1e-9)
+    tool = rig.arm.model.fk(rig.arm.model.ik(np.array([200.0, -50.0, held.hang_mm])))
+    np.testing.assert_allclose((tool @ held.marker_in_tool)[:3], [200.0, -50.0, 0.0], atol=1e-6)
+    added = vars(rig).keys() - {f.name for f in dataclasses.fields(rig)} - {"world"}
+    assert not added, f"attributes set on the rig: {added}"
     release = Release("r", at=[200.0, 60.0, 0.0], object="ducky")
     status, _ = run(release, rig)
     assert status is Status.SUCCESS, release.feedback_message
     assert rig.world.held is None and np.allclose(ducky.position, [200, 60, 0], atol=1e-6)
+    assert not py_trees.blackboard.Blackboard.exists(HELD_KEY), "taken by the release"
 
 
 def test_sweep_finds_the_tag_from_the_survey():

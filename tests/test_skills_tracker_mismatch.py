@@ -11,9 +11,9 @@ from py_trees.common import Status
 from test_skills_fakes import Marker, _clean_blackboard, make_rig, run  # noqa: F401
 
 from armtree.api.rig import Frame
+from armtree.api.skill.eye import Tally
 from armtree.config.params import Binding
-from armtree.plugins.skills.eye import Tally
-from armtree.plugins.skills.manipulation import Pick
+from armtree.plugins.skills.pick import Pick
 from armtree.plugins.skills.search import Search
 from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import ArucoTracker

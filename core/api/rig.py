@@ -542,6 +542,11 @@ class Rig:
     closers: list[Callable[[], None]] = field(default_factory=list)
     #: Names of the components :meth:`start` has started (or tried to), in order.
     started: list[str] = field(default_factory=list)
+    #: The camera reader every behaviour of the run shares
+    #: (:class:`armtree.api.skill.eye.Eye`: each frame read and its markers located once),
+    #: made by :func:`armtree.api.skill.eye.eye_of` on first use. Data between behaviours
+    #: goes through the blackboard, never through attributes added to the rig.
+    eye: Any = None
 
     def __post_init__(self) -> None:
         if self.tool is None and self.arm is not None:

@@ -17,11 +17,11 @@ from typing import Any
 import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
+from armtree.api.skill.actions import Action, Look, Move, SkillFailure, State, fmt
+from armtree.api.skill.arm import ArmSkill, camera_over
+from armtree.api.skill.base import Procedure, Skill
+from armtree.api.skill.eye import eye_of
 from armtree.maths.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Action, Look, Move, SkillFailure, State, fmt
-from armtree.plugins.skills.arm_skill import ArmSkill, camera_over
-from armtree.plugins.skills.base import Procedure, Skill
-from armtree.plugins.skills.eye import eye_of
 
 from . import fits, slips
 from .occupied import free, seen_keep_outs

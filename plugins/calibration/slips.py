@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.skill.actions import ArmHome, SkillFailure, fmt
+from armtree.api.skill.base import Procedure
 from armtree.maths.perception.frames import EYE_IN_HAND
 from armtree.maths.perception.hand_eye import lateral_residuals
-from armtree.plugins.skills.actions import ArmHome, SkillFailure, fmt
-from armtree.plugins.skills.base import Procedure
 
 from . import fits
 

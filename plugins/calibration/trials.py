@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill
+from armtree.api.skill.base import Procedure, Skill
+from armtree.api.skill.eye import eye_of
+from armtree.api.skill.sightline import joints_out_of_view, shadow
 from armtree.maths.perception.frames import EYE_IN_HAND
-from armtree.plugins.skills.actions import Look, Move, SkillFailure, fmt
-from armtree.plugins.skills.arm_skill import ArmSkill
-from armtree.plugins.skills.base import Procedure, Skill
-from armtree.plugins.skills.eye import eye_of
-from armtree.plugins.skills.locate import joints_out_of_view, shadow
 
 from .behaviours import PROGRESS, Measure, _half_view, _list
 from .occupied import blocker, declared_keep_outs, free, seen_keep_outs
@@ -55,7 +55,7 @@ class PlanTargets(TargetSkill):
     of what stands on the table.
 
     With a fixed camera the arm first moves where its links hide least of the table
-    (:func:`~armtree.plugins.skills.locate.out_of_view`) and the camera takes an
+    (:func:`~armtree.api.skill.sightline.out_of_view`) and the camera takes an
     overview: no target is drawn within ``keep_out_mm`` of a marker it sees (each on
     top of an object; the target's and the tool's own excepted), nor of a table point
     the arm still hides. The profile's ``obstacles`` are kept out of as well.
@@ -154,7 +154,7 @@ class PlanTargets(TargetSkill):
 class PlaceTarget(TargetSkill):
     """Have the next target placed (the measuring device: a person, or the simulation), with the
     arm waiting out of the camera's way: with a fixed camera and a survey, where its links do not
-    hide the target (:func:`~armtree.plugins.skills.locate.joints_out_of_view`), else at ``park``."""
+    hide the target (:func:`~armtree.api.skill.sightline.joints_out_of_view`), else at ``park``."""
 
     PARAMS = (
         Param("targets", "any", None, "mm", "in/out: plan_targets' targets (one found occupied is replaced by a spare)", io="inout"),

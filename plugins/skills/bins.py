@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from py_trees.blackboard import Client
+from py_trees.common import Access
 
+from armtree.api.skill.reach import reachable
 from armtree.config.workcell import Bin
-
-from .reach import reachable
 
 #: Gap kept between the held object's bottom and the rim or what lies under it (mm).
 CLEAR_MM = 4.0
@@ -48,14 +49,29 @@ class BinContents:
         return list(self.dropped.get(place, {}).values())
 
 
-def contents_of(rig: Any) -> BinContents:
-    """The run's :class:`BinContents`, made on first use and kept on the rig."""
-    contents = getattr(rig, "_skills_bins", None)
-    if contents is None:
-        contents = BinContents()
-        # The Rig belongs to the runtime; this one attribute is the skills' memory of bins.
-        rig._skills_bins = contents
-    return contents
+#: Blackboard key of the run's :class:`BinContents`: what the skills that let go into bins
+#: (``place``, ``release``, the clean-up's drops) have put there, for the next drop.
+BINS_KEY = "/skills/bins"
+
+
+def share_bins(bb: Client) -> None:
+    """Let blackboard client ``bb`` read and write :data:`BINS_KEY`."""
+    bb.register_key(key=BINS_KEY, access=Access.WRITE)
+    bb.register_key(key=BINS_KEY, access=Access.READ)
+
+
+def contents_of(bb: Client) -> BinContents:
+    """The run's :class:`BinContents` on the blackboard (empty before the first drop)."""
+    return bb.get(BINS_KEY) if bb.exists(BINS_KEY) else BinContents()
+
+
+def remember_drop(bb: Client, place: str, key: Any, position: np.ndarray) -> None:
+    """Write to the blackboard that object ``key`` lies at ``position`` (mm) in the bin at
+    ``place``: a new :class:`BinContents`, so the run log has each change."""
+    before = contents_of(bb)
+    after = BinContents({name: dict(lying) for name, lying in before.dropped.items()})
+    after.record(place, key, position)
+    bb.set(BINS_KEY, after, overwrite=True)
 
 
 def inside(spec: Bin, centre: np.ndarray, point: np.ndarray) -> bool:
@@ -128,4 +144,14 @@ def plan_drop(
     return Drop(tool, landings[best].copy(), float(room[best]))
 
 
-__all__ = ["CLEAR_MM", "BinContents", "Drop", "contents_of", "inside", "plan_drop"]
+__all__ = [
+    "BINS_KEY",
+    "CLEAR_MM",
+    "BinContents",
+    "Drop",
+    "contents_of",
+    "inside",
+    "plan_drop",
+    "remember_drop",
+    "share_bins",
+]

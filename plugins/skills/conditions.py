@@ -23,12 +23,13 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param
+from armtree.api.skill.actions import SkillFailure, fmt
+from armtree.api.skill.base import Skill, as_list
+from armtree.api.skill.eye import Sighting, eye_of
 from armtree.maths.perception.frames import EYE_IN_HAND
 
-from .actions import SkillFailure, fmt
-from .base import Skill, as_list
-from .eye import Sighting, eye_of
-from .manipulation import skipped, tool_engaged
+from .grip import tool_engaged
+from .locate import skipped
 
 
 class Condition(Skill):

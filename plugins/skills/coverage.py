@@ -18,11 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.skill.arm import camera_over
+from armtree.api.skill.survey import survey_points
 from armtree.config.workcell import workcell_of
 from armtree.maths.perception.frames import EYE_IN_HAND, camera_in_base
-
-from .arm_skill import camera_over
-from .survey import survey_points
 
 #: A corner this close to the image's edge (px) may be lost to blur and noise.
 EDGE_PX = 3.0
@@ -32,7 +31,7 @@ def scan_cameras(rig: Any, sweeps: int = 2, start: np.ndarray | None = None) -> 
     """Camera poses (4x4, base frame, mm) from which a sweep of ``sweeps`` legs looks.
 
     Eye-in-hand: one per scan pose of the profile's survey, placed as the sweep
-    places them (:func:`~armtree.plugins.skills.arm_skill.camera_over`), starting
+    places them (:func:`~armtree.api.skill.arm.camera_over`), starting
     at the base angle of ``start`` (default: the arm's home). Eye-to-hand: the one
     fixed camera. Needs a built rig (arm model, camera extrinsics); nothing moves.
     """

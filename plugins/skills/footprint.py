@@ -19,9 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.skill.eye import eye_of
 from armtree.maths.motion.collision import obb_overlap
-
-from .eye import eye_of
 
 #: A marker's object reaches this far beyond the marker's edges (mm): printed markers
 #: sit on objects a little wider than themselves.

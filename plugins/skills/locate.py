@@ -10,6 +10,7 @@ reaches, before anyone grips or releases there. mm, base frame.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -17,16 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from armtree import PlanningError, Unreachable
+from armtree.api.skill.actions import Look, Move
+from armtree.api.skill.arm import ArmSkill, camera_over
+from armtree.api.skill.base import ActionFailed, Procedure
+from armtree.api.skill.eye import Sighting, Tally, eye_of
+from armtree.api.skill.sightline import out_of_view
 from armtree.maths.perception.frames import EYE_IN_HAND
-
-from .actions import Look, Move
-from .arm_skill import ArmSkill, camera_over
-from .base import Procedure
-from .eye import Sighting, Tally, eye_of
-from .reach import reachable
-from .sightline import hides
-from .survey import survey_points
 
 #: Fewest points of a ring looked at around a hint when the tag is not in view over it.
 AROUND = 6
@@ -136,133 +133,6 @@ def around(hint: np.ndarray, radius: float, view: tuple[float, float] | None) ->
     return out[:MAX_LOOKS]
 
 
-def out_of_view(skill: ArmSkill, points: np.ndarray) -> np.ndarray | None:
-    """Eye-to-hand: the reachable survey pose (tool position, mm) on the sweep from where
-    the arm is where its links hide fewest of ``points`` (mm, ``(3,)`` or ``(N, 3)``) from
-    the camera, with the joints a move there takes (the solution nearest to the arm's);
-    among equals the farthest from the points. None without a survey or when no survey
-    pose is reachable.
-
-    The links are the arm model's boxes (:mod:`.sightline`). An arm model without boxes
-    hides nothing, so the pose farthest from the points is taken. :func:`joints_out_of_view`
-    looks further: the whole survey, every inverse-kinematics solution, and how much of
-    the camera's view each hides.
-    """
-    best = _out_of_view(skill, points, every_solution=False)
-    return None if best is None else best[0]
-
-
-def joints_out_of_view(skill: ArmSkill, points: np.ndarray) -> np.ndarray | None:
-    """Eye-to-hand: the joints (degrees / mm) of a survey pose, over the whole survey and
-    every inverse-kinematics solution the rig's planner reaches from where the arm is, whose
-    links hide fewest of ``points`` (mm) from the camera; among equals the one that hides
-    least of the camera's view of the table (near a link a marker may sit in its cast
-    shadow or at its edge, where the camera cannot read it), then the farthest from the
-    points. None without a survey or when nothing is reachable."""
-    best = _out_of_view(skill, points, every_solution=True)
-    return None if best is None else best[1]
-
-
-def _out_of_view(
-    skill: ArmSkill, points: np.ndarray, every_solution: bool
-) -> tuple[np.ndarray, np.ndarray] | None:
-    cell = skill.workcell
-    if cell.survey is None or cell.table_z_mm is None:
-        return None
-    model = skill.rig.arm.model
-    here = skill.rig.arm.pose()[:3, 3]
-    near = np.asarray(skill.rig.arm.joints(), dtype=float)
-    poses, joints = [], []
-    # two legs: a ring sweep from here runs to one end of its range first, then to the other
-    legs = 2 if every_solution else 1
-    for p in survey_points(cell.survey, float(cell.table_z_mm), here, legs):
-        tool = camera_over(skill, p, cell.look_height_mm)
-        if not reachable(model, tool):
-            continue
-        if every_solution:
-            sols = model.ik_all(tool)
-            sols = sols[np.all(np.isfinite(sols), axis=-1)]
-        else:
-            sols = model.ik(tool, near=near)[None]
-        poses += [tool] * len(sols)
-        joints += list(sols)
-    if not poses:
-        return None
-    points = np.asarray(points, dtype=float).reshape(-1, 3)
-    q = np.array(joints)
-    hidden = _hidden(skill, q, points)
-    in_view = _hidden(skill, q, view_grid(skill, VIEW_SPACING_MM)) if every_solution else hidden * 0
-    centre = points.mean(axis=0)
-    order = sorted(
-        range(len(poses)),
-        key=lambda k: (
-            int(hidden[k]),
-            int(in_view[k]),
-            -float(np.linalg.norm(poses[k][:2] - centre[:2])),
-        ),
-    )
-    planner = skill.rig.planner if every_solution else None
-    for k in order:
-        if planner is not None:
-            # another solution may lie across a singularity or an obstacle from here
-            try:
-                planner.plan(near, q[k])
-            except (PlanningError, Unreachable):
-                continue
-        return poses[k], q[k]
-    return None
-
-
-#: Spacing (mm) of the table points by which :func:`out_of_view` weighs how much of the
-#: camera's view a pose hides.
-VIEW_SPACING_MM = 40.0
-
-
-def _hidden(skill: ArmSkill, joints: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """How many of ``points`` (mm) the links hide from the camera at each of ``joints``."""
-    model = skill.rig.arm.model
-    camera = np.asarray(skill.rig.camera.extrinsics, dtype=float)[:3, 3]
-    hidden = np.zeros(len(joints), dtype=int)
-    for k in range(0, len(points), 64):
-        hidden += np.sum(hides(model, joints, camera, points[k : k + 64, None, None, :]), axis=0)
-    return hidden
-
-
-def view_grid(skill: ArmSkill, spacing: float) -> np.ndarray:
-    """Eye-to-hand: table points (mm, ``(N, 3)``, ``spacing`` apart) covering what the fixed
-    camera sees of the table; empty without a table or a camera looking down."""
-    rig, cell = skill.rig, skill.workcell
-    if cell.table_z_mm is None:
-        return np.zeros((0, 3))
-    table = float(cell.table_z_mm)
-    camera = np.asarray(rig.camera.extrinsics, dtype=float)
-    view = eye_of(rig).last
-    hx, hy = view.half_view if view is not None else (0.6, 0.45)
-    corners = []
-    for sx, sy in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
-        ray = camera[:3, :3] @ np.array([sx * hx, sy * hy, 1.0])
-        if ray[2] >= -1e-9:
-            return np.zeros((0, 3))  # not looking down at the table
-        corners.append(camera[:3, 3] + ray * ((table - camera[2, 3]) / ray[2]))
-    lo, hi = np.min(corners, axis=0), np.max(corners, axis=0)
-    xs = np.arange(lo[0], hi[0] + spacing, spacing)
-    ys = np.arange(lo[1], hi[1] + spacing, spacing)
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    return np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, table)])
-
-
-def shadow(skill: ArmSkill, spacing: float = 10.0) -> np.ndarray:
-    """Eye-to-hand: the table points (mm, ``(N, 3)``, ``spacing`` apart) in the camera's
-    view that the arm's links hide from it where the arm is now; empty without a table."""
-    rig = skill.rig
-    grid = view_grid(skill, spacing)
-    model = rig.arm.model
-    if not len(grid) or not model.boxes:
-        return np.zeros((0, 3))
-    q = np.asarray(rig.arm.joints(), dtype=float)
-    return grid[hides(model, q, np.asarray(rig.camera.extrinsics)[:3, 3], grid[:, None, :])]
-
-
 def locate(
     skill: ArmSkill,
     tag: str,
@@ -314,13 +184,26 @@ def locate(
     return Found(best if best is not None else seen, looks + 1, tally)
 
 
+def move_out_of_view(skill: ArmSkill, point: np.ndarray) -> Procedure:
+    """Eye-to-hand: take the arm to where it hides ``point`` least (a refused move stays put)."""
+    clear = out_of_view(skill, point)
+    if clear is None:
+        return
+    with contextlib.suppress(ActionFailed):
+        yield Move(skill.rig, clear, speed=skill.speed(), label="out of view")
+
+
+def skipped(value: Any) -> list[int]:
+    """Marker ids from a ``skip`` parameter's value (None or a list)."""
+    return [int(v) for v in value] if isinstance(value, (list, tuple)) else []
+
+
 __all__ = [
     "Found",
     "around",
     "locate",
     "look_over",
+    "move_out_of_view",
     "nearest",
-    "out_of_view",
-    "shadow",
-    "view_grid",
+    "skipped",
 ]

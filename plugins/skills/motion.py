@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
-
-from .actions import ArmHome, Move
-from .arm_skill import ArmSkill
-from .base import Procedure, as_list
+from armtree.api.skill.actions import ArmHome, Move
+from armtree.api.skill.arm import ArmSkill
+from armtree.api.skill.base import Procedure, as_list
 
 
 class MoveTo(ArmSkill):

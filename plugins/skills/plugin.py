@@ -7,8 +7,9 @@ from typing import Any
 import armtree
 
 from .conditions import ArmIdle, AtPlace, Holding, Misplaced, TagNear, TagVisible
-from .manipulation import Grasp, Pick, Place, Release
 from .motion import Home, MoveTo
+from .pick import Grasp, Pick
+from .place import Place, Release
 from .search import CleanUp, Search
 from .servo import VisualServo
 from .steps import Approach, LookFor, SearchStep, Sweep

@@ -15,14 +15,16 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import Grip, Look, Move, Pause, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill, above, camera_over
+from armtree.api.skill.base import ActionFailed, Procedure, as_list
+from armtree.api.skill.eye import Sighting, Tally
+from armtree.api.skill.survey import survey_points
 
-from .actions import Grip, Look, Move, Pause, SkillFailure, fmt
-from .arm_skill import ArmSkill, above, camera_over, grip_point, has_gripper
-from .base import ActionFailed, Procedure, as_list
-from .bins import contents_of
-from .eye import Sighting, Tally
-from .manipulation import bin_drop, release_at, release_steps
-from .survey import survey_points
+from .bin_drop import bin_drop
+from .bins import remember_drop, share_bins
+from .grip import GRIP, grip_point, has_gripper
+from .release import release_at, release_steps
 
 
 @dataclass
@@ -80,11 +82,11 @@ def clean_one(
     approach = skill.param("approach_mm")
     name, cell = skill.param("bin"), skill.workcell
     if isinstance(name, str) and name in cell.bins and cell.table_z_mm is not None:
-        # spread across the bin's inside, clear of what is in it (manipulation's place does too)
+        # spread across the bin's inside, clear of what is in it (place does too)
         hang = float(grip[2] - cell.table_z_mm)
         drop = bin_drop(skill, name, bin_xyz, None, hang, skill.param("trash"), item.id)
         point = yield from release_at(skill, drop.tool, approach, skill.param("dwell_s"))
-        contents_of(rig).record(name, item.id, np.array([*drop.landing, point[2]]))
+        remember_drop(skill.bb, name, item.id, np.array([*drop.landing, point[2]]))
     else:
         yield from release_steps(skill, bin_xyz, approach, 0.0, skill.param("dwell_s"))
     log.carried += 1
@@ -152,7 +154,7 @@ class CleanUpParams:
             minimum=1,
             maximum=100,
         ),
-        *ArmSkill.GRIP,
+        *GRIP,
     )
 
 
@@ -242,7 +244,16 @@ def clear_here(
         skill.feedback_message = log.summary()
 
 
-class CleanUp(ArmSkill):
+class ClearsTrash(ArmSkill):
+    """A skill that may carry trash to a bin: it shares the run's bin contents
+    (:data:`~.bins.BINS_KEY`) with the other skills that let go into bins."""
+
+    def __init__(self, name: str, **params: Any) -> None:
+        super().__init__(name, **params)
+        share_bins(self.bb)
+
+
+class CleanUp(ClearsTrash):
     """Pick every trash marker in view and drop it over the garbage bin, then come back.
 
     Looks from the current pose (or, with ``sweep``, from every scan pose of the
@@ -280,7 +291,7 @@ class CleanUp(ArmSkill):
         return log.carried
 
 
-class Search(ArmSkill):
+class Search(ClearsTrash):
     """Sweep the camera over the workspace until a tag of role ``tag`` is seen; output its pose.
 
     Scan poses put the camera over the points of the profile's

@@ -26,13 +26,14 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param, Unreachable
+from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill
+from armtree.api.skill.base import Procedure
+from armtree.api.skill.eye import Sighting
+from armtree.api.skill.sightline import joints_out_of_view, shadow
 from armtree.maths.perception.frames import EYE_IN_HAND, along_ray_to_height
 
-from .actions import Look, Move, SkillFailure, fmt
-from .base import Procedure
-from .eye import Sighting
-from .locate import joints_out_of_view, nearest, shadow
-from .manipulation import ArmSkill
+from .locate import nearest
 
 
 class VisualServo(ArmSkill):

@@ -26,14 +26,13 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill, above, camera_over
+from armtree.api.skill.base import Procedure, as_list
+from armtree.api.skill.survey import survey_points
 
-from .actions import Look, Move, SkillFailure, fmt
-from .arm_skill import ArmSkill, above, camera_over
-from .base import Procedure, as_list
-from .locate import locate, nearest
-from .manipulation import skipped
+from .locate import locate, nearest, skipped
 from .search import SCAN_PARAMS
-from .survey import survey_points
 
 #: Outputs of the actions that find a marker.
 FOUND = (

@@ -11,12 +11,11 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
+from armtree.api.skill.actions import Look, Move, Pause, SkillFailure, fmt
+from armtree.api.skill.arm import ArmSkill, camera_over
+from armtree.api.skill.base import Procedure, as_list
 from armtree.maths.perception.filters import PoseFilter
 from armtree.maths.perception.frames import EYE_IN_HAND
-
-from .actions import Look, Move, Pause, SkillFailure, fmt
-from .arm_skill import ArmSkill, camera_over
-from .base import Procedure, as_list
 
 #: The smoothed marker's key in the pose filter (one marker is followed).
 _TRACKED = 0

@@ -94,12 +94,6 @@ class Eye:
         #: (s, run clock): where objects beside a grip stand when the last frame missed them.
         self.seen: dict[int, Sighting] = {}
         self.seen_at: dict[int, float] = {}
-        #: Where the held object's marker sits in the tool frame (homogeneous, mm), set by
-        #: a grip and taken by the release that follows, so its check knows where to look.
-        self.held: np.ndarray | None = None
-        #: How far the held object reaches below the tool centre (mm): the grip's height
-        #: over the table it stood on. Set and taken with :attr:`held`.
-        self.held_hang_mm: float | None = None
         cell = workcell_of(getattr(rig, "profile", None))
         table = cell.table_z_mm
         self.planes = (
@@ -212,12 +206,10 @@ class Tally:
 
 
 def eye_of(rig: Any) -> Eye:
-    """The rig's :class:`Eye`, made on first use and kept on the rig for the run."""
-    eye = getattr(rig, "_skills_eye", None)
+    """The rig's :class:`Eye` (:attr:`Rig.eye <armtree.api.rig.Rig.eye>`), made on first use."""
+    eye = getattr(rig, "eye", None)
     if eye is None or eye.rig is not rig:
-        eye = Eye(rig)
-        # The Rig belongs to the runtime; this one attribute is the skills' frame cache.
-        rig._skills_eye = eye
+        eye = rig.eye = Eye(rig)
     return eye
 
 

@@ -1,7 +1,7 @@
 """The base of every skill: a generator of actions run one tick at a time.
 
 A skill writes its procedure as a generator that yields
-:class:`~armtree.plugins.skills.actions.Action` objects and receives each one's
+:class:`~armtree.api.skill.actions.Action` objects and receives each one's
 result back; :class:`Process` starts an action, polls it every tick and resumes
 the generator when it ends, so the procedure reads top to bottom while no tick
 ever blocks. A failed action is raised into the generator as
@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 from py_trees.common import Status
 
-import armtree
+from armtree.api.behaviour import Behaviour
 from armtree.api.rig import MotionHandle
 from armtree.config.params import Binding
 from armtree.config.profile_access import profile_source
 from armtree.config.workcell import Workcell, workcell_of
-from armtree.loader.profile import Profile
+from armtree.errors import ConfigError
 
 from .actions import Action, SkillFailure, State
 
@@ -92,7 +92,7 @@ class Process:
         return handle
 
 
-class Skill(armtree.Behaviour):
+class Skill(Behaviour):
     """An armtree behaviour whose work is the generator :meth:`procedure`.
 
     ``initialise`` starts the procedure, ``update`` advances it one tick, and
@@ -129,7 +129,7 @@ class Skill(armtree.Behaviour):
             for key in self.workcell_needs():
                 try:
                     self.workcell.need(key, self.name)
-                except armtree.ConfigError as exc:
+                except ConfigError as exc:
                     raise self._profile_error("workcell", exc.message) from None
 
     @property
@@ -213,7 +213,7 @@ class Skill(armtree.Behaviour):
         return resolve_point(value, self.rig, what)
 
     def place_name_check(self, pname: str) -> None:
-        """Raise :class:`armtree.ConfigError` if literal parameter ``pname`` names no place."""
+        """Raise :class:`ConfigError` if literal parameter ``pname`` names no place."""
         value = self.params.get(pname)
         if isinstance(value, str) and self.rig is not None and value not in self.rig.places:
             known = ", ".join(sorted(self.rig.places)) or "none"
@@ -222,7 +222,7 @@ class Skill(armtree.Behaviour):
             )
 
     def role_check(self, pname: str) -> None:
-        """Raise :class:`armtree.ConfigError` if literal parameter ``pname`` names no tag role."""
+        """Raise :class:`ConfigError` if literal parameter ``pname`` names no tag role."""
         value = self.params.get(pname)
         if isinstance(value, str) and value and self.rig is not None and value not in self.rig.tags:
             known = ", ".join(sorted(self.rig.tags)) or "none"
@@ -230,13 +230,15 @@ class Skill(armtree.Behaviour):
                 "tags", f"{self.name}: {pname}: unknown tag role {value!r} (tags: {known})"
             )
 
-    def _profile_error(self, section: str, message: str) -> armtree.ConfigError:
+    def _profile_error(self, section: str, message: str) -> ConfigError:
         """A ConfigError at the profile's ``section`` (where the name should have been)."""
         profile = getattr(self.rig, "profile", None)
-        mark = profile.mark(section) if isinstance(profile, Profile) else None
+        # a loaded Profile knows where each section was written; a plain mapping does not
+        marks = getattr(profile, "mark", None)
+        mark = marks(section) if callable(marks) and not isinstance(profile, Mapping) else None
         if mark is not None:
-            return armtree.ConfigError(message, mark.file, mark.line, mark.column)
-        return armtree.ConfigError(message, profile_source(profile))
+            return ConfigError(message, mark.file, mark.line, mark.column)
+        return ConfigError(message, profile_source(profile))
 
     def note(self, event: str, **data: Any) -> None:
         """Write ``event`` with ``data`` to the run log (``run.jsonl``), if the run keeps one.
