@@ -8,7 +8,7 @@ plugins of the armtree distribution only, so it reads the same on every machine.
 Then the sections plugins register (``armtree_profile_sections``) and their plugin.
 ``python -m armtree.cli.profile_reference --update docs/profiles.md`` rewrites the
 part of that file between :data:`BEGIN` and :data:`END`, and each key table of a
-section declared in :data:`armtree.config.profile_spec.SECTION_SPECS` between its
+section declared in :data:`armtree.config.profile_spec.KEY_TABLES` between its
 own markers (:func:`table_markers`); a test fails while the file and the
 declarations disagree.
 """
@@ -21,7 +21,7 @@ from pathlib import Path
 
 from armtree.config.params import REQUIRED, Param
 from armtree.config.profile_sections import COMPONENT_SECTIONS
-from armtree.config.profile_spec import SECTION_SPECS
+from armtree.config.profile_spec import KEY_TABLES
 from armtree.config.spec import key_table
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Registry, get_plugin_manager
@@ -94,7 +94,7 @@ def replace_reference(text: str, where: str = "the document") -> str:
     """``text`` with the part between :data:`BEGIN` and :data:`END` regenerated, and the
     key table of each declared section whose markers it has."""
     text = replace_generated(text, BEGIN, END, component_reference(), where, "component reference")
-    for section, (spec, needed) in SECTION_SPECS.items():
+    for section, (spec, needed) in KEY_TABLES.items():
         begin, end = table_markers(section)
         if begin in text:
             text = replace_generated(text, begin, end, key_table(spec, needed), where, "key table")

@@ -159,7 +159,8 @@ class Number(Spec):
         return f"{'an integer' if self.integer else 'a number'} {self.range_text()}{unit}"
 
     def brief(self) -> str:
-        return " ".join(p for p in (self.unit, self.range_text()) if p) or "number"
+        kind = "int" if self.integer else self.unit
+        return " ".join(p for p in (kind, self.range_text()) if p) or "number"
 
     def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
         if not self._typed(value):
@@ -308,6 +309,8 @@ class Record(Spec):
     wanted: str = ""
     build: Callable[..., Any] | None = None
     rule: Callable[[MarkedDict, str, Context], None] | None = None
+    #: Keys of which exactly one must be given (``id`` or ``ids``).
+    one_of: tuple[str, ...] = ()
 
     def want(self) -> str:
         return self.wanted or self.brief()
@@ -334,6 +337,8 @@ class Record(Spec):
             if key not in marked:
                 doc = self.fields[key].doc
                 ctx.add(f"{path}: needs {key}{f' ({doc})' if doc else ''}", marked.mark or at)
+        if self.one_of and sum(key in marked for key in self.one_of) != 1:
+            ctx.add(f"{path}: give either {' or '.join(self.one_of)}", marked.mark or at)
         if self.rule is not None and len(ctx.errors) == before:
             self.rule(marked, path, ctx)
         return len(ctx.errors) == before
@@ -345,6 +350,8 @@ class Record(Spec):
         }
         if self.required:
             out["required"] = list(self.required)
+        if self.one_of:
+            out["oneOf"] = [{"required": [key]} for key in self.one_of]
         out["additionalProperties"] = False
         return self._described(out)
 
@@ -374,6 +381,10 @@ class MapOf(Spec):
     default: Any = None
     wanted: str = ""
     key_word: str = "name"
+    #: Checks what spans entries (an id used by two tags), once each entry is checked.
+    rule: Callable[[MarkedDict, str, Context], None] | None = None
+    #: Fewest entries (1: an empty mapping is an error).
+    min_entries: int = 0
 
     def want(self) -> str:
         key = self.keys.noun if self.keys else self.key_word
@@ -384,9 +395,10 @@ class MapOf(Spec):
         return f"{{{key}: {self.value.brief()}}}"
 
     def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
-        if not isinstance(value, MarkedDict):
+        if not isinstance(value, Mapping) or len(value) < self.min_entries:
             ctx.add(f"{path}: expected {self.want()}", at)
             return False
+        value = value if isinstance(value, MarkedDict) else MarkedDict(value, mark=at)
         before = len(ctx.errors)
         known = ctx.names(self.keys.section) if self.keys else {}
         for name, item in value.items():
@@ -396,10 +408,15 @@ class MapOf(Spec):
                     f"{path}: {not_named(name, self.keys.noun, self.keys.section, known)}", where
                 )
             self.value.check(item, f"{path}.{name}", value.value_mark(name), ctx)
+        if self.rule is not None:
+            self.rule(value, path, ctx)
         return len(ctx.errors) == before
 
     def schema(self) -> dict[str, Any]:
-        return self._described({"type": "object", "additionalProperties": self.value.schema()})
+        out = {"type": "object", "additionalProperties": self.value.schema()}
+        if self.min_entries:
+            out["minProperties"] = self.min_entries
+        return self._described(out)
 
     def parse(self, value: Any) -> Any:
         return {str(k): self.value.parse(v) for k, v in (value or {}).items()}
@@ -477,9 +494,9 @@ class Either(Spec):
         for option in self.options:
             if option.accepts(value, ctx):
                 return option.check(value, path, at, ctx)
-        typed = [o for o in self.options if isinstance(value, Mapping) == isinstance(o, Record)]
-        if not self.wanted and len(typed) == 1:
-            return typed[0].check(value, path, at, ctx)  # the one it meant to be says why
+        records = [o for o in self.options if isinstance(o, Record)]
+        if isinstance(value, Mapping) and len(records) == 1:
+            return records[0].check(value, path, at, ctx)  # the one it meant to be says why
         ctx.add(f"{path}: expected {self.want()}, got {shown(value)}", at)
         return False
 
@@ -493,6 +510,22 @@ class Either(Spec):
         return value
 
 
+@dataclass(frozen=True)
+class Anything(Spec):
+    """Any value: a free-form part (what each calibration recorded)."""
+
+    doc: str = ""
+
+    def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
+        return True
+
+    def schema(self) -> dict[str, Any]:
+        return self._described({})
+
+    def brief(self) -> str:
+        return "anything"
+
+
 def key_table(spec: Record, needed: Mapping[str, str] | None = None) -> str:
     """The Markdown table of a record's keys: key, value, default, meaning.
 
@@ -503,6 +536,8 @@ def key_table(spec: Record, needed: Mapping[str, str] | None = None) -> str:
     for name, item in spec.fields.items():
         if name in spec.required:
             default = "required"
+        elif name in spec.one_of:
+            default = "one of " + " / ".join(f"`{k}`" for k in spec.one_of)
         elif item.default is not None:
             default = _table_default(item.default)
         elif isinstance(item, MapOf):
@@ -525,6 +560,7 @@ def _table_default(value: Any) -> str:
 
 
 __all__ = [
+    "Anything",
     "Context",
     "Either",
     "Items",
