@@ -15,7 +15,7 @@ from armtree.errors import shown
 
 from .calibration import CALIBRATION
 from .profile_sections import DEFAULT_STALL_S, DEFAULT_TICK_S, MAX_STALL_S, MAX_TICK_S
-from .spec import Context, Either, Items, MapOf, Number, Record, Spec
+from .spec import Context, Either, Items, MapOf, Number, OneOf, Record, Spec, Text
 from .workcell import NEEDED_BY, WORKCELL
 from .yamlio import MarkedDict, MarkedList
 
@@ -149,11 +149,78 @@ WATCHDOG = Record(
     "how long a run may make no progress)",
 )
 
+
+def _positive_size(box: MarkedDict, path: str, ctx: Context) -> None:
+    if min(box["size"]) <= 0:
+        ctx.add(f"{path}.size: sizes must be > 0 mm", box.value_mark("size"))
+
+
+_NAME = Text("its name in collision messages")
+_RPY = replace(
+    XYZ,
+    doc="roll, pitch, yaw",
+    unit="deg",
+    wanted="[roll, pitch, yaw] in degrees",
+    shape="[roll, pitch, yaw] deg",
+)
+_LENGTH = Number(unit="mm", above=0.0, wanted="a number > 0 (mm)")
+#: ``obstacles:``: shapes the planners keep the arm out of (mm, degrees).
+OBSTACLES = Items(
+    OneOf(
+        {
+            "box": Record(
+                {
+                    "center": replace(XYZ, doc="its centre"),
+                    "size": replace(XYZ, doc="its edges along its own x, y, z"),
+                    "rpy": replace(_RPY, doc="its orientation (default level)"),
+                    "name": _NAME,
+                },
+                required=("center", "size"),
+                rule=_positive_size,
+            ),
+            "cylinder": Record(
+                {
+                    "center": replace(XYZ, doc="its centre"),
+                    "radius": replace(_LENGTH, doc="its radius"),
+                    "height": replace(_LENGTH, doc="its height"),
+                    "rpy": replace(_RPY, doc="its orientation (default: axis vertical)"),
+                    "name": _NAME,
+                },
+                required=("center", "radius", "height"),
+            ),
+            "sphere": Record(
+                {
+                    "center": replace(XYZ, doc="its centre"),
+                    "radius": replace(_LENGTH, doc="its radius"),
+                    "name": _NAME,
+                },
+                required=("center", "radius"),
+            ),
+            "mesh": Record(
+                {
+                    "file": Text("STL or OBJ file, relative to the profile"),
+                    "position": replace(XYZ, doc="where its origin goes"),
+                    "rpy": replace(_RPY, doc="its orientation"),
+                    "scale": Number("factor on its coordinates", default=1.0, above=0.0),
+                    "name": _NAME,
+                },
+                required=("file",),
+            ),
+        },
+        wanted="one shape (box, cylinder, sphere, mesh), e.g. "
+        "{box: {center: [x, y, z], size: [dx, dy, dz]}}",
+    ),
+    "shapes the planners keep the arm out of (mm)",
+    each=True,
+    wanted="a list of shapes",
+)
+
 #: Section name -> its declaration.
 SECTION_SPECS: dict[str, Spec] = {
     "tags": TAGS,
     "places": PLACES,
     "table": TABLE,
+    "obstacles": OBSTACLES,
     "workcell": WORKCELL,
     "calibration": CALIBRATION,
     "watchdog": WATCHDOG,

@@ -430,8 +430,11 @@ class OneOf(Spec):
     shapes: Mapping[str, Spec] = field(default_factory=dict)
     doc: str = ""
     build: Callable[[str, Any], Any] | None = None
+    wanted: str = ""
 
     def want(self) -> str:
+        if self.wanted:
+            return self.wanted
         named = [f"{name}: {spec.brief()}" for name, spec in self.shapes.items()]
         return f"one of {', '.join(named[:-1])} or {named[-1]}"
 
@@ -511,6 +514,29 @@ class Either(Spec):
 
 
 @dataclass(frozen=True)
+class Text(Spec):
+    """A string."""
+
+    doc: str = ""
+    default: Any = None
+
+    def want(self) -> str:
+        return "a string"
+
+    def brief(self) -> str:
+        return "str"
+
+    def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
+        if isinstance(value, str):
+            return True
+        ctx.add(f"{path}: expected a string, got {shown(value)}", at)
+        return False
+
+    def schema(self) -> dict[str, Any]:
+        return self._described({"type": "string"})
+
+
+@dataclass(frozen=True)
 class Anything(Spec):
     """Any value: a free-form part (what each calibration recorded)."""
 
@@ -570,6 +596,7 @@ __all__ = [
     "Record",
     "Ref",
     "Spec",
+    "Text",
     "finite_number",
     "key_table",
     "not_named",

@@ -46,7 +46,7 @@ from armtree.config.profile_include import apply_includes
 from armtree.config.profile_sections import COMPONENT_SECTIONS, PROFILE_KEYS
 from armtree.config.profile_spec import check_sections
 from armtree.config.resolve import available, resolve
-from armtree.config.spec import Context, finite_number
+from armtree.config.spec import Context
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.hook_calls import call_isolated, plugin_of
@@ -60,13 +60,6 @@ REQUIRED_SECTIONS = ("arm",)
 _NOT_OVERRIDABLE = frozenset({"profile", "description"})
 #: Sections the planning scene is built from (checked together at load time).
 SCENE_SECTIONS = frozenset({"table", "obstacles", "places"})
-#: Obstacle shapes and the keys each must have.
-OBSTACLE_SHAPES: dict[str, tuple[str, ...]] = {
-    "box": ("center", "size"),
-    "cylinder": ("center", "radius", "height"),
-    "sphere": ("center", "radius"),
-    "mesh": ("file",),
-}
 
 
 def registered_sections(manager: PluginManager | None) -> dict[str, Any]:
@@ -602,7 +595,6 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
         if data.get(section) is not None:
             check(section, _check_component, data, section, kind, registry, errors)
     invalid |= check_sections(data, Context(data, errors))
-    check("obstacles", _check_obstacles, data, errors)
     for name, component in owned.items():
         if name in PROFILE_KEYS:
             continue  # armtree's own: the registry refuses the name (plugin_checks)
@@ -691,63 +683,6 @@ def tag_spec(role: str, spec: Mapping[str, Any]) -> TagSpec:
         for family, value in (spec.get("family_ids") or {}).items()
     }
     return TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]), family_ids)
-
-
-def _vector(value: Any, n: int = 3) -> bool:
-    return isinstance(value, list) and len(value) == n and all(finite_number(v) for v in value)
-
-
-def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:
-    obstacles = data.get("obstacles")
-    if obstacles is None:
-        return
-    if not isinstance(obstacles, MarkedList):
-        errors.append(
-            error_at("obstacles: expected a list of shapes", data.value_mark("obstacles"))
-        )
-        return
-    for i, item in enumerate(obstacles):
-        where = obstacles.item_mark(i)
-        shapes = [k for k in item if k in OBSTACLE_SHAPES] if isinstance(item, dict) else []
-        if len(shapes) != 1:
-            errors.append(
-                error_at(
-                    f"obstacles[{i}]: expected one shape ({', '.join(OBSTACLE_SHAPES)}), e.g. "
-                    "{box: {center: [x, y, z], size: [dx, dy, dz]}}",
-                    where,
-                )
-            )
-            continue
-        shape = shapes[0]
-        spec = item[shape]
-        if not isinstance(spec, MarkedDict):
-            errors.append(
-                error_at(f"obstacles[{i}].{shape}: expected a mapping", item.value_mark(shape))
-            )
-            continue
-        for key in OBSTACLE_SHAPES[shape]:
-            if key not in spec:
-                errors.append(error_at(f"obstacles[{i}].{shape}: needs {key}", spec.mark))
-        for key in ("center", "size"):
-            if key in spec and not _vector(spec[key]):
-                errors.append(
-                    error_at(
-                        f"obstacles[{i}].{shape}.{key}: expected 3 numbers (mm)",
-                        spec.value_mark(key),
-                    )
-                )
-        if shape == "box" and _vector(spec.get("size")) and min(spec["size"]) <= 0:
-            errors.append(
-                error_at(f"obstacles[{i}].box.size: sizes must be > 0 mm", spec.value_mark("size"))
-            )
-        for key in ("radius", "height"):
-            if key in spec and (not finite_number(spec[key]) or spec[key] <= 0):
-                errors.append(
-                    error_at(
-                        f"obstacles[{i}].{shape}.{key}: expected a number > 0 (mm)",
-                        spec.value_mark(key),
-                    )
-                )
 
 
 def _flatten_marks(

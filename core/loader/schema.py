@@ -20,7 +20,6 @@ from armtree.config.profile_sections import COMPONENT_SECTIONS
 from armtree.config.profile_spec import SECTION_SPECS
 from armtree.hooks.plugin_manager import Registry
 
-from .profile import OBSTACLE_SHAPES
 from .subtree_include import SUBTREE_KEYS
 
 DRAFT = "http://json-schema.org/draft-07/schema#"
@@ -215,15 +214,6 @@ def component_schema(registry: Registry, kind: str) -> dict[str, Any]:
 
 def profile_definition(registry: Registry) -> dict[str, Any]:
     """The schema of a hardware profile."""
-    shapes = []
-    for shape, keys in OBSTACLE_SHAPES.items():
-        shapes.append(
-            {
-                "type": "object",
-                "properties": {shape: {"type": "object", "required": list(keys)}},
-                "required": [shape],
-            }
-        )
     properties: dict[str, Any] = {
         "profile": {"type": "string", "description": "the profile's name"},
         "description": {"type": "string"},
@@ -231,7 +221,6 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
             section: component_schema(registry, kind)
             for section, kind in COMPONENT_SECTIONS.items()
         },
-        "obstacles": {"type": "array", "items": {"anyOf": shapes}},
         "plugins": {"type": "array", "items": {"type": "string"}},
         "include": {
             "description": "files laid over this profile (calibration files), beside it or in the working directory",
