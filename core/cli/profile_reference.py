@@ -7,8 +7,10 @@ default, allowed range, meaning), as Markdown tables. The reference covers the
 plugins of the armtree distribution only, so it reads the same on every machine.
 Then the sections plugins register (``armtree_profile_sections``) and their plugin.
 ``python -m armtree.cli.profile_reference --update docs/profiles.md`` rewrites the
-part of that file between :data:`BEGIN` and :data:`END`, and a test fails while
-the file and the registry disagree.
+part of that file between :data:`BEGIN` and :data:`END`, and each key table of a
+section declared in :data:`armtree.config.profile_spec.KEY_TABLES` between its
+own markers (:func:`table_markers`); a test fails while the file and the
+declarations disagree.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from pathlib import Path
 
 from armtree.config.params import REQUIRED, Param
 from armtree.config.profile_sections import COMPONENT_SECTIONS
+from armtree.config.profile_spec import KEY_TABLES
+from armtree.config.spec import key_table
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Registry, get_plugin_manager
 
@@ -77,9 +81,24 @@ def _cell(text: str) -> str:
     return str(text).replace("|", "\\|").replace("``", "`").replace("\n", " ")
 
 
+def table_markers(section: str) -> tuple[str, str]:
+    """The comment lines around the generated key table of ``section``."""
+    return (
+        f"<!-- keys of {section}: generated from its declaration by "
+        "`python -m armtree.cli.profile_reference --update docs/profiles.md` -->",
+        f"<!-- end of the keys of {section} -->",
+    )
+
+
 def replace_reference(text: str, where: str = "the document") -> str:
-    """``text`` with the part between :data:`BEGIN` and :data:`END` regenerated."""
-    return replace_generated(text, BEGIN, END, component_reference(), where, "component reference")
+    """``text`` with the part between :data:`BEGIN` and :data:`END` regenerated, and the
+    key table of each declared section whose markers it has."""
+    text = replace_generated(text, BEGIN, END, component_reference(), where, "component reference")
+    for section, (spec, needed) in KEY_TABLES.items():
+        begin, end = table_markers(section)
+        if begin in text:
+            text = replace_generated(text, begin, end, key_table(spec, needed), where, "key table")
+    return text
 
 
 def main(argv: list[str] | None = None) -> int:

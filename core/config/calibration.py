@@ -30,14 +30,12 @@ from typing import Any
 
 import yaml
 
-from armtree.errors import ConfigError, did_you_mean
+from armtree.errors import ConfigError
 from armtree.maths.perception.frames import LinearCorrection
 
 from .profile_access import profile_section
-from .yamlio import MarkedDict, error_at
+from .spec import Anything, MapOf, Number, Record
 
-#: The keys of ``calibration:``.
-CALIBRATION_KEYS = ("vision_correction", "arm_correction", "records")
 #: The coefficients of a linear correction (seed 000, eq. 8).
 CORRECTION_KEYS = ("ax", "bx", "ay", "by")
 #: A correction's scale must be near 1 and its shift within this (mm): anything else
@@ -62,54 +60,31 @@ class Calibration:
         return xyz if self.arm is None else self.arm.inverse(xyz)
 
 
-def check_calibration(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """Append an error, at its position, for everything wrong in ``data['calibration']``."""
-    section = data.get("calibration")
-    if section is None:
-        return
-    if not isinstance(section, MarkedDict):
-        errors.append(
-            error_at(
-                "calibration: expected a mapping (vision_correction, arm_correction, records)",
-                data.value_mark("calibration"),
-            )
-        )
-        return
-    for key, value in section.items():
-        where = section.value_mark(key)
-        if key in ("vision_correction", "arm_correction"):
-            _check_correction(f"calibration.{key}", value, where, errors)
-        elif key == "records":
-            if not isinstance(value, Mapping):
-                errors.append(error_at("calibration.records: expected a mapping", where))
-        else:
-            errors.append(
-                error_at(
-                    f"calibration: unknown key {key!r}{did_you_mean(str(key), CALIBRATION_KEYS)}",
-                    section.key_mark(key),
-                )
-            )
+def _correction_spec(doc: str) -> Record:
+    scale = Number(
+        minimum=SCALE_RANGE[0],
+        maximum=SCALE_RANGE[1],
+        wanted=f"a scale within {SCALE_RANGE[0]:g} to {SCALE_RANGE[1]:g}",
+    )
+    shift = Number(unit="mm", bound=MAX_SHIFT_MM, wanted=f"a shift within +/-{MAX_SHIFT_MM:g} mm")
+    return Record(
+        {"ax": scale, "bx": shift, "ay": scale, "by": shift},
+        required=CORRECTION_KEYS,
+        doc=f"{doc} (seed 000, eq. 8: x' = ax x + bx, y' = ay y + by, mm)",
+        wanted="{ax: A, bx: B, ay: A, by: B}: x' = ax x + bx, y' = ay y + by (mm)",
+    )
 
 
-def _check_correction(path: str, value: Any, where: Any, errors: list[ConfigError]) -> None:
-    want = "expected {ax: A, bx: B, ay: A, by: B}: x' = ax x + bx, y' = ay y + by (mm)"
-    if not isinstance(value, MarkedDict) or set(value) != set(CORRECTION_KEYS):
-        errors.append(error_at(f"{path}: {want}", where))
-        return
-    for key in CORRECTION_KEYS:
-        v = value[key]
-        number = isinstance(v, (int, float)) and not isinstance(v, bool)
-        scale = key.startswith("a")
-        ok = number and (SCALE_RANGE[0] <= v <= SCALE_RANGE[1] if scale else abs(v) <= MAX_SHIFT_MM)
-        if not ok:
-            bound = (
-                f"a scale within {SCALE_RANGE[0]:g} to {SCALE_RANGE[1]:g}"
-                if scale
-                else f"a shift within +/-{MAX_SHIFT_MM:g} mm"
-            )
-            errors.append(
-                error_at(f"{path}.{key}: expected {bound}, got {v!r}", value.value_mark(key))
-            )
+#: The ``calibration:`` section, declared once: the loader checks it and the schema shows it.
+CALIBRATION = Record(
+    {
+        "vision_correction": _correction_spec("vision-measured -> true position"),
+        "arm_correction": _correction_spec("commanded -> reached tool position"),
+        "records": MapOf(Anything(), doc="what each calibration measured", wanted="a mapping"),
+    },
+    doc="what calibration measured (armtree calibrate writes it into a file a profile includes)",
+    wanted="a mapping (vision_correction, arm_correction, records)",
+)
 
 
 def _correction(value: Any) -> LinearCorrection | None:
@@ -195,39 +170,10 @@ def _merge(base: dict[str, Any], layer: Mapping[str, Any]) -> None:
             base[key] = value
 
 
-def calibration_schema() -> dict[str, Any]:
-    """The JSON Schema of the ``calibration:`` section."""
-    correction = {
-        "type": "object",
-        "properties": {k: {"type": "number"} for k in CORRECTION_KEYS},
-        "required": list(CORRECTION_KEYS),
-        "additionalProperties": False,
-        "description": "seed 000, eq. 8: x' = ax x + bx, y' = ay y + by (mm)",
-    }
-    return {
-        "type": "object",
-        "description": "what calibration measured (armtree calibrate writes it into a file a profile includes)",
-        "properties": {
-            "vision_correction": {
-                **correction,
-                "description": "vision-measured -> true position (seed 000, eq. 8)",
-            },
-            "arm_correction": {
-                **correction,
-                "description": "commanded -> reached tool position (seed 000, eq. 8)",
-            },
-            "records": {"type": "object", "description": "what each calibration measured"},
-        },
-        "additionalProperties": False,
-    }
-
-
 __all__ = [
-    "CALIBRATION_KEYS",
     "Calibration",
+    "CALIBRATION",
     "calibration_of",
-    "calibration_schema",
-    "check_calibration",
     "correction_mapping",
     "update_calibration_file",
 ]

@@ -33,7 +33,6 @@ Overrides use dotted keys and YAML-typed values: ``arm.type=vicra``,
 from __future__ import annotations
 
 import copy
-import math
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -41,20 +40,13 @@ from pathlib import Path
 from typing import Any
 
 from armtree.api.rig import TagSpec
-from armtree.config.calibration import check_calibration
 from armtree.config.params import check_value
 from armtree.config.profile_access import component_config
 from armtree.config.profile_include import apply_includes
-from armtree.config.profile_sections import (
-    COMPONENT_SECTIONS,
-    DEFAULT_STALL_S,
-    DEFAULT_TICK_S,
-    MAX_STALL_S,
-    MAX_TICK_S,
-    PROFILE_KEYS,
-)
+from armtree.config.profile_sections import COMPONENT_SECTIONS, PROFILE_KEYS
+from armtree.config.profile_spec import check_sections
 from armtree.config.resolve import available, resolve
-from armtree.config.workcell import check_workcell
+from armtree.config.spec import Context
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.hook_calls import call_isolated, plugin_of
@@ -68,13 +60,6 @@ REQUIRED_SECTIONS = ("arm",)
 _NOT_OVERRIDABLE = frozenset({"profile", "description"})
 #: Sections the planning scene is built from (checked together at load time).
 SCENE_SECTIONS = frozenset({"table", "obstacles", "places"})
-#: Obstacle shapes and the keys each must have.
-OBSTACLE_SHAPES: dict[str, tuple[str, ...]] = {
-    "box": ("center", "size"),
-    "cylinder": ("center", "radius", "height"),
-    "sphere": ("center", "radius"),
-    "mesh": ("file",),
-}
 
 
 def registered_sections(manager: PluginManager | None) -> dict[str, Any]:
@@ -609,13 +594,7 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
     for section, kind in COMPONENT_SECTIONS.items():
         if data.get(section) is not None:
             check(section, _check_component, data, section, kind, registry, errors)
-    check("tags", _check_tags, data, errors)
-    check("places", _check_places, data, errors)
-    check("table", _check_table, data, errors)
-    check("obstacles", _check_obstacles, data, errors)
-    check("workcell", check_workcell, data, errors)
-    check("calibration", check_calibration, data, errors)
-    check("watchdog", _check_watchdog, data, errors)
+    invalid |= check_sections(data, Context(data, errors))
     for name, component in owned.items():
         if name in PROFILE_KEYS:
             continue  # armtree's own: the registry refuses the name (plugin_checks)
@@ -696,23 +675,6 @@ def _from_override(mark: Mark | None) -> bool:
     return mark is not None and mark.file.startswith("--set ")
 
 
-def _is_number(v: Any) -> bool:
-    if not isinstance(v, (int, float)) or isinstance(v, bool):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an integer of hundreds of digits
-        return False
-
-
-def _is_id(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
-
-
-#: The keys of one ``tags:`` entry.
-TAG_KEYS = ("id", "ids", "size_mm", "family_ids")
-
-
 def tag_spec(role: str, spec: Mapping[str, Any]) -> TagSpec:
     """One checked ``tags:`` entry as a :class:`TagSpec`, its ``family_ids`` as tuples."""
     ids = (spec["id"],) if "id" in spec else tuple(spec.get("ids", ()))
@@ -721,285 +683,6 @@ def tag_spec(role: str, spec: Mapping[str, Any]) -> TagSpec:
         for family, value in (spec.get("family_ids") or {}).items()
     }
     return TagSpec(role, tuple(int(i) for i in ids), float(spec["size_mm"]), family_ids)
-
-
-def _check_tags(data: MarkedDict, errors: list[ConfigError]) -> None:
-    tags = data.get("tags")
-    if tags is None:
-        return
-    if not isinstance(tags, MarkedDict):
-        errors.append(
-            error_at("tags: expected a mapping of role: {id, size_mm}", data.value_mark("tags"))
-        )
-        return
-    owner: dict[int, str] = {}
-    for role, spec in tags.items():
-        where = tags.value_mark(role)
-        if not isinstance(spec, MarkedDict):
-            errors.append(error_at(f"tags.{role}: expected {{id: N, size_mm: S}}", where))
-            continue
-        for key in spec:
-            if key not in TAG_KEYS:
-                errors.append(
-                    error_at(
-                        f"tags.{role}: unknown key {shown(key)}{did_you_mean(str(key), TAG_KEYS)}",
-                        spec.key_mark(key),
-                    )
-                )
-        ids: list[tuple[int, Mark | None]] = []
-        if ("id" in spec) == ("ids" in spec):
-            errors.append(error_at(f"tags.{role}: give either id or ids", spec.mark))
-        elif "id" in spec:
-            if _is_id(spec["id"]):
-                ids.append((spec["id"], spec.value_mark("id")))
-            else:
-                errors.append(
-                    error_at(
-                        f"tags.{role}.id: expected a marker id >= 0, got {shown(spec['id'])}",
-                        spec.value_mark("id"),
-                    )
-                )
-        else:
-            given = spec["ids"]
-            if not isinstance(given, MarkedList) or not given:
-                errors.append(
-                    error_at(
-                        f"tags.{role}.ids: expected a non-empty list of marker ids",
-                        spec.value_mark("ids"),
-                    )
-                )
-            else:
-                for i, v in enumerate(given):
-                    if _is_id(v):
-                        ids.append((v, given.item_mark(i)))
-                    else:
-                        errors.append(
-                            error_at(
-                                f"tags.{role}.ids: expected marker ids >= 0, got {shown(v)}",
-                                given.item_mark(i),
-                            )
-                        )
-        for marker, mark in ids:
-            if marker in owner:
-                errors.append(
-                    error_at(
-                        f"tags.{role}: marker id {marker} is already used by tag {owner[marker]!r}",
-                        mark,
-                    )
-                )
-            else:
-                owner[marker] = str(role)
-        size = spec.get("size_mm")
-        if "size_mm" not in spec:
-            errors.append(
-                error_at(f"tags.{role}: needs size_mm (the printed marker's side, mm)", spec.mark)
-            )
-        elif not _is_number(size) or size <= 0:
-            errors.append(
-                error_at(
-                    f"tags.{role}.size_mm: expected a number > 0 (mm), got {shown(size)}",
-                    spec.value_mark("size_mm"),
-                )
-            )
-        if "family_ids" in spec:
-            _check_family_ids(str(role), spec, errors)
-
-
-def _check_family_ids(role: str, spec: MarkedDict, errors: list[ConfigError]) -> None:
-    """``family_ids``: the role's ids in other marker families, shaped as its ``id`` / ``ids``.
-
-    Which families exist and which ids they have is the trackers' to say
-    (their ``armtree_validate_profile``); here only the shape is checked.
-    """
-    given = spec["family_ids"]
-    if not isinstance(given, MarkedDict) or not given:
-        errors.append(
-            error_at(
-                f"tags.{role}.family_ids: expected a mapping of marker family: id, "
-                "e.g. {hamming: 69937}",
-                spec.value_mark("family_ids"),
-            )
-        )
-        return
-    many = "ids" in spec and isinstance(spec["ids"], list)
-    for family, value in given.items():
-        where = given.value_mark(family)
-        path = f"tags.{role}.family_ids.{family}"
-        if not many:
-            if not _is_id(value):
-                errors.append(
-                    error_at(f"{path}: expected one marker id >= 0, got {shown(value)}", where)
-                )
-            continue
-        count = len(spec["ids"])
-        if not isinstance(value, MarkedList) or len(value) != count:
-            errors.append(
-                error_at(
-                    f"{path}: expected a list of {count} marker ids, one for each of "
-                    f"tags.{role}.ids, got {shown(value)}",
-                    where,
-                )
-            )
-            continue
-        for i, v in enumerate(value):
-            if not _is_id(v):
-                errors.append(
-                    error_at(
-                        f"{path}: expected marker ids >= 0, got {shown(v)}", value.item_mark(i)
-                    )
-                )
-
-
-def _vector(value: Any, n: int = 3) -> bool:
-    return isinstance(value, list) and len(value) == n and all(_is_number(v) for v in value)
-
-
-def _check_places(data: MarkedDict, errors: list[ConfigError]) -> None:
-    places = data.get("places")
-    if places is None:
-        return
-    if not isinstance(places, MarkedDict):
-        errors.append(
-            error_at(
-                "places: expected a mapping of name: [x, y, z] (mm)", data.value_mark("places")
-            )
-        )
-        return
-    for name, xyz in places.items():
-        if not _vector(xyz):
-            errors.append(
-                error_at(
-                    f"places.{name}: expected [x, y, z] in mm, got {shown(xyz)}",
-                    places.value_mark(name),
-                )
-            )
-
-
-def _check_table(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """``table: {z: MM}`` or ``table: MM``, as :meth:`armtree.maths.motion.scene.Scene.from_profile` reads it."""
-    table = data.get("table")
-    if table is None or _is_number(table):
-        return
-    if not isinstance(table, MarkedDict):
-        errors.append(
-            error_at(
-                f"table: expected {{z: MM}} (the table top's height, mm), got {shown(table)}",
-                data.value_mark("table"),
-            )
-        )
-        return
-    for key in table:
-        if key != "z":
-            errors.append(
-                error_at(
-                    f"table: unknown key {shown(key)}; the table takes only z "
-                    "(its top's height, mm in the arm's base frame)",
-                    table.key_mark(key),
-                )
-            )
-    if "z" not in table:
-        errors.append(error_at("table: needs z (the table top's height, mm)", table.mark))
-    elif not _is_number(table["z"]):
-        errors.append(
-            error_at(
-                f"table.z: expected a number (mm), got {shown(table['z'])}", table.value_mark("z")
-            )
-        )
-
-
-#: ``watchdog:`` keys: (default, largest, what it bounds).
-WATCHDOG_KEYS = {
-    "tick_s": (DEFAULT_TICK_S, MAX_TICK_S, "the longest one tick may take"),
-    "stall_s": (DEFAULT_STALL_S, MAX_STALL_S, "how long a run may make no progress"),
-}
-
-
-def _check_watchdog(data: MarkedDict, errors: list[ConfigError]) -> None:
-    """``watchdog: {tick_s: S, stall_s: S}``: the longest a tick may take on the wall
-    clock, and the run time without progress that is reported as a stall."""
-    section = data.get("watchdog")
-    if section is None:
-        return
-    if not isinstance(section, MarkedDict):
-        errors.append(
-            error_at(
-                "watchdog: expected a mapping {tick_s: SECONDS, stall_s: SECONDS} (the longest "
-                "one tick may take, how long a run may make no progress)",
-                data.value_mark("watchdog"),
-            )
-        )
-        return
-    for key in section:
-        if key not in WATCHDOG_KEYS:
-            errors.append(
-                error_at(
-                    f"watchdog: unknown key {shown(key)}{did_you_mean(str(key), WATCHDOG_KEYS)}",
-                    section.key_mark(key),
-                )
-            )
-    for key, (default, largest, _) in WATCHDOG_KEYS.items():
-        value = section.get(key, default)
-        if not _is_number(value) or not 0 < value <= largest:
-            errors.append(
-                error_at(
-                    f"watchdog.{key}: expected a number of seconds > 0 and <= {largest:g}, "
-                    f"got {shown(value)}",
-                    section.value_mark(key),
-                )
-            )
-
-
-def _check_obstacles(data: MarkedDict, errors: list[ConfigError]) -> None:
-    obstacles = data.get("obstacles")
-    if obstacles is None:
-        return
-    if not isinstance(obstacles, MarkedList):
-        errors.append(
-            error_at("obstacles: expected a list of shapes", data.value_mark("obstacles"))
-        )
-        return
-    for i, item in enumerate(obstacles):
-        where = obstacles.item_mark(i)
-        shapes = [k for k in item if k in OBSTACLE_SHAPES] if isinstance(item, dict) else []
-        if len(shapes) != 1:
-            errors.append(
-                error_at(
-                    f"obstacles[{i}]: expected one shape ({', '.join(OBSTACLE_SHAPES)}), e.g. "
-                    "{box: {center: [x, y, z], size: [dx, dy, dz]}}",
-                    where,
-                )
-            )
-            continue
-        shape = shapes[0]
-        spec = item[shape]
-        if not isinstance(spec, MarkedDict):
-            errors.append(
-                error_at(f"obstacles[{i}].{shape}: expected a mapping", item.value_mark(shape))
-            )
-            continue
-        for key in OBSTACLE_SHAPES[shape]:
-            if key not in spec:
-                errors.append(error_at(f"obstacles[{i}].{shape}: needs {key}", spec.mark))
-        for key in ("center", "size"):
-            if key in spec and not _vector(spec[key]):
-                errors.append(
-                    error_at(
-                        f"obstacles[{i}].{shape}.{key}: expected 3 numbers (mm)",
-                        spec.value_mark(key),
-                    )
-                )
-        if shape == "box" and _vector(spec.get("size")) and min(spec["size"]) <= 0:
-            errors.append(
-                error_at(f"obstacles[{i}].box.size: sizes must be > 0 mm", spec.value_mark("size"))
-            )
-        for key in ("radius", "height"):
-            if key in spec and (not _is_number(spec[key]) or spec[key] <= 0):
-                errors.append(
-                    error_at(
-                        f"obstacles[{i}].{shape}.{key}: expected a number > 0 (mm)",
-                        spec.value_mark(key),
-                    )
-                )
 
 
 def _flatten_marks(

@@ -14,14 +14,12 @@ from typing import Any
 
 from armtree.api.factories import COMPOSITE, DECORATOR, node_kind
 from armtree.api.outcomes.predicates import BUILTIN_PREDICATES, Predicate
-from armtree.config.calibration import calibration_schema
 from armtree.config.constructor_params import declared_params
 from armtree.config.params import Param
-from armtree.config.profile_sections import COMPONENT_SECTIONS, MAX_STALL_S, MAX_TICK_S
-from armtree.config.workcell import workcell_schema
+from armtree.config.profile_sections import COMPONENT_SECTIONS
+from armtree.config.profile_spec import SECTION_SPECS
 from armtree.hooks.plugin_manager import Registry
 
-from .profile import OBSTACLE_SHAPES
 from .subtree_include import SUBTREE_KEYS
 
 DRAFT = "http://json-schema.org/draft-07/schema#"
@@ -216,37 +214,6 @@ def component_schema(registry: Registry, kind: str) -> dict[str, Any]:
 
 def profile_definition(registry: Registry) -> dict[str, Any]:
     """The schema of a hardware profile."""
-    xyz = {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3}
-    marker_id = {"type": "integer", "minimum": 0}
-    tag = {
-        "type": "object",
-        "properties": {
-            "id": marker_id,
-            "ids": {"type": "array", "items": marker_id, "minItems": 1},
-            "size_mm": {"type": "number", "exclusiveMinimum": 0, "description": "marker side (mm)"},
-            "family_ids": {
-                "type": "object",
-                "description": "the same markers' ids in another marker family (hamming, "
-                "an ArUco dictionary such as 4x4_50 or apriltag_36h11), shaped as id or ids",
-                "additionalProperties": {
-                    "anyOf": [marker_id, {"type": "array", "items": marker_id, "minItems": 1}]
-                },
-                "minProperties": 1,
-            },
-        },
-        "required": ["size_mm"],
-        "oneOf": [{"required": ["id"]}, {"required": ["ids"]}],
-        "additionalProperties": False,
-    }
-    shapes = []
-    for shape, keys in OBSTACLE_SHAPES.items():
-        shapes.append(
-            {
-                "type": "object",
-                "properties": {shape: {"type": "object", "required": list(keys)}},
-                "required": [shape],
-            }
-        )
     properties: dict[str, Any] = {
         "profile": {"type": "string", "description": "the profile's name"},
         "description": {"type": "string"},
@@ -254,38 +221,12 @@ def profile_definition(registry: Registry) -> dict[str, Any]:
             section: component_schema(registry, kind)
             for section, kind in COMPONENT_SECTIONS.items()
         },
-        "tags": {"type": "object", "additionalProperties": tag},
-        "places": {"type": "object", "additionalProperties": xyz, "description": "[x, y, z] mm"},
-        "table": {
-            "description": "the table top: {z: MM}, its height in the arm's base frame",
-            "anyOf": [
-                {"type": "number"},
-                {
-                    "type": "object",
-                    "properties": {"z": {"type": "number", "description": "mm"}},
-                    "required": ["z"],
-                    "additionalProperties": False,
-                },
-            ],
-        },
-        "obstacles": {"type": "array", "items": {"anyOf": shapes}},
-        "workcell": workcell_schema(),
         "plugins": {"type": "array", "items": {"type": "string"}},
-        "watchdog": {
-            "type": "object",
-            "description": "the longest one tick may take on the wall clock (tick_s); how long "
-            "a run may make no progress before it is reported as a stall (stall_s, run time)",
-            "properties": {
-                "tick_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_TICK_S},
-                "stall_s": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_STALL_S},
-            },
-            "additionalProperties": False,
-        },
         "include": {
             "description": "files laid over this profile (calibration files), beside it or in the working directory",
             "anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}}],
         },
-        "calibration": calibration_schema(),
+        **{name: spec.schema() for name, spec in SECTION_SPECS.items()},
     }
     for name in registry.names("profile_section"):
         properties.setdefault(name, dict(registry.get("profile_section", name).factory.schema))
