@@ -30,12 +30,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 RIGS = ["sim_dobot", "sim_vicra", "sim_magician", "sim_dh"]
@@ -71,53 +73,53 @@ def sweep(python: str, rig: str, seeds: str, workers: int, out: Path) -> dict:
     }
 
 
+#: CPU seconds of each part in this process's run (a forked child's own copy).
+SPENT: dict[str, float] = {}
+
+
+def _timed(owner, name: str, label: str) -> None:
+    inner = getattr(owner, name)
+
+    def timed(*args, **kwargs):
+        start = time.process_time()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            SPENT[label] = SPENT.get(label, 0.0) + time.process_time() - start
+
+    setattr(owner, name, timed)
+
+
+def _one_run(rig: str, seed: int) -> dict[str, float]:
+    """In a forked child: run one seed as a sweep's run; the CPU seconds of each part."""
+    from armtree.cli.sweep.task import RunTask, run_task
+
+    with tempfile.TemporaryDirectory() as runs:
+        start = time.process_time()
+        outcome, _ = run_task(RunTask(tree="load_ducky.yaml", seed=seed, run_dir=runs, rig=rig))
+        SPENT["whole run"] = time.process_time() - start
+    SPENT["simulated"] = outcome["seconds"]
+    return SPENT
+
+
 def child_parts(rig: str, seeds: list[int]) -> None:
     """In a child interpreter: time the parts of forked runs; print one JSON line per seed."""
     import importlib
 
-    from armtree.cli.sweep.task import RunTask, run_task
     from armtree.hooks.plugin_manager import get_plugin_manager
 
     get_plugin_manager().registry  # noqa: B018 - imports every plugin, as the sweep's forker does
-
-    spent: dict[str, float] = {}
-
-    def wrap(owner, name: str, label: str) -> None:
-        inner = getattr(owner, name)
-
-        def timed(*args, **kwargs):
-            start = time.process_time()
-            try:
-                return inner(*args, **kwargs)
-            finally:
-                spent[label] = spent.get(label, 0.0) + time.process_time() - start
-
-        setattr(owner, name, timed)
-
     for label, (module, cls, name) in PARTS.items():
         try:
             owner = importlib.import_module(module)
-            wrap(getattr(owner, cls) if cls else owner, name, label)
+            _timed(getattr(owner, cls) if cls else owner, name, label)
         except (ImportError, AttributeError):
             pass  # the part does not exist in this install: reported as missing
+    fork = multiprocessing.get_context("fork")
     for seed in seeds:
-        read, write = os.pipe()
-        if os.fork() == 0:
-            os.close(read)
-            with tempfile.TemporaryDirectory() as runs:
-                task = RunTask(tree="load_ducky.yaml", seed=seed, run_dir=runs, rig=rig)
-                start = time.process_time()
-                outcome, _ = run_task(task)
-                spent["whole run"] = time.process_time() - start
-                spent["simulated"] = outcome["seconds"]
-            os.write(write, json.dumps(spent).encode())
-            os._exit(0)
-        os.close(write)
-        data = b""
-        while chunk := os.read(read, 65536):
-            data += chunk
-        os.wait()
-        print(data.decode(), flush=True)
+        # A pool per run: a fresh forked process for each, as the sweep's forker gives.
+        with ProcessPoolExecutor(1, mp_context=fork) as pool:
+            print(json.dumps(pool.submit(_one_run, rig, seed).result()), flush=True)
 
 
 def parts(python: str, rig: str, seeds: str) -> dict[str, float]:
