@@ -63,8 +63,11 @@ READY_S = 300.0
 
 def _preload() -> None:
     """Import what runs need, so children start with it loaded."""
+    import numpy.ma  # noqa: F401 - numpy's median imports it on first use, in every run
+
     from armtree.hooks.plugin_manager import get_plugin_manager
     from armtree.loader import tree_loader  # noqa: F401
+    from armtree.runtime import runner  # noqa: F401
 
     get_plugin_manager().registry  # noqa: B018 - loads every plugin's modules
 
