@@ -763,10 +763,17 @@ def _noise_bank(
     """Six images of sensor noise (``sigma`` grey levels), each as its positive and negative
     parts rounded to uint8; none when ``sigma`` is 0."""
     bank = []
+    n = np.empty(shape)
     for _ in range(6 if sigma > 0 else 0):
-        n = rng.normal(0, sigma, shape)
-        # A uint8 result rounds half to even and saturates: clip(round(+-n), 0, 255) in one pass.
-        bank.append((cv2.add(n, 0.0, dtype=cv2.CV_8U), cv2.subtract(0.0, n, dtype=cv2.CV_8U)))
+        # The numbers rng.normal(0, sigma, shape) draws, into one buffer for all six.
+        rng.standard_normal(out=n)
+        n *= sigma
+        # Rounded once (half to even, as a uint8 result rounds), then each sign saturated to
+        # uint8 from the integers: clip(round(+-n), 0, 255) with one pass over the floats.
+        rounded = cv2.add(n, 0.0, dtype=cv2.CV_16S)
+        bank.append(
+            (cv2.add(rounded, 0, dtype=cv2.CV_8U), cv2.subtract(0, rounded, dtype=cv2.CV_8U))
+        )
     return bank
 
 

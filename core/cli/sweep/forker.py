@@ -20,6 +20,7 @@ SIGTERM (they halt within a tick and exit), then SIGKILL after a grace period.
 from __future__ import annotations
 
 import contextlib
+import io
 import itertools
 import json
 import os
@@ -30,13 +31,24 @@ import sys
 import threading
 import time
 import traceback
+import warnings
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from .task import DIED, ERROR, TIMEOUT, Outcome, RunTask, failed_outcome, run_task
+from .task import (
+    DIED,
+    ERROR,
+    TIMEOUT,
+    Outcome,
+    RunTask,
+    failed_outcome,
+    load_key,
+    load_task,
+    run_task,
+)
 
 #: Seconds children get to halt after SIGTERM before SIGKILL.
 GRACE_S = 5.0
@@ -51,13 +63,56 @@ READY_S = 300.0
 
 def _preload() -> None:
     """Import what runs need, so children start with it loaded."""
+    import numpy.ma  # noqa: F401 - numpy's median imports it on first use, in every run
+
     from armtree.hooks.plugin_manager import get_plugin_manager
     from armtree.loader import tree_loader  # noqa: F401
+    from armtree.runtime import runner  # noqa: F401
 
     get_plugin_manager().registry  # noqa: B018 - loads every plugin's modules
 
 
-def _child(task: RunTask) -> None:
+class _LoadedTrees:
+    """The tree of the last task, loaded once in the forker for every child to inherit.
+
+    A sweep runs one tree on one rig: loading it (the plugin manager, the tree and its
+    profile checked) in the forker spares every run that work. A load that fails, says
+    anything or leaves a thread behind is not kept: the child loads the tree itself, so
+    its errors and warnings land in the run's own output as before, and the forker stays
+    single-threaded.
+    """
+
+    def __init__(self) -> None:
+        self._key: tuple | None = None
+        self._loaded: tuple[Any, Any] | None = None
+
+    def get(self, task: RunTask) -> tuple[Any, Any] | None:
+        """:func:`load_task` of ``task`` if it loads cleanly, else None."""
+        key = load_key(task)
+        if key != self._key:
+            self._key, self._loaded = key, self._load(task)
+        return self._loaded
+
+    @staticmethod
+    def _load(task: RunTask) -> tuple[Any, Any] | None:
+        said = io.StringIO()
+        threads = threading.active_count()
+        try:
+            with (
+                warnings.catch_warnings(record=True) as warned,
+                contextlib.redirect_stdout(said),
+                contextlib.redirect_stderr(said),
+            ):
+                warnings.simplefilter("always")
+                loaded = load_task(task)
+        except Exception:  # noqa: BLE001 - the child loads again and reports it
+            return None
+        if said.getvalue() or warned or threading.active_count() != threads:
+            return None
+        return loaded
+
+
+def _child(task: RunTask, loaded: tuple[Any, Any] | None = None) -> None:
     """In the forked child: run the task, write its outcome, exit with its code."""
     code = 1
     try:
@@ -72,7 +127,7 @@ def _child(task: RunTask) -> None:
         os.dup2(out, 1)
         os.dup2(out, 2)
         try:
-            outcome, code = run_task(task)
+            outcome, code = run_task(task, loaded)
         except Exception as exc:  # noqa: BLE001 - the sweep reports it with the seed
             traceback.print_exc()
             outcome = failed_outcome(task, ERROR, f"{type(exc).__name__}: {exc}")
@@ -122,6 +177,7 @@ def serve(stdin: IO[str], stdout: IO[str]) -> None:
     selector.register(read_end, selectors.EVENT_READ)
     pending = b""
     open_input = True
+    trees = _LoadedTrees()
     while open_input:
         for key, _ in selector.select(timeout=1.0):
             if key.fileobj == read_end:
@@ -137,10 +193,11 @@ def serve(stdin: IO[str], stdout: IO[str]) -> None:
             for line in lines:
                 message = json.loads(line)
                 task = RunTask.from_json(json.dumps(message["task"]))
+                loaded = trees.get(task)
                 pid = os.fork()
                 if pid == 0:
                     selector.close()
-                    _child(task)
+                    _child(task, loaded)
                 children[pid] = message["id"]
                 say({"id": message["id"], "pid": pid})
         reap()

@@ -66,19 +66,32 @@ class RunTask:
         return dataclasses.replace(self, attempt=self.attempt + 1)
 
 
-def run_task(task: RunTask) -> tuple[Outcome, int]:
-    """Load and run the task's tree in this process; its outcome and exit code.
-
-    Called in a fresh child process: a new plugin manager, a new rig, the
-    process-wide blackboard cleared by the run itself.
-    """
+def load_task(task: RunTask) -> tuple[Any, Any]:
+    """The task's plugin manager and its tree, loaded and checked (ConfigError if invalid)."""
     from armtree.hooks.plugin_manager import make_plugin_manager
     from armtree.loader.tree_loader import load_tree
+
+    manager = make_plugin_manager(task.plugins, task.blocked)
+    return manager, load_tree(task.tree, rig=task.rig, overrides=task.overrides, manager=manager)
+
+
+def load_key(task: RunTask) -> tuple:
+    """What :func:`load_task` depends on: tasks with the same key load the same tree."""
+    return (task.tree, task.rig, task.overrides, task.plugins, task.blocked)
+
+
+def run_task(task: RunTask, loaded: tuple[Any, Any] | None = None) -> tuple[Outcome, int]:
+    """Run the task's tree in this process; its outcome and exit code.
+
+    Called in a fresh child process: a new rig, the process-wide blackboard cleared
+    by the run itself. ``loaded`` is :func:`load_task`'s result for this task, when
+    the forker loaded it before forking (the child's copy is its own); else the
+    tree is loaded here.
+    """
     from armtree.runtime.run_start import default_timeout
     from armtree.runtime.runner import run
 
-    manager = make_plugin_manager(task.plugins, task.blocked)
-    tree = load_tree(task.tree, rig=task.rig, overrides=task.overrides, manager=manager)
+    manager, tree = loaded if loaded is not None else load_task(task)
     # As run-tree: a simulated run that makes no progress ends at the default timeout.
     timeout = task.timeout
     if timeout is None:
