@@ -25,7 +25,7 @@ def choose_clock(profile: Any, realtime: bool, manager: Any) -> Clock:
 
 #: ``run-tree``'s ``--timeout`` for a run on the virtual clock (the simulation) when none
 #: is given, seconds of run time: five times the longest a shipped tree's run takes
-#: (docs/benchmarks.md, "run time"), so a tree that makes no progress ends on its own.
+#: (docs/benchmarks.md, "Runtime and what it carries"), so a tree that makes no progress ends on its own.
 DEFAULT_SIM_TIMEOUT_S = 600.0
 
 

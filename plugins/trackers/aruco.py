@@ -47,7 +47,7 @@ DEFAULT_APRILTAG = "36h11"
 SMALL_MARKER_PIXELS_PER_CELL = 8
 #: Least :func:`.kernels.framed_by_light` of a marker: a printed one's quiet zone is
 #: about as light as its white cells, a light blob in a dark patch's is not (docs/
-#: benchmarks.md, "small markers").
+#: benchmarks-history.md, "Small markers").
 MIN_FRAMED = 0.4
 
 
@@ -93,7 +93,7 @@ def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) 
 
     ``perspectiveRemovePixelPerCell`` defaults to 8 (OpenCV: 4): reading more
     pixels per cell keeps small markers readable under noise and blur, for a
-    few percent more detection time (docs/benchmarks.md). Keys are OpenCV's attribute
+    few percent more detection time (docs/benchmarks-history.md). Keys are OpenCV's attribute
     names (``adaptiveThreshWinSizeMin``, ...); ``cornerRefinementMethod`` also
     takes ``none``, ``subpix``, ``contour`` or ``apriltag``. An unknown key or a
     value of the wrong type is a ConfigError.
@@ -138,7 +138,7 @@ class ArucoTracker(Tracker):
     the image's larger side, so it is set from this for each frame size.
     OpenCV's default (0.03, a 5 px side at 640x480) spends time on specks of
     noise too small to read; 10 px is the largest limit that still reads every
-    marker the default reads (docs/benchmarks.md). None keeps the rate in
+    marker the default reads (docs/benchmarks-history.md). None keeps the rate in
     ``parameters``.
     """
 
