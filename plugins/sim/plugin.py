@@ -24,9 +24,12 @@ from typing import Any
 
 import armtree
 from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.rig import Rig
 from armtree.config.params import check_value
 from armtree.config.profile_access import profile_error, profile_section
 from armtree.config.profile_sections import ProfileSection
+from armtree.loader.profile import Profile
+from armtree.runtime.runner import Run
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera, sim_camera
@@ -56,7 +59,7 @@ class WorldStepper:
             self._recorder.step(now)
 
 
-def _uses_sim(profile: Any) -> bool:
+def _uses_sim(profile: Profile) -> bool:
     arm = profile_section(profile, "arm") or {}
     camera = profile_section(profile, "camera") or {}
     return (
@@ -70,7 +73,7 @@ def _uses_sim(profile: Any) -> bool:
 _WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})
 
 
-def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _table_disagrees(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """The planning ``table:`` must be the simulated table top (``world.table.height``)."""
     table = profile_section(profile, "table")
     z = table.get("z") if isinstance(table, dict) else table
@@ -85,7 +88,7 @@ def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError
     ]
 
 
-def sim_world(run: Any) -> World | None:
+def sim_world(run: Run) -> World | None:
     """The simulated world of a run (or of a served bench), for judging it; None off the sim.
 
     For tests, benchmarks and the sim's own hooks: skills never see it.
@@ -94,7 +97,7 @@ def sim_world(run: Any) -> World | None:
     return None if stepper is None else stepper._world
 
 
-def _stepper(run: Any) -> WorldStepper | None:
+def _stepper(run: Run) -> WorldStepper | None:
     rig = getattr(run, "rig", None)
     for stepper in getattr(rig, "steppers", None) or ():
         if isinstance(stepper, WorldStepper):
@@ -131,7 +134,7 @@ def armtree_profile_sections() -> dict[str, ProfileSection]:
     }
 
 
-def check_world(profile: Any) -> list[armtree.ConfigError]:
+def check_world(profile: Profile) -> list[armtree.ConfigError]:
     """Check ``world:`` as building the rig would, before anything is built.
 
     Reports objects off the table or inside each other, markers clashing with
@@ -153,7 +156,7 @@ def check_world(profile: Any) -> list[armtree.ConfigError]:
     ]
 
 
-def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _faults_taken(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.faults`` must be faults the arm's emulator takes (its factory's ``faults``)."""
     component = _arm_factory(profile)
     taken = getattr(getattr(component, "factory", None), "faults", BASE_FAULTS)
@@ -169,7 +172,7 @@ def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
     ]
 
 
-def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _joints_exist(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """Joints named by ``world.faults.missed_steps`` must be joints of the profile's arm."""
     arm = profile_section(profile, "arm") or {}
     manager = getattr(profile, "manager", None)
@@ -198,7 +201,7 @@ def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
 
 
 @armtree.hookimpl
-def armtree_rig_ready(rig: Any, context: Any) -> None:
+def armtree_rig_ready(rig: Rig, context: Any) -> None:
     """Build the world, attach the emulated arm, and step the world after the emulators."""
     if not _uses_sim(context.profile):
         return
@@ -221,7 +224,7 @@ def armtree_rig_ready(rig: Any, context: Any) -> None:
         )
 
 
-def _arm_factory(profile: Any) -> Any:
+def _arm_factory(profile: Profile) -> Any:
     arm = profile_section(profile, "arm") or {}
     manager = getattr(profile, "manager", None)
     if manager is None or not manager.registry.has("arm", arm.get("type", "")):
@@ -229,7 +232,7 @@ def _arm_factory(profile: Any) -> Any:
     return manager.registry.get("arm", arm["type"])
 
 
-def _as_built_model(profile: Any, changes: dict[str, Any]) -> Any:
+def _as_built_model(profile: Profile, changes: dict[str, Any]) -> Any:
     """The arm's kinematic model with ``world.as_built.arm`` laid over the profile's keys;
     None when the arm is as the profile says."""
     component = _arm_factory(profile)
@@ -239,7 +242,7 @@ def _as_built_model(profile: Any, changes: dict[str, Any]) -> Any:
     return make({**profile.component("arm"), **changes})
 
 
-def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _as_built_errors(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.as_built.arm`` must name the arm type's own keys with values it takes."""
     changes = scene.as_built.arm
     component = _arm_factory(profile)
@@ -278,7 +281,7 @@ _NOTABLE = {
 }
 
 
-def _forward_events(run: Any, world: World) -> None:
+def _forward_events(run: Run, world: World) -> None:
     """Send the world's events to the run's log (and the notable ones to its view)."""
 
     report = getattr(run, "report_event", None)
@@ -297,7 +300,7 @@ def _forward_events(run: Any, world: World) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Forward the world's events to the run; start recording videos when the run was
     given a record directory (``--record DIR``)."""
     stepper = _stepper(run)
@@ -316,14 +319,14 @@ def armtree_run_started(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_scene_objects(run: Any) -> list[Any] | None:
+def armtree_scene_objects(run: Run) -> list[Any] | None:
     """The world's table and bodies as boxes, for monitors and recordings."""
     stepper = _stepper(run)
     return None if stepper is None else scene_objects(stepper._world)
 
 
 @armtree.hookimpl
-def armtree_world_inventory(profile: Any) -> Any:
+def armtree_world_inventory(profile: Profile) -> Any:
     """The profile's nominal world, for checking the names of a tree's ``expect:``."""
     if not _uses_sim(profile):
         return None
@@ -334,7 +337,7 @@ def armtree_world_inventory(profile: Any) -> Any:
 
 
 @armtree.hookimpl
-def armtree_ground_truth(run: Any) -> Any:
+def armtree_ground_truth(run: Run) -> Any:
     """The world at the end of the run, once what was falling has landed."""
     stepper = _stepper(run)
     if stepper is None:
@@ -344,7 +347,7 @@ def armtree_ground_truth(run: Any) -> Any:
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: Any) -> None:
     """Write the world's score (``score.json``) beside the run log and finish recordings."""
     stepper = _stepper(run)
     if stepper is None:

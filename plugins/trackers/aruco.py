@@ -30,6 +30,7 @@ from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config, config_error
 from armtree.config.params import Param
 from armtree.errors import ConfigError, did_you_mean
+from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
 from .kernels import apart_from, framed_by_light
@@ -313,7 +314,7 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     return _tracker(values, values["dictionary"], context.profile, FAMILY)
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
     values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
     probe(_tracker(values, values["dictionary"], profile, FAMILY), profile, "tracker.detector")
@@ -368,7 +369,7 @@ def apriltag_factory(config: dict[str, Any], context: RigContext) -> ArucoTracke
     return _tracker(values, dictionary, context.profile, APRILTAG)
 
 
-def _validate_apriltag(config: dict[str, Any], profile: Any) -> None:
+def _validate_apriltag(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks, as the aruco tracker's."""
     values = check_config(config, apriltag_factory.PARAMS, "tracker", profile)
     tracker = _tracker(values, _apriltag_dictionary(values["family"]), profile, APRILTAG)

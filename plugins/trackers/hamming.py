@@ -31,6 +31,7 @@ import numpy as np
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config
 from armtree.config.params import Param
+from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
 from .hamming_code import CODEWORDS, GRID
@@ -290,7 +291,7 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
     return _tracker(values, context.profile)
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and run it once."""
     values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
     probe(_tracker(values, profile), profile, "tracker.preprocess")
