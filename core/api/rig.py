@@ -22,6 +22,7 @@ from armtree.errors import HardwareFault, PlanningError, Unreachable
 from armtree.maths.motion.kinematics import KinematicModel
 
 from .clock import Clock
+from .views import ProfileView
 
 # ---------------------------------------------------------------------------
 # Motion
@@ -473,7 +474,7 @@ class RigContext:
     tree (an e-stop, a lost link) from any thread.
     """
 
-    profile: Any
+    profile: ProfileView | None
     clock: Clock
     seed: int = 0
     shared: dict[str, Any] = field(default_factory=dict)
@@ -521,7 +522,7 @@ class Rig:
     camera head.
     """
 
-    profile: Any
+    profile: ProfileView
     clock: Clock
     arm: ArmDriver | None = None
     camera: Camera | None = None

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .views import TreeView
+
 
 @dataclass
 class Sweep:
@@ -15,7 +17,7 @@ class Sweep:
     the plugins' option values (handed to every run), what plugins keep for it (each
     under a key of its own) and closers run at its end, newest first, whatever happened."""
 
-    tree: Any
+    tree: TreeView
     seeds: Sequence[int]
     out: Path
     settings: dict[str, Any] = field(default_factory=dict)

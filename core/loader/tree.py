@@ -9,6 +9,7 @@ from typing import Any
 
 import py_trees
 
+from armtree.api.views import ProfileView
 from armtree.errors import Mark
 
 
@@ -45,7 +46,7 @@ class Tree:
     description: str = ""
     blackboard: dict[str, Any] = field(default_factory=dict)
     nodes: dict[uuid.UUID, NodeInfo] = field(default_factory=dict)
-    profile: Any = None
+    profile: ProfileView | None = None
     plugins: list[str] = field(default_factory=list)
     manager: Any = None
     expect: list[Any] = field(default_factory=list)

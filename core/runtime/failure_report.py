@@ -13,6 +13,7 @@ import py_trees
 from py_trees.common import Status
 
 from armtree.api.clock import Clock
+from armtree.api.rig import Rig
 from armtree.errors import HardwareFault
 
 from .halting import Halter
@@ -133,7 +134,7 @@ class FailureReport:
         code = EXIT_HARDWARE if isinstance(exc, HardwareFault) else EXIT_FAILURE
         return End("FAILURE", message, code)
 
-    def tree_failed(self, rig: Any) -> End:
+    def tree_failed(self, rig: Rig | None) -> End:
         """The root ended FAILURE: a fault a rig component holds is the cause (exit 3),
         else the deepest failing node and its feedback message."""
         fault = component_fault(rig)
@@ -181,7 +182,7 @@ class FailureReport:
         return End("INTERRUPTED", message, EXIT_INTERRUPTED)
 
 
-def component_fault(rig: Any) -> HardwareFault | None:
+def component_fault(rig: Rig | None) -> HardwareFault | None:
     """A fault a rig component holds (a lost link, a camera that stopped), if any."""
     for part in ("arm", "camera"):
         fault = getattr(getattr(rig, part, None), "fault", None)

@@ -8,6 +8,8 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
+from armtree.loader.tree import Tree
+
 
 class NodeIndex:
     """Finds and names the nodes of the tree a run ticks.
@@ -17,10 +19,10 @@ class NodeIndex:
     :meth:`use` points it at a replacement tree.
     """
 
-    def __init__(self, tree: Any) -> None:
+    def __init__(self, tree: Tree) -> None:
         self.use(tree)
 
-    def use(self, tree: Any) -> None:
+    def use(self, tree: Tree) -> None:
         """Index ``tree`` (with its ``root``) from now on."""
         self._tree = tree
         self._root: py_trees.behaviour.Behaviour = tree.root

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 from armtree.api.clock import Clock
+from armtree.api.rig import Rig
 
 from .control import RunControl
 from .interrupts import Interrupts, StopKey
@@ -33,7 +33,7 @@ class RunPause:
     interrupts: Interrupts
     clock: Clock
 
-    def due(self, rig: Any) -> bool:
+    def due(self, rig: Rig | None) -> bool:
         """True when a hold is asked and this is a safe point: on a virtual clock always
         (nothing the runtime steps moves while it stands), otherwise once the arm has
         no command under way."""

@@ -22,6 +22,7 @@ from typing import Any
 
 from armtree.api.clock import Clock
 from armtree.api.rig import ArmTool, Rig, RigContext, TagSpec
+from armtree.api.views import ProfileView
 from armtree.config.profile_access import component_config, profile_section, profile_source
 from armtree.errors import ConfigError, HardwareFault
 from armtree.hooks.plugin_manager import get_plugin_manager
@@ -33,7 +34,7 @@ COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
 DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera")
 
 
-def uses_real_hardware(profile: Any, registry: Any = None) -> bool:
+def uses_real_hardware(profile: ProfileView, registry: Any = None) -> bool:
     """True when the profile drives a physical device, so the run must keep the wall clock.
 
     Each arm or camera factory says so itself: ``factory.simulated(config)`` is
@@ -60,7 +61,7 @@ def uses_real_hardware(profile: Any, registry: Any = None) -> bool:
     return False
 
 
-def make_scene(profile: Any) -> Any:
+def make_scene(profile: ProfileView) -> Any:
     """The planning scene of a profile: :mod:`armtree.maths.motion.scene`'s if present, else raw obstacles."""
     obstacles = profile_section(profile, "obstacles") or []
     if importlib.util.find_spec("armtree.maths.motion.scene") is None:
@@ -90,7 +91,7 @@ def parse_tags(tags: Any, file: str | None = None, family: str | None = None) ->
 
 
 def build_rig(
-    profile: Any,
+    profile: ProfileView,
     manager: Any,
     clock: Clock,
     *,

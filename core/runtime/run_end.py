@@ -15,6 +15,8 @@ from typing import Any
 from armtree.api.clock import Clock
 from armtree.api.outcomes.expect import judge, predicates_for, verdict
 from armtree.api.outcomes.failures import FailureLog
+from armtree.api.rig import Rig
+from armtree.loader.tree import Tree
 
 from .blackboard_log import BlackboardLog
 from .failure_report import EXIT_FAILURE, EXIT_SUCCESS, End, FailureReport
@@ -115,7 +117,7 @@ class RunEnding:
     # The tick-start lateness of the result, for its record.
     _lateness: dict[str, float] = field(default_factory=dict, init=False)
 
-    def halt(self, status: str, rig: Any) -> Halted:
+    def halt(self, status: str, rig: Rig | None) -> Halted:
         """Stop every RUNNING node, the arm too unless the run succeeded, and step the
         rig while behaviours are still halting (up to the stop timeout)."""
         running = self.report.running
@@ -166,7 +168,7 @@ class RunEnding:
         return result
 
     def judge(
-        self, result: RunResult, tree: Any, manager: Any, ground_truth: Callable[[], Any]
+        self, result: RunResult, tree: Tree, manager: Any, ground_truth: Callable[[], Any]
     ) -> None:
         """Judge ``result`` against ``tree``'s ``expect:`` (:func:`judge_result`), with the
         predicates of ``manager``'s plugins and the world ``ground_truth()`` gives."""
@@ -207,7 +209,7 @@ class RunEnding:
         log.flush()
 
     def close(
-        self, *, ended: bool, rig: Any, close_rig: bool, log: RunLog, closers: list[Any]
+        self, *, ended: bool, rig: Rig | None, close_rig: bool, log: RunLog, closers: list[Any]
     ) -> None:
         """Release and close what the run holds and opened, newest closer first; a run
         that did not end (an unexpected exception) is halted and its arm stopped first."""

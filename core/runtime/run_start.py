@@ -8,12 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from armtree.api.clock import Clock, VirtualClock, WallClock
+from armtree.api.views import ProfileView
+from armtree.loader.tree import Tree
 
 from .rig_builder import uses_real_hardware
 from .runlog import RunLog, default_run_dir
 
 
-def choose_clock(profile: Any, realtime: bool, manager: Any) -> Clock:
+def choose_clock(profile: ProfileView | None, realtime: bool, manager: Any) -> Clock:
     """A wall clock when asked (``realtime``) or when the profile names real hardware,
     else a virtual one."""
     if realtime or (
@@ -25,11 +27,11 @@ def choose_clock(profile: Any, realtime: bool, manager: Any) -> Clock:
 
 #: ``run-tree``'s ``--timeout`` for a run on the virtual clock (the simulation) when none
 #: is given, seconds of run time: five times the longest a shipped tree's run takes
-#: (docs/benchmarks.md, "run time"), so a tree that makes no progress ends on its own.
+#: (docs/benchmarks.md, "Runtime and what it carries"), so a tree that makes no progress ends on its own.
 DEFAULT_SIM_TIMEOUT_S = 600.0
 
 
-def default_timeout(profile: Any, realtime: bool, manager: Any) -> float | None:
+def default_timeout(profile: ProfileView | None, realtime: bool, manager: Any) -> float | None:
     """:data:`DEFAULT_SIM_TIMEOUT_S` for a run on the virtual clock; None (no limit) on
     the wall clock (``realtime``, or a profile naming real hardware)."""
     if not choose_clock(profile, realtime, manager).virtual:
@@ -37,7 +39,7 @@ def default_timeout(profile: Any, realtime: bool, manager: Any) -> float | None:
     return DEFAULT_SIM_TIMEOUT_S
 
 
-def plugin_manager(tree: Any) -> Any:
+def plugin_manager(tree: Tree) -> Any:
     """The plugin manager of ``tree``'s profile, else one for the tree's ``plugins:``."""
     manager = getattr(getattr(tree, "profile", None), "manager", None)
     if manager is None:
@@ -60,7 +62,7 @@ def choose_record_dir(
     return Path(record)  # type: ignore[arg-type]
 
 
-def open_log(directory: Path, tree: Any, *, seed: int, tick_hz: float, clock: Clock) -> RunLog:
+def open_log(directory: Path, tree: Tree, *, seed: int, tick_hz: float, clock: Clock) -> RunLog:
     """The run log ``directory/run.jsonl``, its ``start`` record written."""
     log = RunLog(directory / "run.jsonl")
     log.write(

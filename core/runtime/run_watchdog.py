@@ -13,6 +13,8 @@ from typing import Any
 import py_trees
 
 from armtree.api.clock import Clock
+from armtree.api.rig import Rig
+from armtree.api.views import ProfileView
 from armtree.config.profile_sections import DEFAULT_TICK_S
 from armtree.errors import HardwareFault
 
@@ -52,7 +54,7 @@ class RunWatchdog:
     _log: RunLog | None = field(default=None, init=False)
     _owns_process: bool = field(default=False, init=False)
 
-    def start(self, *, rig: Any, log: RunLog, owns_process: bool) -> TickWatchdog:
+    def start(self, *, rig: Rig | None, log: RunLog, owns_process: bool) -> TickWatchdog:
         """Watch the calling thread's ticks; ``owns_process``: the run owns the signals
         (the watchdog leaves a stuck tick with SIGINT, and may end the process)."""
         self._rig, self._log, self._owns_process = rig, log, owns_process
@@ -92,7 +94,7 @@ class RunWatchdog:
             return f"{watchdog.stuck_in} (a tick that did not return)"
         return None
 
-    def force_exit(self, *, key: Any, view: Any, log: RunLog, rig: Any) -> None:
+    def force_exit(self, *, key: Any, view: Any, log: RunLog, rig: Rig | None) -> None:
         """Leave the process now (a signal while stopping): the terminal restored, the
         view aborted, a ``forced_exit`` record flushed, the arm told to stop."""
         # Leave the terminal usable: echo back on, cursor shown.
@@ -139,7 +141,7 @@ class RunWatchdog:
             log.close()
 
 
-def profile_tick_limit(profile: Any) -> float:
+def profile_tick_limit(profile: ProfileView | None) -> float:
     """The profile's ``watchdog: {tick_s: S}``, else the default (wall seconds)."""
     data = getattr(profile, "data", None)
     section = data.get("watchdog") if isinstance(data, dict) else None

@@ -55,6 +55,7 @@ from armtree.api.clock import Clock
 from armtree.api.outcomes.failures import FailureLog
 from armtree.api.rig import Rig
 from armtree.errors import HardwareFault
+from armtree.loader.tree import Tree
 
 from .blackboard_log import BlackboardLog
 from .control import RunControl
@@ -101,7 +102,7 @@ class Run:
 
     def __init__(
         self,
-        tree: Any,
+        tree: Tree,
         rig: Rig | None = None,
         *,
         seed: int = 0,
@@ -514,7 +515,7 @@ class Run:
     # Replacing the tree (--watch)
     # ------------------------------------------------------------------
 
-    def replace_tree(self, tree: Any) -> None:
+    def replace_tree(self, tree: Tree) -> None:
         """Run ``tree`` (validated, built with this run's profile) instead of the current one.
 
         Safe from any thread: the swap happens between ticks at the next safe
@@ -530,7 +531,7 @@ class Run:
         """Why a tree given to :meth:`replace_tree` still waits (``None`` when none waits)."""
         return self.replacement.waiting
 
-    def install_tree(self, tree: Any) -> None:
+    def install_tree(self, tree: Tree) -> None:
         """Make ``tree`` the one ticked: the previous one shut down, ``tree`` set up and
         its nodes indexed for the log and views (for :class:`TreeReplacement`)."""
         with contextlib.suppress(Exception):
@@ -601,7 +602,7 @@ class Run:
 
 
 def run(
-    tree: Any,
+    tree: Tree,
     rig: Rig | None = None,
     seed: int = 0,
     realtime: bool = False,

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.views import ProfileView
 from armtree.config.profile_sections import DEFAULT_STALL_S
 
 #: Joint travel (degrees or mm) since the quiet began that counts as motion; below
@@ -99,7 +100,7 @@ class StallWatch:
         return bool(np.max(np.abs(joints - self._joints), initial=0.0) > MOTION_TOL)
 
 
-def profile_stall_limit(profile: Any) -> float:
+def profile_stall_limit(profile: ProfileView | None) -> float:
     """The profile's ``watchdog: {stall_s: S}``, else :data:`DEFAULT_STALL_S` (run seconds)."""
     data = getattr(profile, "data", None)
     section = data.get("watchdog") if isinstance(data, dict) else None

@@ -7,6 +7,8 @@ from typing import Any
 import py_trees
 from py_trees.blackboard import Blackboard
 
+from armtree.loader.tree import Tree
+
 
 class TreeReplacement:
     """A validated tree waiting to replace a run's tree, and the swap itself.
@@ -23,7 +25,7 @@ class TreeReplacement:
         self._run = run
         self._waiting: Any = None
 
-    def offer(self, tree: Any) -> None:
+    def offer(self, tree: Tree) -> None:
         """Swap ``tree`` in at the next safe point; a later offer replaces one still waiting."""
         self._waiting = tree
 
@@ -38,7 +40,7 @@ class TreeReplacement:
         """True when a tree waits and may be swapped in now."""
         return self._waiting is not None and self._unsafe(self._waiting) is None
 
-    def _unsafe(self, tree: Any) -> str | None:
+    def _unsafe(self, tree: Tree) -> str | None:
         arm = getattr(self._run.rig, "arm", None)
         if arm is None:
             return None

@@ -10,8 +10,6 @@ line and column. Units: mm and degrees.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from armtree.errors import ConfigError
@@ -24,7 +22,7 @@ from armtree.maths.perception.frames import EYE_IN_HAND
 TOOL_FRAME_TOLERANCE_DEG = 45.0
 
 
-def swapped_arm(profile: Any) -> tuple[Swap, KinematicModel] | None:
+def swapped_arm(profile: Profile) -> tuple[Swap, KinematicModel] | None:
     """The arm swap in ``profile`` and the new arm's model, or None when the arm was not swapped.
 
     Raises :class:`ConfigError` at ``arm.type`` when the new arm's model cannot be
@@ -62,7 +60,7 @@ def why(profile: Profile, swap: Swap) -> str:
     )
 
 
-def swap_misfits(profile: Any) -> list[ConfigError]:
+def swap_misfits(profile: Profile) -> list[ConfigError]:
     """Every key of a profile whose arm was swapped that does not fit the new arm.
 
     Places out of the new arm's reach, a declared tool it does not grip with, and

@@ -27,6 +27,7 @@ import numpy as np
 from armtree.api.rig import MotionHandle, Rig
 from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError, HardwareFault
+from armtree.loader.profile import Profile
 
 #: Step sizes offered, degrees (or mm for a prismatic joint) and mm.
 STEPS: tuple[float, ...] = (0.5, 1.0, 5.0, 10.0, 20.0)
@@ -319,7 +320,7 @@ def build_app(rig: Rig, save_to: Path, refresh_hz: float = 20.0) -> Any:
     return JogApp()
 
 
-def places_file(profile: Any, save: str | None) -> Path:
+def places_file(profile: Profile, save: str | None) -> Path:
     """Where recorded places go: ``--save FILE`` (a copy of the profile if new), else the
     profile's own file; a shipped profile is never written to."""
     from armtree.config.resolve import shipped_dir

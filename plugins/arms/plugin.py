@@ -26,6 +26,7 @@ from armtree.api.clock import WallClock
 from armtree.cli.commandline import seed_value
 from armtree.config.params import check_value
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .fit import swap_misfits
@@ -137,7 +138,7 @@ class EmulateCommand:
 
 
 @armtree.hookimpl
-def armtree_validate_profile(profile: Any) -> list[ConfigError]:
+def armtree_validate_profile(profile: Profile) -> list[ConfigError]:
     """After ``--set arm.type=X``: the profile's keys that do not fit the new arm
     (places out of its reach, a tool it does not grip with, an eye-in-hand camera
     written for another tool frame), each at its file, line and column."""

@@ -9,6 +9,7 @@ from typing import Any
 from py_trees.blackboard import Blackboard
 
 from armtree.runtime.runlog import jsonable
+from armtree.runtime.runner import Run
 
 from .groot2 import Groot2Server
 from .monitor_tree import MonitorTree
@@ -20,7 +21,7 @@ KEY = "btcpp.groot2"
 class Groot2Session:
     """A run's Groot2 server and the tree it serves; :meth:`tick` after every tick."""
 
-    def __init__(self, run: Any, port: int) -> None:
+    def __init__(self, run: Run, port: int) -> None:
         self.run = run
         self.tree: MonitorTree | None = None
         self.server = Groot2Server(port, self.blackboard)

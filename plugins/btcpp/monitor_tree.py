@@ -14,6 +14,9 @@ import struct
 import xml.etree.ElementTree as ET
 from typing import Any
 
+from armtree.loader.tree import Tree
+from armtree.runtime.runner import Run
+
 from .mapping import exported
 from .values import PORT_TYPES, is_text_type, to_port
 from .writer import model_element
@@ -25,7 +28,7 @@ CODES = {"RUNNING": 1, "SUCCESS": 2, "FAILURE": 3}
 class MonitorTree:
     """The tree of one run: its XML once, its status buffer after each tick."""
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: Run) -> None:
         self.nodes = list(run.nodes)
         tree = run.tree
         order = _preorder(tree.root)
@@ -72,7 +75,7 @@ def _preorder(root: Any) -> list[Any]:
     return order
 
 
-def _tree_xml(tree: Any, nodes: list[Any], paths: dict[int, str], uids: dict[int, int]) -> str:
+def _tree_xml(tree: Tree, nodes: list[Any], paths: dict[int, str], uids: dict[int, int]) -> str:
     """The tree as BT.CPP's monitor writes it: ``<BehaviorTree>`` with ``_uid`` on every
     node, then the ``<TreeNodesModel>`` of its custom nodes."""
     registry = tree.manager.registry if tree.manager is not None else None

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import armtree
+from armtree.runtime.runner import Run
 
 from .reader import read_tree
 
@@ -63,7 +64,7 @@ def armtree_run_options(parser: argparse.ArgumentParser) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_opening(run: Any) -> None:
+def armtree_run_opening(run: Run) -> None:
     """Bind the Groot2 sockets before anything is built (a port in use is exit 3)."""
     port = run.settings.get("groot2")
     if port is None:
@@ -82,7 +83,7 @@ def armtree_run_opening(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Publish the tree and start answering Groot2."""
     session = run.plugin_state.get("btcpp.groot2")
     if session is not None:
@@ -90,7 +91,7 @@ def armtree_run_started(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Any) -> None:
+def armtree_tick(run: Run) -> None:
     """Publish the tick's statuses."""
     session = run.plugin_state.get("btcpp.groot2")
     if session is not None:
@@ -98,7 +99,7 @@ def armtree_tick(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tree_replaced(run: Any, previous: Any) -> None:
+def armtree_tree_replaced(run: Run, previous: Any) -> None:
     """A --watch reload: describe the new tree."""
     session = run.plugin_state.get("btcpp.groot2")
     if session is not None:
@@ -106,7 +107,7 @@ def armtree_tree_replaced(run: Any, previous: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: Any) -> None:
     """The statuses the run ended with (halted nodes idle)."""
     session = run.plugin_state.get("btcpp.groot2")
     if session is not None:

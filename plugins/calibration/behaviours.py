@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
+from armtree.api.rig import Rig
 from armtree.api.skill.actions import Action, Look, Move, SkillFailure, State, fmt
 from armtree.api.skill.arm import ArmSkill, camera_over
 from armtree.api.skill.base import Procedure, Skill
@@ -42,7 +43,7 @@ class Observe(Action):
     the marker of ``role`` (its first id seen); the result is ``(tvec, rvec, camera)`` or
     None when no frame saw it. No frame within ``timeout`` s fails the step."""
 
-    def __init__(self, rig: Any, clock: Any, role: str, frames: int, settle: float) -> None:
+    def __init__(self, rig: Rig, clock: Any, role: str, frames: int, settle: float) -> None:
         self.rig, self.clock, self.role = rig, clock, role
         self.frames, self.settle, self.timeout = frames, settle, 3.0
         self._t0 = 0.0
@@ -299,7 +300,7 @@ class PlanPoses(ArmSkill):
         return out
 
 
-def _half_view(rig: Any) -> tuple[float, float]:
+def _half_view(rig: Rig) -> tuple[float, float]:
     k = getattr(rig.camera, "camera_matrix", None)
     w, h = getattr(rig.camera, "width", 640), getattr(rig.camera, "height", 480)
     if k is None:

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import py_trees
 
+from armtree.api.rig import Rig
 from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError
 from armtree.maths.motion.kinematic_calibration import CalibrationPoints
@@ -213,7 +214,7 @@ def _bb(key: str) -> Any:
 # -------------------------------------------------------------------- experiment 1
 
 
-def grid_tables(observations: dict[str, Any], rig: Any, out: Path) -> dict[str, Any]:
+def grid_tables(observations: dict[str, Any], rig: Rig, out: Path) -> dict[str, Any]:
     """Tables I and II from the grid's observations; writes grid.csv and the scatter plot."""
     poses = observations["poses"]
     truth = np.array([p["truth"] for p in poses])
@@ -328,7 +329,7 @@ def servo_table(trials: list[dict[str, Any]], tolerance: float, out: Path) -> di
 # -------------------------------------------------------------------- seed 004's validation
 
 
-def validation_table(observations: dict[str, Any], rig: Any, out: Path) -> dict[str, Any]:
+def validation_table(observations: dict[str, Any], rig: Rig, out: Path) -> dict[str, Any]:
     """Seed 004's mean ± sd before and after the fit; writes validation.csv and its plot."""
     unreached = [p for p in observations["poses"] if not p.get("reached", True)]
     poses = [p for p in observations["poses"] if p.get("reached", True)]

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Rig
 from armtree.config.calibration import correction_mapping, update_calibration_file
 from armtree.maths.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
 from armtree.maths.perception.frames import (
@@ -34,7 +35,7 @@ class Refused(ValueError):
 
 
 def fit(
-    kind: str, observations: dict[str, Any], rig: Any, methods: Sequence[str], folds: int
+    kind: str, observations: dict[str, Any], rig: Rig, methods: Sequence[str], folds: int
 ) -> dict[str, Any]:
     """Dispatch to the fit of ``kind``; :class:`Refused` with the reason."""
     poses = observations.get("poses") or []
@@ -90,7 +91,7 @@ def _reached(poses: list[dict[str, Any]]) -> list[dict[str, Any]]:
 # -------------------------------------------------------------------- hand-eye
 
 
-def hand_eye(poses: list[dict[str, Any]], rig: Any, methods: Sequence[str]) -> dict[str, Any]:
+def hand_eye(poses: list[dict[str, Any]], rig: Rig, methods: Sequence[str]) -> dict[str, Any]:
     """Seed 000's three positions, or every method on N poses; the least residual wins."""
     poses = _reached(poses)
     views = [
@@ -148,7 +149,7 @@ def hand_eye(poses: list[dict[str, Any]], rig: Any, methods: Sequence[str]) -> d
     }
 
 
-def _workcell(rig: Any) -> Any:
+def _workcell(rig: Rig) -> Any:
     from armtree.config.workcell import workcell_of
 
     return workcell_of(getattr(rig, "profile", None))
@@ -158,7 +159,7 @@ def _workcell(rig: Any) -> Any:
 
 
 def vision_tool_positions(
-    poses: list[dict[str, Any]], rig: Any, along_ray: bool = True
+    poses: list[dict[str, Any]], rig: Rig, along_ray: bool = True
 ) -> np.ndarray:
     """The tool centre as the fixed camera measures it (mm), less the marker's offset turned
     with the tool; NaN where unseen.
@@ -199,7 +200,7 @@ def cross_validated(
     return before, after
 
 
-def correction(poses: list[dict[str, Any]], rig: Any, folds: int) -> dict[str, Any]:
+def correction(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, Any]:
     """Seed 000, eq. 8 for what vision measures and for where the arm goes."""
     poses = _reached(poses)
     truth = np.array([p["truth"] for p in poses if p.get("truth") is not None])
@@ -248,7 +249,7 @@ def correction(poses: list[dict[str, Any]], rig: Any, folds: int) -> dict[str, A
 # -------------------------------------------------------------------- camera offset (eq. 17)
 
 
-def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Any) -> dict[str, Any]:
+def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Rig) -> dict[str, Any]:
     """Seed 004, eq. 17: P_CT from touch tests, leave-one-out; refused when it predicts the
     touched marker worse than the profile's offset does."""
     poses = [p for p in _reached(poses) if p.get("seen")]
@@ -306,7 +307,7 @@ def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Any) -> dict[s
 # -------------------------------------------------------------------- kinematics
 
 
-def arm_model_builder(rig: Any) -> tuple[Any, dict[str, Any], Any]:
+def arm_model_builder(rig: Rig) -> tuple[Any, dict[str, Any], Any]:
     """The arm factory's model builder, its profile keys, and the factory (for its PARAMS)."""
     profile = rig.profile
     arm = dict(profile.component("arm"))
@@ -334,7 +335,7 @@ def kinematic_cv(
     return {"before": before, "after": after}
 
 
-def kinematics(poses: list[dict[str, Any]], rig: Any, folds: int) -> dict[str, Any]:
+def kinematics(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, Any]:
     """Seed 004's model validation: tool offset and joint offsets by least squares."""
     poses = _reached(poses)
     make, arm, component = arm_model_builder(rig)

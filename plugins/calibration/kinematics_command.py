@@ -28,8 +28,10 @@ import yaml
 
 from armtree.api.clock import VirtualClock
 from armtree.api.emulation import FirmwareEmulator
+from armtree.api.rig import Rig
 from armtree.cli.commandline import seed_value
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 from armtree.maths.motion.kinematic_calibration import (
     CalibrationPoints,
     KinematicFit,
@@ -209,7 +211,7 @@ def _sim_set(items: list[str]) -> dict[str, Any]:
 
 def _simulate(
     args: argparse.Namespace,
-    profile: Any,
+    profile: Profile,
     make_model: Any,
     arm: Mapping[str, Any],
     dof: int,
@@ -272,7 +274,7 @@ def _simulate(
     return CalibrationPoints(np.array(joints), np.array(measured), "simulation"), device
 
 
-def _emulator_of(rig: Any) -> FirmwareEmulator:
+def _emulator_of(rig: Rig) -> FirmwareEmulator:
     # serve_in_run adds each emulator's step to the rig's steppers.
     for stepper in rig.steppers:
         owner = getattr(stepper, "__self__", None)

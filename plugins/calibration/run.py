@@ -16,7 +16,10 @@ from typing import Any
 import py_trees
 
 import armtree
+from armtree.api.rig import Rig
 from armtree.runtime.display import NullView
+from armtree.runtime.display import Run as RunView
+from armtree.runtime.runner import Run
 
 from .operator import OperatorMeasuringDevice
 
@@ -25,7 +28,7 @@ class OperatorFallback:
     """Plugin object: hands ``rig.reference`` the operator when nothing else did."""
 
     @armtree.hookimpl(trylast=True)
-    def armtree_rig_ready(self, rig: Any, context: Any) -> None:
+    def armtree_rig_ready(self, rig: Rig, context: Any) -> None:
         if getattr(rig, "reference", None) is None:
             rig.reference = OperatorMeasuringDevice()
 
@@ -49,10 +52,10 @@ class ProgressView(NullView):
         )  # fmt: skip
         self.task = self.progress.add_task(title, total=None, what="")
 
-    def start(self, run: Any) -> None:
+    def start(self, run: RunView) -> None:
         self.progress.start()
 
-    def update(self, run: Any, changes: Any) -> None:
+    def update(self, run: RunView, changes: Any) -> None:
         value = py_trees.blackboard.Blackboard.storage.get("/calibration_progress")
         if isinstance(value, dict):
             self.progress.update(
@@ -65,7 +68,7 @@ class ProgressView(NullView):
     def message(self, text: str) -> None:
         self.progress.console.print(text)
 
-    def stop(self, run: Any) -> None:
+    def stop(self, run: RunView) -> None:
         self.progress.stop()
 
     def abort(self) -> None:
@@ -83,7 +86,6 @@ def run_tree(
 ) -> Any:
     """Run ``tree`` on profile ``rig`` with a progress bar; the RunResult and the Run."""
     from armtree.loader.tree_loader import load_tree
-    from armtree.runtime.runner import Run
 
     if manager is None:
         from armtree.hooks.plugin_manager import PluginManager

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Rig
 from armtree.api.skill.actions import ArmHome, SkillFailure, fmt
 from armtree.api.skill.base import Procedure
 from armtree.maths.perception.frames import EYE_IN_HAND
@@ -40,7 +41,7 @@ CHECKS = ("joints", "reference")
 UNCHANGED = 0.25
 
 
-def offset(record: dict[str, Any], rig: Any) -> np.ndarray:
+def offset(record: dict[str, Any], rig: Rig) -> np.ndarray:
     """Where the camera puts the tool less where the joints say it is at one visited pose
     (mm, x-y); zero where the marker was not seen or the pose not reached (nothing to check)."""
     if not (record.get("reached") and record.get("seen")):

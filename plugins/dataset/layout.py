@@ -27,7 +27,7 @@ CHUNKS_SIZE = 1000
 #: recorder uses 100 and 500: it keeps its files open while it records, where an
 #: armtree append rewrites the newest files (neither an MP4's index nor a parquet
 #: footer can be added to), so smaller files keep each append cheap (a tenth of a
-#: second: docs/benchmarks.md, "Datasets"). LeRobot reads the limits from info.json.
+#: second: docs/benchmarks-history.md, "Datasets"). LeRobot reads the limits from info.json.
 DATA_FILES_SIZE_IN_MB = 25
 VIDEO_FILES_SIZE_IN_MB = 25
 #: Frames a second of a new dataset unless ``--dataset-fps`` says otherwise.

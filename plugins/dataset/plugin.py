@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 import armtree
+from armtree.runtime.runner import Run
 
 from .session import KEEP_CHOICES, KEY, RunDataset, SweepDataset
 
@@ -54,7 +55,7 @@ def armtree_run_options(parser: argparse.ArgumentParser) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_opening(run: Any) -> None:
+def armtree_run_opening(run: Run) -> None:
     """Open the dataset (checked and locked) before anything is built: bad input is exit 2."""
     if not run.settings.get("dataset"):
         return
@@ -64,7 +65,7 @@ def armtree_run_opening(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Start recording the rig."""
     session = run.plugin_state.get(KEY)
     if session is not None:
@@ -72,7 +73,7 @@ def armtree_run_started(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Any) -> None:
+def armtree_tick(run: Run) -> None:
     """Take the frames due."""
     session = run.plugin_state.get(KEY)
     if session is not None:
@@ -80,7 +81,7 @@ def armtree_tick(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: Any) -> None:
     """Keep the episode (append it, or stage it for the sweep) or drop it."""
     session = run.plugin_state.get(KEY)
     if session is not None:

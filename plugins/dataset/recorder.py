@@ -32,7 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from armtree.api.rig import MotionStatus, frame_index
+from armtree.api.rig import MotionStatus, Rig, frame_index
 
 from . import stats
 from .episode import PARTIAL, VIDEO_FILE, Episode
@@ -147,7 +147,7 @@ class EpisodeRecorder:
     ``folder.partial`` meanwhile. ``threads`` is the video encoder's.
     """
 
-    def __init__(self, rig: Any, fps: int, folder: Path, threads: int = 1) -> None:
+    def __init__(self, rig: Rig, fps: int, folder: Path, threads: int = 1) -> None:
         arm = getattr(rig, "arm", None)
         if arm is None:
             raise ValueError("the rig has no arm: an episode records an arm's joints")

@@ -20,6 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from armtree.errors import ConfigError
+from armtree.loader.tree import Tree
+from armtree.runtime.runner import Run
 
 from . import deps, layout
 from .episode import PARTIAL, is_staged, load
@@ -58,7 +60,7 @@ def check_fps(fps: int | None, tick_hz: float, at: str) -> None:
         )
 
 
-def arm_facts(tree: Any, manager: Any) -> tuple[str | None, list[str] | None]:
+def arm_facts(tree: Tree, manager: Any) -> tuple[str | None, list[str] | None]:
     """The robot type (the profile's arm type) and joint names of the tree's rig, as far
     as they are known without opening a device."""
     profile = getattr(tree, "profile", None)
@@ -72,7 +74,7 @@ def arm_facts(tree: Any, manager: Any) -> tuple[str | None, list[str] | None]:
         return kind, None
 
 
-def check_fits(info: dict[str, Any] | None, tree: Any, manager: Any, at: str) -> None:
+def check_fits(info: dict[str, Any] | None, tree: Tree, manager: Any, at: str) -> None:
     """Refuse, before anything moves, a rig whose arm the dataset does not record."""
     if not info or not info.get("total_episodes"):
         return
@@ -99,7 +101,7 @@ def keeps(keep: str, result: Any) -> bool:
     return keep == "all" or result.verdict == "success"
 
 
-def tags(run: Any, result: Any) -> dict[str, Any]:
+def tags(run: Run, result: Any) -> dict[str, Any]:
     """The ``armtree/...`` columns of the run's episode."""
     profile = getattr(run.tree, "profile", None)
     checked = any(getattr(r, "status", "not checked") != "not checked" for r in result.expectations)
@@ -113,7 +115,7 @@ def tags(run: Any, result: Any) -> dict[str, Any]:
     }
 
 
-def robot_type(run: Any) -> str | None:
+def robot_type(run: Run) -> str | None:
     """The run's arm type, from its profile."""
     profile = getattr(run.tree, "profile", None)
     arm = (profile.component("arm") if profile is not None else None) or {}
@@ -123,7 +125,7 @@ def robot_type(run: Any) -> str | None:
 class RunDataset:
     """One run's recording: its writer (run-tree) or its staging folder (a sweep's run)."""
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: Run) -> None:
         settings = run.settings
         at = where(settings)
         deps.require(at)
@@ -148,7 +150,7 @@ class RunDataset:
         self.recorder: EpisodeRecorder | None = None
         self.note: str | None = None
 
-    def start(self, run: Any) -> None:
+    def start(self, run: Run) -> None:
         """Start recording on the run's rig (a rig that cannot be recorded is said so)."""
         try:
             self.recorder = EpisodeRecorder(run.rig, self.fps, self.folder)
@@ -156,12 +158,12 @@ class RunDataset:
             self.note = f"not recorded: {exc}"
             print(f"dataset: {self.note}", file=sys.stderr, flush=True)
 
-    def tick(self, run: Any) -> None:
+    def tick(self, run: Run) -> None:
         """Take the frames due by this tick."""
         if self.recorder is not None:
             self.recorder.tick(run.tick_time)
 
-    def finish(self, run: Any, result: Any) -> None:
+    def finish(self, run: Run, result: Any) -> None:
         """Keep the episode or drop it; append it (run-tree) or stage it (a sweep's run)."""
         recorder, self.recorder = self.recorder, None
         if recorder is None:

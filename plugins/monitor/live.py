@@ -16,6 +16,7 @@ import time
 from typing import Any
 
 from armtree.runtime.runlog import jsonable
+from armtree.runtime.runner import Run
 
 from .observer import TickRate, TickSample
 from .recording import detections_json, jpeg
@@ -34,7 +35,7 @@ _ACTIONS = ("pause", "resume", "step", "stop", "speed")
 class LiveFeed:
     """Feeds one run to the pages of a :class:`PageServer` and takes their controls."""
 
-    def __init__(self, run: Any, host: str, port: int) -> None:
+    def __init__(self, run: Run, host: str, port: int) -> None:
         self.run = run
         self.session: Any = None
         self.server = PageServer(self, host, port)

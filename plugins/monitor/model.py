@@ -13,6 +13,7 @@ from typing import Any
 import py_trees
 
 from armtree.config.params import Binding
+from armtree.loader.tree import Tree
 from armtree.runtime.runlog import jsonable
 
 #: One letter per status name.
@@ -45,7 +46,7 @@ def _kind(node: py_trees.behaviour.Behaviour) -> str:
     return "leaf"
 
 
-def describe_tree(tree: Any, nodes: Sequence[py_trees.behaviour.Behaviour]) -> dict[str, Any]:
+def describe_tree(tree: Tree, nodes: Sequence[py_trees.behaviour.Behaviour]) -> dict[str, Any]:
     """The tree's name, source and nodes as JSON-safe data.
 
     Each node: ``id`` (its index), ``name``, ``type`` (the YAML node type),

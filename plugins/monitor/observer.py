@@ -17,6 +17,7 @@ from typing import Any
 from py_trees.blackboard import Blackboard
 
 from armtree.runtime.runlog import jsonable
+from armtree.runtime.runner import Run
 
 from .model import describe_tree, status_letters
 
@@ -70,7 +71,7 @@ class TickRate:
 class RunObserver:
     """Samples a run after each tick; keeps the tree, the blackboard and the events so far."""
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: Run) -> None:
         self.run = run
         self.tree = describe_tree(run.tree, run.nodes)
         self._nodes = run.nodes

@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 import armtree
+from armtree.runtime.runner import Run
 
 from .session import KEY, MonitorSession
 from .watch import TreeWatcher
@@ -58,7 +59,7 @@ def armtree_run_options(parser: argparse.ArgumentParser) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_opening(run: Any) -> None:
+def armtree_run_opening(run: Run) -> None:
     """Start the monitor's server before anything is built (a busy port is exit 2)."""
     settings = run.settings
     port, host = settings.get("monitor"), settings.get("monitor_host")
@@ -78,7 +79,7 @@ def armtree_run_opening(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Attach the session: the tree record, the recording, the page's feed, the watcher."""
     session = MonitorSession.of(run)
     session.start()
@@ -93,7 +94,7 @@ def armtree_run_started(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tree_replaced(run: Any, previous: Any) -> None:
+def armtree_tree_replaced(run: Run, previous: Any) -> None:
     """Describe the new tree to the log, the recording and the page."""
     session = run.plugin_state.get(KEY)
     if session is None:
@@ -106,7 +107,7 @@ def armtree_tree_replaced(run: Any, previous: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Any) -> None:
+def armtree_tick(run: Run) -> None:
     """Sample the tick for the recording and the page."""
     session = run.plugin_state.get(KEY)
     if session is not None:

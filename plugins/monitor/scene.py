@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from armtree.maths.perception.frames import camera_in_base
+from armtree.runtime.runner import Run
 
 from .taps import RigTaps
 
@@ -39,7 +40,7 @@ def poses(matrices: np.ndarray) -> list[list[float]]:
 class SceneSampler:
     """Builds scene snapshots of one run (on the run's thread, a few times per second)."""
 
-    def __init__(self, run: Any, taps: RigTaps | None) -> None:
+    def __init__(self, run: Run, taps: RigTaps | None) -> None:
         self.run = run
         self.taps = taps
         self.trail: list[list[float]] = []

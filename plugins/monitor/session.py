@@ -6,6 +6,8 @@ import json
 import time
 from typing import Any
 
+from armtree.runtime.runner import Run
+
 from .observer import RunObserver
 from .recording import McapRecorder
 from .scene import SceneSampler
@@ -25,7 +27,7 @@ class MonitorSession:
     record)``, ``on_state(session, state)`` and ``on_tree(session)`` (the page's server).
     """
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: Run) -> None:
         self.run = run
         self.feeds: list[Any] = []
         self.observer: RunObserver | None = None
@@ -37,7 +39,7 @@ class MonitorSession:
         self._closed = False
 
     @classmethod
-    def of(cls, run: Any) -> MonitorSession:
+    def of(cls, run: Run) -> MonitorSession:
         """The run's session, made on first use."""
         session = run.plugin_state.get(KEY)
         if session is None:
@@ -159,7 +161,7 @@ def tree_of(record: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in record.items() if k not in ("kind", "tick", "t")}
 
 
-def _first_record(run: Any) -> dict[str, Any] | None:
+def _first_record(run: Run) -> dict[str, Any] | None:
     """The run log's start record, read back (it was written before any listener)."""
     path = getattr(run.log, "path", None)
     if path is None:

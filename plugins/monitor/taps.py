@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.api.rig import Detection, Frame
+from armtree.api.rig import Detection, Frame, Rig
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class Seen:
 class RigTaps:
     """Keeps the newest camera frame, its detections and the newest planned path."""
 
-    def __init__(self, rig: Any) -> None:
+    def __init__(self, rig: Rig) -> None:
         self.rig = rig
         self._lock = threading.Lock()
         self._seen: Seen | None = None

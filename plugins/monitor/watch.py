@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from armtree.errors import ConfigError
+from armtree.loader.tree import Tree
+from armtree.runtime.runner import Run
 
 #: Seconds between looks at the files, and the quiet time a change needs before loading
 #: (editors write a file in several steps).
@@ -24,7 +26,7 @@ POLL_S = 0.25
 SETTLE_S = 0.3
 
 
-def watched_files(tree: Any) -> list[Path]:
+def watched_files(tree: Tree) -> list[Path]:
     """The tree's file and every file its nodes were read from (included subtrees)."""
     files = []
     source = getattr(tree, "source", None)
@@ -53,7 +55,7 @@ class TreeWatcher:
     (a validated tree waits for a safe point) or ``"loaded"``.
     """
 
-    def __init__(self, run: Any, report: Any = None) -> None:
+    def __init__(self, run: Run, report: Any = None) -> None:
         self.run = run
         self.report = report
         self.source = Path(run.tree.source) if getattr(run.tree, "source", None) else None

@@ -17,6 +17,7 @@ from armtree.api.rig import Planner
 from armtree.config.params import Param
 from armtree.config.profile_access import profile_section
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.kinematics import KinematicModel
 from armtree.maths.motion.scene import Scene
@@ -111,7 +112,7 @@ def planner_checker(
     return checker
 
 
-def validate_start(config: Mapping[str, Any], profile: Any) -> None:
+def validate_start(config: Mapping[str, Any], profile: Profile) -> None:
     """Load-time check (``armtree check``): the arm's home and start pose clear the
     profile's obstacles with the planner's margin; ConfigError at the key to change."""
     arm = profile.component("arm") if "arm" not in profile.invalid else None

@@ -6,6 +6,7 @@ from typing import Any
 
 import armtree
 from armtree.api.rig import Planner
+from armtree.runtime.runner import Run
 
 from .direct import direct_factory
 from .prm import prm_factory
@@ -25,7 +26,7 @@ def armtree_commands() -> dict[str, Any]:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Connect the rig's planner to the run log (:attr:`armtree.api.rig.Planner.report`).
 
     A planner asked again and again from the same believed start (every inverse

@@ -18,6 +18,7 @@ import numpy as np
 from armtree.api.rig import Camera, Frame, RigContext, frame_index
 from armtree.config.params import Param
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 
 from .drawing import world_drawables
 from .geometry import look_at, pose, rpy_matrix
@@ -208,7 +209,7 @@ def _numbers(value: Any) -> bool:
     )
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): the profile's camera without rendering anything."""
     _check(config)
 

@@ -23,9 +23,12 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
+from armtree.api.rig import Rig
 from armtree.config.params import check_value
 from armtree.config.profile_access import profile_error, profile_section
 from armtree.config.profile_sections import ProfileSection
+from armtree.loader.profile import Profile
+from armtree.runtime.runner import Run
 
 from .camera import sim_camera
 from .recording import Recorder, write_score
@@ -41,7 +44,7 @@ from .world import World, WorldEvent
 _WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})
 
 
-def _table_disagrees(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _table_disagrees(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """The planning ``table:`` must be the simulated table top (``world.table.height``)."""
     table = profile_section(profile, "table")
     z = table.get("z") if isinstance(table, dict) else table
@@ -83,7 +86,7 @@ def armtree_profile_sections() -> dict[str, ProfileSection]:
     }
 
 
-def check_world(profile: Any) -> list[armtree.ConfigError]:
+def check_world(profile: Profile) -> list[armtree.ConfigError]:
     """Check ``world:`` as building the rig would, before anything is built.
 
     Reports objects off the table or inside each other, markers clashing with
@@ -105,7 +108,7 @@ def check_world(profile: Any) -> list[armtree.ConfigError]:
     ]
 
 
-def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _faults_taken(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.faults`` must be faults the arm's emulator takes (its factory's ``faults``)."""
     component = arm_factory(profile)
     taken = getattr(getattr(component, "factory", None), "faults", BASE_FAULTS)
@@ -121,7 +124,7 @@ def _faults_taken(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
     ]
 
 
-def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _joints_exist(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """Joints named by ``world.faults.missed_steps`` must be joints of the profile's arm."""
     arm = profile_section(profile, "arm") or {}
     manager = getattr(profile, "manager", None)
@@ -150,12 +153,12 @@ def _joints_exist(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
 
 
 @armtree.hookimpl
-def armtree_rig_ready(rig: Any, context: Any) -> None:
+def armtree_rig_ready(rig: Rig, context: Any) -> None:
     """Build the world, attach the emulated arm, and step the world after the emulators."""
     attach_world(rig, context)
 
 
-def _as_built_errors(profile: Any, scene: SceneSpec) -> list[armtree.ConfigError]:
+def _as_built_errors(profile: Profile, scene: SceneSpec) -> list[armtree.ConfigError]:
     """``world.as_built.arm`` must name the arm type's own keys with values it takes."""
     changes = scene.as_built.arm
     component = arm_factory(profile)
@@ -194,7 +197,7 @@ _NOTABLE = {
 }
 
 
-def _forward_events(run: Any, world: World) -> None:
+def _forward_events(run: Run, world: World) -> None:
     """Send the world's events to the run's log (and the notable ones to its view)."""
 
     report = getattr(run, "report_event", None)
@@ -213,7 +216,7 @@ def _forward_events(run: Any, world: World) -> None:
 
 
 @armtree.hookimpl
-def armtree_run_started(run: Any) -> None:
+def armtree_run_started(run: Run) -> None:
     """Forward the world's events to the run; start recording videos when the run was
     given a record directory (``--record DIR``)."""
     stepper = world_stepper(run)
@@ -232,14 +235,14 @@ def armtree_run_started(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_scene_objects(run: Any) -> list[Any] | None:
+def armtree_scene_objects(run: Run) -> list[Any] | None:
     """The world's table and bodies as boxes, for monitors and recordings."""
     stepper = world_stepper(run)
     return None if stepper is None else scene_objects(stepper._world)
 
 
 @armtree.hookimpl
-def armtree_world_inventory(profile: Any) -> Any:
+def armtree_world_inventory(profile: Profile) -> Any:
     """The profile's nominal world, for checking the names of a tree's ``expect:``."""
     if not uses_sim(profile):
         return None
@@ -250,7 +253,7 @@ def armtree_world_inventory(profile: Any) -> Any:
 
 
 @armtree.hookimpl
-def armtree_ground_truth(run: Any) -> Any:
+def armtree_ground_truth(run: Run) -> Any:
     """The world at the end of the run, once what was falling has landed."""
     stepper = world_stepper(run)
     if stepper is None:
@@ -260,7 +263,7 @@ def armtree_ground_truth(run: Any) -> Any:
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: Any) -> None:
     """Write the world's score (``score.json``) beside the run log and finish recordings."""
     stepper = world_stepper(run)
     if stepper is None:

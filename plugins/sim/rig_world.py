@@ -12,7 +12,10 @@ from __future__ import annotations
 from typing import Any
 
 from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
+from armtree.api.rig import Rig
 from armtree.config.profile_access import profile_section
+from armtree.loader.profile import Profile
+from armtree.runtime.runner import Run
 
 from .as_built import SimMeasuringDevice
 from .camera import SimCamera
@@ -40,7 +43,7 @@ class WorldStepper:
             self._recorder.step(now)
 
 
-def uses_sim(profile: Any) -> bool:
+def uses_sim(profile: Profile) -> bool:
     """True when the profile has a ``world:`` section, an arm on ``port: sim`` or a sim camera."""
     arm = profile_section(profile, "arm") or {}
     camera = profile_section(profile, "camera") or {}
@@ -51,7 +54,7 @@ def uses_sim(profile: Any) -> bool:
     )
 
 
-def sim_world(run: Any) -> World | None:
+def sim_world(run: Run) -> World | None:
     """The simulated world of a run (or of a served bench), for judging it; None off the sim.
 
     For tests, benchmarks and the sim's own hooks: skills never see it.
@@ -60,7 +63,7 @@ def sim_world(run: Any) -> World | None:
     return None if stepper is None else stepper._world
 
 
-def world_stepper(run: Any) -> WorldStepper | None:
+def world_stepper(run: Run) -> WorldStepper | None:
     """The world stepper among the run's rig steppers, or None off the sim."""
     rig = getattr(run, "rig", None)
     for stepper in getattr(rig, "steppers", None) or ():
@@ -69,7 +72,7 @@ def world_stepper(run: Any) -> WorldStepper | None:
     return None
 
 
-def attach_world(rig: Any, context: Any) -> None:
+def attach_world(rig: Rig, context: Any) -> None:
     """Build the world from the profile (when it uses a sim part), attach the emulated arm,
     and step the world after the emulators; a second call changes nothing."""
     if not uses_sim(context.profile):
@@ -93,7 +96,7 @@ def attach_world(rig: Any, context: Any) -> None:
         )
 
 
-def arm_factory(profile: Any) -> Any:
+def arm_factory(profile: Profile) -> Any:
     """The registered component of the profile's arm type, or None."""
     arm = profile_section(profile, "arm") or {}
     manager = getattr(profile, "manager", None)
@@ -102,7 +105,7 @@ def arm_factory(profile: Any) -> Any:
     return manager.registry.get("arm", arm["type"])
 
 
-def as_built_model(profile: Any, changes: dict[str, Any]) -> Any:
+def as_built_model(profile: Profile, changes: dict[str, Any]) -> Any:
     """The arm's kinematic model with ``world.as_built.arm`` laid over the profile's keys;
     None when the arm is as the profile says."""
     component = arm_factory(profile)

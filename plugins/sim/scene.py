@@ -22,7 +22,7 @@ import numpy as np
 from armtree.api.rig import TagSpec
 from armtree.config.profile_access import profile_error, profile_section
 from armtree.errors import ConfigError, did_you_mean, shown
-from armtree.loader.profile import tag_spec
+from armtree.loader.profile import Profile, tag_spec
 from armtree.plugins.trackers.families import (
     HAMMING,
     MarkerFamily,
@@ -201,7 +201,7 @@ class SceneSpec:
 class _Errors:
     """Builds ConfigErrors that name the entry and point into the profile."""
 
-    def __init__(self, profile: Any) -> None:
+    def __init__(self, profile: Profile) -> None:
         self.profile = profile
 
     def __call__(self, path: tuple[Any, ...], message: str) -> ConfigError:
@@ -283,7 +283,7 @@ class _Tags:
         return marker_id
 
 
-def _read_tags(profile: Any) -> _Tags:
+def _read_tags(profile: Profile) -> _Tags:
     specs: dict[str, TagSpec] = {}
     tags = profile_section(profile, "tags", {}) or {}
     if isinstance(tags, Mapping):
@@ -551,7 +551,7 @@ def _parse_table(err: _Errors, value: Any) -> TableSpec:
     return TableSpec((x[0], x[1]), (y[0], y[1]), height, str(texture))
 
 
-def _profile_obstacles(err: _Errors, profile: Any, table: TableSpec) -> list[ObjectSpec]:
+def _profile_obstacles(err: _Errors, profile: Profile, table: TableSpec) -> list[ObjectSpec]:
     out = []
     for i, entry in enumerate(profile_section(profile, "obstacles", []) or []):
         box = entry.get("box") if isinstance(entry, Mapping) else None
@@ -574,7 +574,7 @@ def _profile_obstacles(err: _Errors, profile: Any, table: TableSpec) -> list[Obj
     return out
 
 
-def parse_scene(profile: Any) -> SceneSpec:
+def parse_scene(profile: Profile) -> SceneSpec:
     """Validate the profile's ``world:`` section and return the scene it describes.
 
     Raises :class:`armtree.ConfigError` naming the entry for unknown keys,
@@ -707,7 +707,7 @@ def _inside_bin(container: ObjectSpec, item: ObjectSpec) -> bool:
     )
 
 
-def body_error(profile: Any, body: ObjectSpec, message: str) -> ConfigError:
+def body_error(profile: Profile, body: ObjectSpec, message: str) -> ConfigError:
     """A ConfigError about one body of the world, at its entry in the profile."""
     return _Errors(profile)(_body_path(body), message)
 

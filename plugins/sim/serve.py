@@ -37,6 +37,7 @@ from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.api.rig import Rig, RigContext
 from armtree.cli.commandline import add_set_option, seed_value
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .camera import SimCamera
@@ -81,7 +82,7 @@ class SimBench:
 
     def __init__(
         self,
-        profile: Any,
+        profile: Profile,
         manager: Any,
         *,
         seed: int = 0,
@@ -339,7 +340,7 @@ class ServeSimCommand:
         return EXIT_INTERRUPTED
 
 
-def _declared_outcomes(tree: str | None, profile: Any, manager: Any) -> list[Any] | None:
+def _declared_outcomes(tree: str | None, profile: Profile, manager: Any) -> list[Any] | None:
     """The ``expect:`` list of ``tree`` loaded against the served profile (None: no tree).
 
     Loaded before serving starts, so a bad tree is exit 2 with its position.
@@ -351,7 +352,9 @@ def _declared_outcomes(tree: str | None, profile: Any, manager: Any) -> list[Any
     return list(load_tree(tree, rig=profile, manager=manager).expect or ())
 
 
-def _judged_outcomes(expectations: list[Any], bench: SimBench, profile: Any, manager: Any) -> str:
+def _judged_outcomes(
+    expectations: list[Any], bench: SimBench, profile: Profile, manager: Any
+) -> str:
     """One ``expect:`` line per declared outcome, judged on the served world now."""
     from armtree.api.outcomes.expect import judge, predicates_for
     from armtree.runtime.display import EXPECT_MARKS

@@ -11,16 +11,17 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterable
-from typing import Any
 
 from armtree.api.outcomes.truth import DUCKYBOTS, MARKERS, TOOL, WorldObject, WorldTruth
+from armtree.api.views import ProfileView
 from armtree.config.profile_access import profile_section
+from armtree.loader.profile import Profile
 
 from .scene import KINDS, MarkerSpec, SceneSpec
 from .world import World
 
 
-def _tag_roles(profile: Any) -> list[str]:
+def _tag_roles(profile: ProfileView) -> list[str]:
     """The tag roles of the profile's ``tags:``."""
     return [str(role) for role in (profile_section(profile, "tags", {}) or {})]
 
@@ -31,7 +32,7 @@ def _role(kind: str, marker: MarkerSpec | None) -> str | None:
     return KINDS.get(kind, {}).get("role")
 
 
-def _places(profile: Any) -> dict[str, tuple[float, float, float]]:
+def _places(profile: ProfileView) -> dict[str, tuple[float, float, float]]:
     places = profile_section(profile, "places", {}) or {}
     return {str(k): (float(v[0]), float(v[1]), float(v[2])) for k, v in places.items()}
 
@@ -44,7 +45,7 @@ def _roles_of(objects: Iterable[WorldObject], tags: list[str]) -> dict[str, list
     return roles
 
 
-def scene_truth(scene: SceneSpec, profile: Any) -> WorldTruth:
+def scene_truth(scene: SceneSpec, profile: Profile) -> WorldTruth:
     """The world as the profile places it (Duckybots at their start), for load-time checks."""
     tags = _tag_roles(profile)
     bodies = [*scene.objects, *(bot.body for bot in scene.duckybots)]
@@ -65,7 +66,7 @@ def scene_truth(scene: SceneSpec, profile: Any) -> WorldTruth:
     )
 
 
-def world_truth(world: World, profile: Any) -> WorldTruth:
+def world_truth(world: World, profile: ProfileView) -> WorldTruth:
     """The world's ground truth now: every body, what holds it, collisions, slips and drops;
     in ``extra`` the Duckybots' phases and poses, the tool centre and the marker centres
     (for the built-in ``parked`` and ``tool_within_mm``)."""

@@ -30,6 +30,7 @@ from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config, config_error
 from armtree.config.params import Param
 from armtree.errors import ConfigError, did_you_mean
+from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
 from .kernels import apart_from, framed_by_light
@@ -47,7 +48,7 @@ DEFAULT_APRILTAG = "36h11"
 SMALL_MARKER_PIXELS_PER_CELL = 8
 #: Least :func:`.kernels.framed_by_light` of a marker: a printed one's quiet zone is
 #: about as light as its white cells, a light blob in a dark patch's is not (docs/
-#: benchmarks.md, "small markers").
+#: benchmarks-history.md, "Small markers").
 MIN_FRAMED = 0.4
 
 
@@ -93,7 +94,7 @@ def detector_parameters(overrides: Mapping[str, Any] | None, where: Any = None) 
 
     ``perspectiveRemovePixelPerCell`` defaults to 8 (OpenCV: 4): reading more
     pixels per cell keeps small markers readable under noise and blur, for a
-    few percent more detection time (docs/benchmarks.md). Keys are OpenCV's attribute
+    few percent more detection time (docs/benchmarks-history.md). Keys are OpenCV's attribute
     names (``adaptiveThreshWinSizeMin``, ...); ``cornerRefinementMethod`` also
     takes ``none``, ``subpix``, ``contour`` or ``apriltag``. An unknown key or a
     value of the wrong type is a ConfigError.
@@ -138,7 +139,7 @@ class ArucoTracker(Tracker):
     the image's larger side, so it is set from this for each frame size.
     OpenCV's default (0.03, a 5 px side at 640x480) spends time on specks of
     noise too small to read; 10 px is the largest limit that still reads every
-    marker the default reads (docs/benchmarks.md). None keeps the rate in
+    marker the default reads (docs/benchmarks-history.md). None keeps the rate in
     ``parameters``.
     """
 
@@ -313,7 +314,7 @@ def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     return _tracker(values, values["dictionary"], context.profile, FAMILY)
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
     values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
     probe(_tracker(values, values["dictionary"], profile, FAMILY), profile, "tracker.detector")
@@ -368,7 +369,7 @@ def apriltag_factory(config: dict[str, Any], context: RigContext) -> ArucoTracke
     return _tracker(values, dictionary, context.profile, APRILTAG)
 
 
-def _validate_apriltag(config: dict[str, Any], profile: Any) -> None:
+def _validate_apriltag(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks, as the aruco tracker's."""
     values = check_config(config, apriltag_factory.PARAMS, "tracker", profile)
     tracker = _tracker(values, _apriltag_dictionary(values["family"]), profile, APRILTAG)

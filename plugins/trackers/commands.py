@@ -22,6 +22,7 @@ from armtree.api.clock import WallClock
 from armtree.api.imaging import Intrinsics, intrinsics_from_config
 from armtree.api.rig import Detection, Frame, RigContext
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 
 from .annotate import annotate
 from .aruco import APRILTAG_FAMILIES, get_dictionary
@@ -149,7 +150,7 @@ class DetectCommand:
             )
         return 0
 
-    def _tracker(self, args: argparse.Namespace, profile: Any) -> Any:
+    def _tracker(self, args: argparse.Namespace, profile: Profile | None) -> Any:
         registry = registry_of(args)
         config: dict[str, Any] = {}
         if profile is not None:
@@ -230,7 +231,7 @@ class DetectCommand:
             print(line)
 
 
-def profile_intrinsics(profile: Any) -> Intrinsics | None:
+def profile_intrinsics(profile: Profile | None) -> Intrinsics | None:
     """The intrinsics of the profile's camera (calibration file or inline values), or None.
 
     They hold for the camera's ``width`` x ``height`` when it gives them, and are

@@ -20,10 +20,10 @@ import numpy as np
 from armtree.api.rig import Detection, Frame, TagSpec
 from armtree.config.component_config import config_error
 from armtree.config.profile_access import profile_section
-from armtree.loader.profile import tag_spec
+from armtree.loader.profile import Profile, tag_spec
 
 
-def tag_table(profile: Any, family: str | None = None) -> dict[int, TagSpec]:
+def tag_table(profile: Profile, family: str | None = None) -> dict[int, TagSpec]:
     """Marker id -> its :class:`TagSpec` from the profile's ``tags:`` (empty without one),
     the ids those of marker family ``family`` where ``family_ids`` gives them.
 
@@ -137,7 +137,7 @@ class TagRoles:
 
     @classmethod
     def from_profile(
-        cls, profile: Any, size_mm: float | None, family: str | None = None
+        cls, profile: Profile, size_mm: float | None, family: str | None = None
     ) -> TagRoles:
         """The profile's ``tags:`` (their ids in marker family ``family``) with ``size_mm``
         (``tracker.size_mm``) for unlisted markers.

@@ -31,6 +31,7 @@ import numpy as np
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config
 from armtree.config.params import Param
+from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
 from .hamming_code import CODEWORDS, GRID
@@ -41,7 +42,7 @@ from .refine import refine_corners
 FAMILY = "hamming"
 #: How much better (summed cell margins) a row's code word must fit than the next:
 #: enough to refuse the guesses that made wrong ids of small tilted markers, not so
-#: much that clean rows are refused (docs/benchmarks.md, "small markers").
+#: much that clean rows are refused (docs/benchmarks-history.md, "Small markers").
 MIN_ROW_GAP = 1.0
 #: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
@@ -80,7 +81,7 @@ _WHITE_FIT = _plane_fit(_QUIET_UV)
 _CELL_DESIGN = np.column_stack([np.ones(GRID * GRID), _CELL_CENTRES])
 #: How far a cell is pushed away from its neighbours' mean before thresholding: enough
 #: to undo the blur between 2-3 px cells, not so much that noise flips a cell
-#: (1 read fewer small markers and some false ids, 2 a false id; docs/benchmarks.md).
+#: (1 read fewer small markers and some false ids, 2 a false id; docs/benchmarks-history.md).
 _SHARPEN = 1.5
 #: The points read of each cell ``(81, 5, 2)`` and of the quiet zone ``(36, 2)``, as
 #: fractions of the marker's side (the unit square the kernel maps onto each quad).
@@ -153,7 +154,7 @@ class HammingTracker(Tracker):
     row is read only when its code word beats every other by ``min_row_gap``
     (summed margins): a clearly read wrong cell is an occluder or another
     marker, and a row nearly as close to two code words is a guess (docs/
-    benchmarks.md, "small markers"). ``max_border_errors`` is how many of the 32
+    benchmarks-history.md, "Small markers"). ``max_border_errors`` is how many of the 32
     border cells may read white; ``only_registered`` drops ids the profile does
     not list.
     """
@@ -290,7 +291,7 @@ def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTrack
     return _tracker(values, context.profile)
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and run it once."""
     values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
     probe(_tracker(values, profile), profile, "tracker.preprocess")

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 import armtree
+from armtree.loader.profile import Profile
 
 from .aruco import apriltag_factory, aruco_factory
 from .commands import DetectCommand, MarkersCommand
@@ -24,7 +25,7 @@ def armtree_trackers() -> dict[str, Any]:
 
 
 @armtree.hookimpl
-def armtree_validate_profile(profile: Any) -> list[Any]:
+def armtree_validate_profile(profile: Profile) -> list[Any]:
     """``tags:`` ids against their marker families (docs/trackers.md)."""
     return tag_problems(profile)
 

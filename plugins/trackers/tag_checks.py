@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 
 from .families import (
     HAMMING,
@@ -50,7 +51,7 @@ def _is_id(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
 
 
-def tag_problems(profile: Any) -> list[ConfigError]:
+def tag_problems(profile: Profile) -> list[ConfigError]:
     """Every problem of the profile's ``tags:`` against the marker families (see the module)."""
     if "tags" in profile.invalid:
         return []
@@ -95,7 +96,7 @@ def tag_problems(profile: Any) -> list[ConfigError]:
 
 
 def _invalid(
-    profile: Any,
+    profile: Profile,
     family: MarkerFamily,
     read: dict[str, list[_Id]],
     corrections: int,
@@ -128,7 +129,7 @@ def _invalid(
 
 
 def _shared(
-    profile: Any,
+    profile: Profile,
     family: MarkerFamily,
     read: dict[str, list[_Id]],
     written: dict[str, list[_Id]],

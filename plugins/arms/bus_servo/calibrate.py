@@ -27,6 +27,7 @@ from armtree.api.clock import WallClock
 from armtree.api.emulation import SHARED_KEY
 from armtree.api.rig import MotionHandle, MotionStatus, RigContext
 from armtree.errors import HardwareFault
+from armtree.loader.profile import Profile
 
 from .calibration import MIDDLE, ServoCalibration
 from .driver import BusServoDriver
@@ -43,7 +44,7 @@ WAIT_S = 3.0
 def calibrate_servos(
     factory: Any,
     config: dict[str, Any],
-    profile: Any,
+    profile: Profile,
     *,
     ready: Callable[[str], None],
     say: Callable[[str], None] = print,

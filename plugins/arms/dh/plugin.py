@@ -11,6 +11,7 @@ from armtree.api.clock import Clock
 from armtree.api.rig import RigContext
 from armtree.config.params import Param
 from armtree.errors import ConfigError
+from armtree.loader.profile import Profile
 from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.scene import Scene
 from armtree.plugins.arms.common import driver_port, on_emulator
@@ -132,7 +133,7 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
     )
 
 
-def _validate(config: dict[str, Any], profile: Any) -> None:
+def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks beyond the model's (``armtree check``): the gripper servo."""
     _grip_angles(config)
     _gripper(config)
