@@ -413,7 +413,7 @@ class MapOf(Spec):
         return len(ctx.errors) == before
 
     def schema(self) -> dict[str, Any]:
-        out = {"type": "object", "additionalProperties": self.value.schema()}
+        out: dict[str, Any] = {"type": "object", "additionalProperties": self.value.schema()}
         if self.min_entries:
             out["minProperties"] = self.min_entries
         return self._described(out)

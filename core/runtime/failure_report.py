@@ -147,7 +147,7 @@ class FailureReport:
         why = (getattr(failed, "feedback_message", "") or "").strip()
         child = getattr(failed, "decorated", None)
         said = (getattr(child, "feedback_message", "") or "").strip()
-        if said:
+        if child is not None and said:
             # A decorator that turned its child's verdict says only "success -> failure":
             # the child's own words are the reason.
             why = f"{why} ({child.name}: {said})" if why else f"{child.name}: {said}"

@@ -112,7 +112,7 @@ def as_built_model(profile: Profile, changes: dict[str, Any]) -> Any:
     make = getattr(getattr(component, "factory", None), "model", None)
     if not changes or not callable(make):
         return None
-    return make({**profile.component("arm"), **changes})
+    return make({**(profile.component("arm") or {}), **changes})
 
 
 __all__ = [
