@@ -73,3 +73,23 @@ def test_the_stop_key_reads_q_from_a_terminal_without_blocking_and_restores_it()
 def test_the_stop_key_is_off_when_stdin_is_not_a_terminal(tmp_path):
     with (tmp_path / "in.txt").open("w+") as stream, StopKey(stream) as key:
         assert not key.active and not key.pressed()
+
+
+def test_the_signal_handler_takes_no_lock_the_interrupted_code_may_hold():
+    # A signal handler runs on the main thread between two bytecodes, perhaps inside
+    # request() or a pacing Event.wait(): one that waited for their locks hung a run
+    # on a second quick Ctrl-C. Here the locks are held while the handler runs.
+    interrupts = Interrupts(force_exit=lambda: None)
+    handled = threading.Event()
+
+    def handler() -> None:
+        interrupts._on_signal(signal.SIGINT, None)
+        handled.set()
+
+    with interrupts._lock, interrupts.wake._cond:
+        worker = threading.Thread(target=handler, daemon=True)
+        worker.start()
+        took_no_lock = handled.wait(2.0)
+    worker.join(2.0)
+    assert took_no_lock
+    assert interrupts.requested and interrupts.reason == "SIGINT"

@@ -67,7 +67,11 @@ class Interrupts:
         if self.requested or self.stopping:
             self._force_exit()
             return
-        self.request(name)
+        # No lock and no Event.set() here: the handler runs on the main thread, which may
+        # be inside request() or a pacing Event.wait() holding that very lock (a second
+        # Ctrl-C then hung the process). The tick loop reads ``reason`` at its next tick,
+        # and a pacing wait on the main thread ends within its tick period anyway.
+        self.reason = name
 
     @contextlib.contextmanager
     def signals(self, enabled: bool = True) -> Iterator[bool]:
