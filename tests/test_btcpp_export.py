@@ -39,7 +39,7 @@ def btcpp_tree(text: str, ticked: list[str]) -> bt.Tree:
     ``register_simple_action`` takes none), and BT.CPP refuses a port its node does
     not declare; so each leaf the ``<TreeNodesModel>`` declares stands in as a
     ``<SubTree>`` of that ID (which takes any port as a remapping) whose tree is one
-    stub action that records its name and succeeds. Everything else is the XML as
+    stub action that records its name and succeeds (fails under an Inverter). Everything else is the XML as
     exported: BT.CPP's built-ins with their ports, the subtrees with their remaps.
     The main tree's parameters go on the root blackboard, from their model defaults.
     """
@@ -48,6 +48,9 @@ def btcpp_tree(text: str, ticked: list[str]) -> bt.Tree:
     leaves = {m.get("ID") for m in models if m.tag in ("Action", "Condition")}
     others = [m.get("ID") for m in models if m.tag in ("Control", "Decorator")]
     assert not others, f"custom composites or decorators in a shipped tree: {others}"
+    # A leaf under an Inverter is a check the tree wants false (sort's "Nothing left in
+    # hand"): its stub fails, so the inverted check passes as in a run that went well.
+    inverted = {child.tag for parent in root.iter("Inverter") for child in parent}
     for element in root.iter():
         if element.tag in leaves:
             element.attrib = {"ID": element.tag, **element.attrib}
@@ -59,7 +62,7 @@ def btcpp_tree(text: str, ticked: list[str]) -> bt.Tree:
 
         def tick(node, leaf=leaf):
             ticked.append(leaf)
-            return bt.NodeStatus.SUCCESS
+            return bt.NodeStatus.FAILURE if leaf in inverted else bt.NodeStatus.SUCCESS
 
         factory.register_simple_action(f"stub_{leaf}", tick)
     factory.register_behavior_tree_from_text(ET.tostring(root, encoding="unicode"))
