@@ -1,4 +1,4 @@
-"""Kinematic calibration (seed 004, "Model Validation"): batched fit against a per-point loop.
+"""Kinematic calibration (Showers 2016, "Model Validation"): batched fit against a per-point loop.
 
 Run: ``python benchmarks/bench_calibration.py [--n 200] [--repeat 5]``.
 

@@ -125,7 +125,7 @@ def _dobot_ik_loop(p: np.ndarray, d: float = 55.0) -> list[tuple[float, float, f
 
 
 def dobot_fk(n: int, rng: np.random.Generator) -> Case:
-    """Dobot V1 tool positions (seed 004 eqs. 5-7), batched vs a math-module loop."""
+    """Dobot V1 tool positions (Showers 2016 eqs. 5-7), batched vs a math-module loop."""
     model, q = DobotV1Model(), _dobot_q(n, rng)
     small = q[: max(1, n // 10)]
     return Case(
@@ -157,7 +157,7 @@ def dobot_link_frames(n: int, rng: np.random.Generator) -> Case:
 
 
 def dobot_ik(n: int, rng: np.random.Generator) -> Case:
-    """Dobot V1 analytic IK (seed 004 eqs. 8-10), both branches with limits, batched."""
+    """Dobot V1 analytic IK (Showers 2016 eqs. 8-10), both branches with limits, batched."""
     model = DobotV1Model()
     p = model.position(_dobot_q(n, rng))
     small = p[: max(1, n // 10)]
@@ -242,7 +242,7 @@ def puma_standard() -> DHModel:
 
 
 def puma_modified() -> DHModel:
-    """The slides' PUMA 560 (seed 001, modified DH), +-180 degrees per joint, in mm."""
+    """The slides' PUMA 560 (Aceves slides, modified DH), +-180 degrees per joint, in mm."""
     rows = [
         DHRow(0.0, 0.0, 0.0),
         DHRow(0.0, -90.0, 0.0),

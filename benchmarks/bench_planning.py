@@ -15,7 +15,7 @@ Run: ``python benchmarks/bench_planning.py [--quick]``.
 * PRM with 1,000 milestones and the real collision check, and queries, against
   a plain networkx + cKDTree PRM with a trivial check, and OMPL's PRM through its
   Python bindings (trivial check, and our own checker as its validity function).
-* Workspace covering of seed 003's planar robot at delta 0.5 / 0.25 / 0.07
+* Workspace covering of Rybak 2016's planar robot at delta 0.5 / 0.25 / 0.07
   against a naive generic interval class and a specialised plain-Python
   recursion; the Dobot V1.0's 3-D workspace to 1 mm.
 * Batched analytic inverse kinematics for the planners.
@@ -187,7 +187,7 @@ def bench_tritri(quick: bool) -> None:
         f"{int(np.sum(m[:40] == chk))}/{chk.size}",
         f"{m.mean():.2%} of pairs touch",
     )
-    row("anchor: seed 004 Python (Dobot report)", "17,220 /s", "quoted")
+    row("anchor: Showers 2016 Python (Dobot report)", "17,220 /s", "quoted")
 
 
 def _bumpy_mesh(rng: np.random.Generator) -> np.ndarray:
@@ -376,7 +376,7 @@ def _robot(x):
 
 
 class NaiveInterval:
-    """A generic scalar interval class: what a first implementation of seed 003 looks like."""
+    """A generic scalar interval class: what a first implementation of Rybak 2016 looks like."""
 
     def __init__(self, lo, hi):
         self.lo, self.hi = lo, hi
@@ -472,7 +472,7 @@ def special_cover(delta: float) -> tuple[float, float]:
 
 
 def bench_workspace(quick: bool) -> None:
-    print("Workspace covering (seed 003): planar parallel robot, general constraint interface")
+    print("Workspace covering (Rybak 2016): planar parallel robot, general constraint interface")
     paper = {0.5: 0.9, 0.25: 2.4, 0.07: 6.6}
     for delta in (0.5, 0.25, 0.07):
         ours = cpu(lambda d=delta: cover(_robot, [-L_MAX, 0.0], [L_MAX + L0, L_MAX], d), 5)

@@ -4,7 +4,7 @@ Run with ``python benchmarks/bench_small_markers.py [--frames N] [--quick]``.
 
 Frames are 640x480 grey views of a cluttered desk (shading, wood-like grain, dark
 and light shapes) holding three markers of one family, drawn through a pinhole
-camera like seed 004's C270 (fx 810 px), so the truth (ids and corners) is exact.
+camera like Showers 2016's C270 (fx 810 px), so the truth (ids and corners) is exact.
 A frame's markers share one frontal size, 12 to 40 px a side, and one of two
 conditions:
 
@@ -17,7 +17,7 @@ conditions:
 
 Families: ArUco 4x4_50 and AprilTag 36h11 (the ``aruco`` / ``apriltag`` tracker
 against OpenCV's ``ArucoDetector.detectMarkers`` with the tracker's own detector
-parameters), and Hampy (the ``hamming`` tracker, with seed 004's threshold as it
+parameters), and Hampy (the ``hamming`` tracker, with Showers 2016's threshold as it
 ships and with the adaptive one, against ``hampy.detect_markers`` 1.4.2,
 ``pip install -e '.[bench]'``; OpenCV has no Hampy dictionary). Each
 family sees the same layouts (poses, light, noise) with its own markers.

@@ -1,7 +1,7 @@
-"""Vision benchmark: tracker speed, detection rate, corner and pose error, seed 004 eq. 15.
+"""Vision benchmark: tracker speed, detection rate, corner and pose error, Showers 2016 eq. 15.
 
 Run with ``python benchmarks/bench_vision.py [--quick]``. All frames are
-synthetic 640x480 views rendered through a pinhole camera like seed 004's
+synthetic 640x480 views rendered through a pinhole camera like Showers 2016's
 C270 (fx 810 px), so ground truth is exact. Figures printed:
 
 1. milliseconds per frame with three markers, on a plain background and on a
@@ -17,7 +17,7 @@ C270 (fx 810 px), so ground truth is exact. Figures printed:
    perspective, sensor noise, defocus blur, uneven light and shadows (goal:
    >= 99 % at >= 20 px, no false ids, mean corner error < 0.5 px);
 3. pose error of 25 mm markers at 300 mm (mm and degrees);
-4. seed 004 eq. 15 marker detection rate over 200 frames at 20 fps, for a
+4. Showers 2016 eq. 15 marker detection rate over 200 frames at 20 fps, for a
    stationary marker and a moving one with moving shadows, with and without
    the seed's preprocessing, for our tracker and (when installed) for hampy
    as the seed used it (its figures: 18.91 / 9.79 markers/s raw, 19.99 /
@@ -206,7 +206,7 @@ def bench_speed(n_frames: int, rounds: int, clutter: bool) -> None:
     print(
         f"      aruco tracker / detectMarkers alone: {ratios(ms, 'aruco', 'bare')} (goal <= 1.2x)"
     )
-    line("hamming tracker (seed 004 preprocessing)", "hamming")
+    line("hamming tracker (Showers 2016 preprocessing)", "hamming")
     if hampy is not None:
         line("peer: hampy.detect_markers 1.4.2", "hampy")
         print(f"      hampy / hamming tracker: {ratios(ms, 'hampy', 'hamming')} (goal >= 5x)")
@@ -221,7 +221,7 @@ def bench_detection(sides: list[int], n_frames: int) -> None:
     """Figure 2: detection rate, false ids and corner error by marker side."""
     trackers = {
         "aruco 4x4_50": ("aruco", ArucoTracker()),
-        "hamming, seed 004 threshold 0.4": ("hamming", HammingTracker()),
+        "hamming, Showers 2016 threshold 0.4": ("hamming", HammingTracker()),
         "hamming, adaptive threshold": (
             "hamming",
             HammingTracker(Preprocessing(adaptive=True, blur=3)),
@@ -312,11 +312,11 @@ def bench_pose(n_frames: int) -> None:
         )
 
 
-# -- 4. seed 004 eq. 15 ------------------------------------------------------------
+# -- 4. Showers 2016 eq. 15 ------------------------------------------------------------
 
 
 def mdr_frames(moving: bool, n: int, seed: int) -> list[Frame]:
-    """200 frames at 20 fps of one Hamming marker (id 69937, 25 mm), as in seed 004's trials."""
+    """200 frames at 20 fps of one Hamming marker (id 69937, 25 mm), as in Showers 2016's trials."""
     rng = np.random.default_rng(seed)
     frames = []
     for i in range(n):
@@ -352,9 +352,9 @@ def mdr_frames(moving: bool, n: int, seed: int) -> list[Frame]:
 
 
 def bench_mdr(n: int) -> None:
-    """Figure 4: seed 004 eq. 15 marker detection rates."""
+    """Figure 4: Showers 2016 eq. 15 marker detection rates."""
     print(
-        f"4. seed 004 eq. 15, marker detection rate of marker 69937 over {n} frames at 20 fps (markers/s)"
+        f"4. Showers 2016 eq. 15, marker detection rate of marker 69937 over {n} frames at 20 fps (markers/s)"
     )
     raw = HammingTracker(Preprocessing())
     seed_prep = HammingTracker(Preprocessing(threshold=0.4, blur=3))
@@ -381,13 +381,13 @@ def bench_mdr(n: int) -> None:
         hampy_rates = _hampy_mdr(frames, seed_prep.preprocessing)
         if hampy_rates:
             print(
-                f"   {'  hampy.detect_markers (as seed 004)':32s} "
+                f"   {'  hampy.detect_markers (as Showers 2016)':32s} "
                 + ", ".join(f"{name} {rate:5.2f}" for name, rate in hampy_rates.items())
             )
 
 
 def _hampy_mdr(frames: list[Frame], seed_prep: Preprocessing) -> dict[str, float]:
-    """Seed 004's own measurement: hampy on raw frames and on preprocessed ones (if installed)."""
+    """Showers 2016's own measurement: hampy on raw frames and on preprocessed ones (if installed)."""
     try:
         import hampy
     except ImportError:
@@ -400,7 +400,7 @@ def _hampy_mdr(frames: list[Frame], seed_prep: Preprocessing) -> dict[str, float
             image = gray if prep is None else prep.apply(gray)
             ids = {int(m.id) for m in hampy.detect_markers(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR))}
             found += 69937 in ids
-        out[name] = found / len(frames) * 20.0  # seed 004 eq. 15
+        out[name] = found / len(frames) * 20.0  # Showers 2016 eq. 15
     return out
 
 

@@ -1,7 +1,7 @@
 """Small kinematic models for the planning, collision and workspace tests and benchmarks.
 
 ``PlanarArm``: a two-link arm turning in a horizontal plane ``height`` mm above
-the base. ``DobotLike``: the Dobot V1.0 geometry of seed 004 (eqs. 5-10 for the
+the base. ``DobotLike``: the Dobot V1.0 geometry of Showers 2016 (eqs. 5-10 for the
 kinematics, eqs. 11-13 for the link boxes), with limits given by the caller.
 """
 
@@ -67,7 +67,7 @@ class PlanarArm(KinematicModel):
 
 
 class DobotLike(KinematicModel):
-    """Dobot V1.0 geometry (seed 004): l1 = 135, l2 = 160, d = 55 mm, joints in degrees.
+    """Dobot V1.0 geometry (Showers 2016): l1 = 135, l2 = 160, d = 55 mm, joints in degrees.
 
     theta1 is measured from the vertical, theta2 from the horizontal (eqs. 5-7);
     the end effector keeps its orientation (decoupled architecture).
@@ -89,7 +89,7 @@ class DobotLike(KinematicModel):
             for n, lo, hi in zip(("theta0", "theta1", "theta2"), lower, upper, strict=True)
         )
         if coupled is not None:
-            # seed 004, eq. 4: theta2 - theta1 >= coupled
+            # Showers 2016, eq. 4: theta2 - theta1 >= coupled
             self.constraints = (
                 Constraint(
                     "elbow",
@@ -112,7 +112,7 @@ class DobotLike(KinematicModel):
         t0, t1, t2 = q[..., 0], q[..., 1], q[..., 2]
         rz = transform(rot_z(t0))
         base = np.broadcast_to(np.eye(4), shape + (4, 4))
-        f1 = rz @ transform(rot_y(t1))  # seed 004, eq. 11
+        f1 = rz @ transform(rot_y(t1))  # Showers 2016, eq. 11
         elbow = np.stack([self.l1 * np.sin(t1), np.zeros_like(t1), self.l1 * np.cos(t1)], axis=-1)
         f2 = rz @ transform(rot_y(t2 + np.pi / 2), elbow)  # eq. 12
         wrist = elbow + np.stack(
@@ -129,7 +129,7 @@ class DobotLike(KinematicModel):
     def ik_all(self, target: np.ndarray) -> np.ndarray:
         p = np.asarray(target, dtype=float)
         x, y, z = p[..., 0], p[..., 1], p[..., 2]
-        r = np.hypot(x, y)  # seed 004, eq. 8
+        r = np.hypot(x, y)  # Showers 2016, eq. 8
         rho = np.hypot(r - self.d, z)
         with np.errstate(invalid="ignore", divide="ignore"):
             alpha = np.arccos((self.l1**2 + rho**2 - self.l2**2) / (2 * self.l1 * rho))  # eq. 9

@@ -115,7 +115,7 @@ class FakeEmulator(FirmwareEmulator):
         self.target = self.q.copy()
 
 
-# The Dobot report's Logitech C270 (seed 004, Fig. 10).
+# The Dobot report's Logitech C270 (Showers 2016, Fig. 10).
 C270 = {
     "mount": "eye_in_hand",
     "width": 640,

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from armtree.errors import ConfigError, Unreachable
 from armtree.plugins.arms.dh.kinematics import DHModel, DHRow, model_from_config, parse_dh
 
-# seed 001: PUMA 560 (modified DH), a2 = 431 mm, a3 = 20, d3 = 149, d4 = 433 (slides in m)
+# Aceves slides: PUMA 560 (modified DH), a2 = 431 mm, a3 = 20, d3 = 149, d4 = 433 (slides in m)
 A2, A3, D3, D4 = 431.0, 20.0, 149.0, 433.0
 PUMA = DHModel(
     [
@@ -22,7 +22,7 @@ PUMA = DHModel(
     [(-180, 180)] * 6,
     "modified",
 )
-# seed 001: Motoman L-3, L2 = L3 = 500 mm
+# Aceves slides: Motoman L-3, L2 = L3 = 500 mm
 L2 = L3 = 500.0
 MOTOMAN = DHModel(
     [DHRow(0, 0, 0), DHRow(0, -90, 0), DHRow(L2, 0, 0), DHRow(L3, 0, 0), DHRow(0, -90, 0)],
@@ -38,7 +38,7 @@ def angles(n, lo=-170.0, hi=170.0):
 @settings(max_examples=100, deadline=None)
 @given(angles(6))
 def test_puma_matches_the_slides_closed_form(q):
-    # seed 001, "La solución de la Cinemática Directa del Robot PUMA": Px, Py, Pz
+    # Aceves slides, "La solución de la Cinemática Directa del Robot PUMA": Px, Py, Pz
     q1, q2, q3 = np.radians(q[:3])
     c1, s1, c2, s2 = np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2)
     c23, s23 = np.cos(q2 + q3), np.sin(q2 + q3)
@@ -58,7 +58,7 @@ def test_puma_matches_the_slides_closed_form(q):
 @settings(max_examples=100, deadline=None)
 @given(angles(5))
 def test_motoman_matches_the_slides_closed_form(q):
-    # seed 001: Px = c1 (L2 c2 + L3 c23), Pz = -(L2 s2 + L3 s23), r33 = c234 ... (T05)
+    # Aceves slides: Px = c1 (L2 c2 + L3 c23), Pz = -(L2 s2 + L3 s23), r33 = c234 ... (T05)
     q1, q2, q3, q4 = np.radians(q[:4])
     c1, s1 = np.cos(q1), np.sin(q1)
     reach = L2 * np.cos(q2) + L3 * np.cos(q2 + q3)

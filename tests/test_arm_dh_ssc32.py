@@ -1,4 +1,4 @@
-"""SSC-32 commands and the least-squares pulse-to-angle map of seed 001."""
+"""SSC-32 commands and the least-squares pulse-to-angle map of Aceves slides."""
 
 import numpy as np
 import pytest
@@ -10,7 +10,7 @@ from armtree.plugins.arms.dh import ssc32 as S
 
 
 def test_seed_001_servo_example_is_fitted_exactly():
-    # seed 001: PWM 0.3 ms -> 170 deg, 1.2 ms -> 85 deg, 2.1 ms -> 0 deg
+    # Aceves slides: PWM 0.3 ms -> 170 deg, 1.2 ms -> 85 deg, 2.1 ms -> 0 deg
     m = S.ServoMap.fit(0, [[300, 170], [1200, 85], [2100, 0]])
     assert m.slope == pytest.approx(-85 / 900)
     assert m.angle(1200) == pytest.approx(85)

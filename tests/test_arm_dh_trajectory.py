@@ -1,4 +1,4 @@
-"""A DH arm on an SSC-32 is driven along timed trajectories (seed 002, eq. 2), validated first.
+"""A DH arm on an SSC-32 is driven along timed trajectories (Pozzani 2023, eq. 2), validated first.
 
 The board only ramps each servo linearly to a set point, so the driver streams
 the trajectory as short group moves. These tests run sim_dh's five-axis arm

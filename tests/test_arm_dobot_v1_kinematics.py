@@ -1,4 +1,4 @@
-"""Dobot V1.0 kinematics (seed 004 eqs. 1-13): round trips, limits, reach, boxes."""
+"""Dobot V1.0 kinematics (Showers 2016 eqs. 1-13): round trips, limits, reach, boxes."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def limited_q(draw):
 
 
 def test_forward_kinematics_known_points():
-    # q = 0, 0, 0: rear arm vertical, forearm horizontal (seed 004, eqs. 5-7)
+    # q = 0, 0, 0: rear arm vertical, forearm horizontal (Showers 2016, eqs. 5-7)
     assert np.allclose(MODEL.position([0, 0, 0]), [160 + 55, 0, 135])
     assert np.allclose(MODEL.position([90, 90, 90]), [0, 135 + 55, -160], atol=1e-9)
     assert np.allclose(MODEL.fk([30, 10, 50])[:3, 3], MODEL.position([30, 10, 50]))

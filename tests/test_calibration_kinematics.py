@@ -1,4 +1,4 @@
-"""Least-squares kinematic calibration (seed 004, "Model Validation"): fit, inputs, CLI."""
+"""Least-squares kinematic calibration (Showers 2016, "Model Validation"): fit, inputs, CLI."""
 
 import argparse
 import subprocess
@@ -50,7 +50,7 @@ def assert_recovered(fit, truth_values, sigmas=4.0):
 
 def test_the_reports_fit_recovers_the_tool_offset_and_joint_offsets():
     # The report's setup: l1, l2 held, d and the angle offsets free; its pencil sat
-    # at about 48 mm where the model said 55 (seed 004, Model Validation).
+    # at about 48 mm where the model said 55 (Showers 2016, Model Validation).
     truth = DobotV1Model(tool_offset_mm=48.0, joint_offsets_deg=(0.8, 1.5, -2.0))
     points = dobot_points(truth, 60, noise=0.3)
     fit = fit_kinematics(build, NOMINAL, points, free=("tool_offset_mm",))

@@ -70,6 +70,22 @@ def test_nothing_cites_files_outside_the_repository_or_machine_paths():
     assert found == [], "cite docs/references.md's short names, not these:\n" + "\n".join(found)
 
 
+#: A source document cited by the number it had in the set it came in, not its short name.
+SOURCE_NUMBER = re.compile(r"\b[Ss]eeds? 00[0-9]\b")
+
+
+def test_source_documents_go_by_their_short_names_and_seed_means_a_random_world():
+    this = Path(__file__).resolve()
+    found = [
+        f"{path.relative_to(ROOT)}:{n}: {line.strip()}"
+        for path in _tracked_text_files()
+        if path.resolve() != this and path.is_file()
+        for n, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
+        if SOURCE_NUMBER.search(line)
+    ]
+    assert found == [], "cite docs/references.md's short names:\n" + "\n".join(found)
+
+
 @pytest.mark.parametrize("page", DOCS, ids=lambda p: p.name)
 def test_local_links_resolve(page):
     text = page.read_text()

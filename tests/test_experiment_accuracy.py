@@ -1,4 +1,4 @@
-"""``armtree experiment accuracy``: seed 000's Tables I-III and seed 004's model validation,
+"""``armtree experiment accuracy``: Durovic 2017's Tables I-III and Showers 2016's model validation,
 run on the simulation and judged by its measuring device (the world's truth)."""
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def test_report_puts_each_table_beside_the_seeds_figures(tmp_path):
     }  # fmt: skip
     text = write_report(results, tmp_path).read_text()
     assert "| Δy_max [mm] | 0.50 | 0.50 | 0.50 | 14.61 | 2.3 |" in text
-    assert "| seed 004, 27 points | 3.08 ± 1.55 | 2.2 ± 1.13 | - |" in text
+    assert "| Showers 2016, 27 points | 3.08 ± 1.55 | 2.2 ± 1.13 | - |" in text
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""Cubic and quintic joint trajectories (seed 002 eq. 2), limits, via-points, path validation."""
+"""Cubic and quintic joint trajectories (Pozzani 2023 eq. 2), limits, via-points, path validation."""
 
 import numpy as np
 import pytest

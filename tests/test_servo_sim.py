@@ -1,4 +1,4 @@
-"""visual_servo on the simulation (seed 000's experiment 2 set-up), judged by the world,
+"""visual_servo on the simulation (Durovic 2017's experiment 2 set-up), judged by the world,
 and the profile's ``workcell.tool_marker`` it servoes with."""
 
 from __future__ import annotations

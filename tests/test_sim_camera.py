@@ -85,7 +85,7 @@ def test_eye_in_hand_markers_are_found_where_they_project(rig):
         )
         cam = camera.pose()
         centre = np.linalg.inv(cam) @ np.append(points.mean(axis=0), 1.0)
-        # Seed 000: the distance along the view is the weak axis of a marker pose.
+        # Durovic 2017: the distance along the view is the weak axis of a marker pose.
         assert ok and np.linalg.norm(tvec.ravel() - centre[:3]) < 0.01 * np.linalg.norm(centre[:3])
 
 

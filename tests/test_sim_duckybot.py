@@ -1,4 +1,4 @@
-"""The Duckybot: unicycle model (seed 002 eqs. 5-6) and Lyapunov tracking (eqs. 7-8)."""
+"""The Duckybot: unicycle model (Pozzani 2023 eqs. 5-6) and Lyapunov tracking (eqs. 7-8)."""
 
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ def lyapunov(actual: UnicycleState, desired: UnicycleState) -> float:
     w_d=st.floats(-1.5, 1.5),
 )
 def test_lyapunov_function_never_increases(ex, ey, eth, theta_d, v_d, w_d):
-    """V = (e_x^2 + e_y^2 + e_theta^2) / 2 decreases under eqs. 7-8 (seed 002)."""
+    """V = (e_x^2 + e_y^2 + e_theta^2) / 2 decreases under eqs. 7-8 (Pozzani 2023)."""
     desired = UnicycleState(0.0, 0.0, theta_d)
     actual = UnicycleState(ex, ey, theta_d + eth)
     v, w = lyapunov_control(actual, desired, v_d, w_d, kp=2.0, ktheta=4.0)

@@ -1,4 +1,4 @@
-"""The simulated world's box-box penetration depth (separating axes, seed 004's collision idea)."""
+"""The simulated world's box-box penetration depth (separating axes, Showers 2016's collision idea)."""
 
 import numpy as np
 from hypothesis import given, settings

@@ -36,7 +36,7 @@ from armtree.errors import PlanningError, Unreachable
 from armtree.maths.motion.kinematics import Joint, KinematicModel
 
 TICK = 0.05
-#: Camera in the tool frame: 20 mm to the side, 30 mm up, looking down (seed 004's R_TC).
+#: Camera in the tool frame: 20 mm to the side, 30 mm up, looking down (Showers 2016's R_TC).
 TOOL_T_CAMERA = np.array(
     [[0.0, 1.0, 0.0, -10.0], [1.0, 0.0, 0.0, -20.0], [0.0, 0.0, -1.0, 30.0], [0.0, 0.0, 0.0, 1.0]]
 )

@@ -1,4 +1,4 @@
-"""search and clean_up on fake rigs (seed 004, appendix B)."""
+"""search and clean_up on fake rigs (Showers 2016, appendix B)."""
 
 import math
 

@@ -5,7 +5,7 @@ In the nominal world (``world.randomize`` off), a seed changes the Duckybot's wh
 noise (so where, and at which heading, it parks), the sensor noise and any dropped
 frames. Every seed must end SUCCESS with
 the ducky on the Duckybot, nothing collided, nothing held or lost, and the trash
-the search saw on its way in the garbage bin (seed 004, appendix B: the search's
+the search saw on its way in the garbage bin (Showers 2016, appendix B: the search's
 clean-up mode carries away the trash it sees before looking on). The score comes
 from ``world.score()``, the ground truth that ``score.json`` beside a run log holds.
 """

@@ -1,4 +1,4 @@
-"""visual_servo on fake rigs (seed 000, steps 1-7, 3 mm tolerance)."""
+"""visual_servo on fake rigs (Durovic 2017, steps 1-7, 3 mm tolerance)."""
 
 import numpy as np
 from py_trees.common import Status

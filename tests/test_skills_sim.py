@@ -2,7 +2,7 @@
 pseudo-terminal, rendered camera frames, ArUco tracker, PRM planner; scored by the world.
 
 sim_dobot's eye-in-hand camera sits 60 mm above and 40 mm beside the suction cup (see
-the profile: with seed 004's camera offset a 25 mm marker fits the view whole only at
+the profile: with Showers 2016's camera offset a 25 mm marker fits the view whole only at
 some headings). Several seeds and sim_vicra: ``test_skills_seeds.py``.
 """
 

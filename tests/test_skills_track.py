@@ -1,4 +1,4 @@
-"""track on fake rigs (seed 004, appendices C and D)."""
+"""track on fake rigs (Showers 2016, appendices C and D)."""
 
 import numpy as np
 from py_trees.common import Access, Status

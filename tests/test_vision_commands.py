@@ -1,4 +1,4 @@
-"""``armtree markers`` and ``armtree detect``, the registrations, and the detection rate (seed 004 eq. 15)."""
+"""``armtree markers`` and ``armtree detect``, the registrations, and the detection rate (Showers 2016 eq. 15)."""
 
 import argparse
 import json
@@ -204,7 +204,7 @@ def test_detect_rate_on_a_video(tmp_path, capsys):
     writer.release()
     assert run(DetectCommand(), [str(path), "--rate", "--marker-id", "3", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
-    # seed 004 eq. 15: 8 detections in 10 frames at 20 fps
+    # Showers 2016 eq. 15: 8 detections in 10 frames at 20 fps
     assert (result["frames"], result["detections"], result["fps"]) == (10, 8, 20.0)
     assert result["mdr"] == pytest.approx(16.0)
 

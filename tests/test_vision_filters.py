@@ -1,4 +1,4 @@
-"""Pose smoothing per marker id (seed 004, appendix D) and tracker preprocessing."""
+"""Pose smoothing per marker id (Showers 2016, appendix D) and tracker preprocessing."""
 
 import subprocess
 import sys
@@ -21,7 +21,7 @@ def test_first_measurement_is_taken_as_is_then_alpha_blends():
     f = PoseFilter()
     assert f.alpha == 0.2
     assert np.allclose(f.update(1, [0, 0, 100]).tvec, [0, 0, 100])
-    # seed 004, appendix D: P_est = 0.2 P + 0.8 P_est
+    # Showers 2016, appendix D: P_est = 0.2 P + 0.8 P_est
     assert np.allclose(f.update(1, [10, 0, 100]).tvec, [2, 0, 100])
     assert np.allclose(f.update(1, [10, 0, 100]).tvec, [3.6, 0, 100])
     assert f.get(1).samples == 3

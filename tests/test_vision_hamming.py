@@ -234,7 +234,7 @@ def test_factory_reads_tags_and_preprocessing():
     )
     assert tracker.preprocessing.adaptive and tracker.preprocessing.blur == 3
     assert tracker.roles.describe(6) == ("trash", 30.0)
-    assert hamming_factory({}, context(None)).preprocessing.threshold == 0.4  # seed 004
+    assert hamming_factory({}, context(None)).preprocessing.threshold == 0.4  # Showers 2016
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,7 @@ from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.aruco import ArucoTracker, get_dictionary
 from armtree.plugins.trackers.rescue import Rescuer
 
-#: 60 x 60 px of a sim_vicra frame (PNG): seed 000's target marker (id 9, 25 mm) 650 mm
+#: 60 x 60 px of a sim_vicra frame (PNG): Durovic 2017's target marker (id 9, 25 mm) 650 mm
 #: under the camera, 22 px wide, which OpenCV's decoder rejected in every frame there.
 SMALL_TARGET = (
     "iVBORw0KGgoAAAANSUhEUgAAADwAAAA8CAAAAAAfl4auAAAI50lEQVRIDQ3BTa+e11UG4Ptea+/nfW2nVfOBc86x"

@@ -1,4 +1,4 @@
-"""Interval arithmetic encloses true ranges; seed 003's covering; each arm's reachable workspace."""
+"""Interval arithmetic encloses true ranges; Rybak 2016's covering; each arm's reachable workspace."""
 
 import math
 
@@ -83,7 +83,7 @@ def test_tightness_of_simple_cases():
         x**-1
 
 
-# -- seed 003's planar parallel robot ---------------------------------------------
+# -- Rybak 2016's planar parallel robot ---------------------------------------------
 
 L_MIN, L_MAX, L0 = 8.0, 12.0, 5.0
 

@@ -1,7 +1,7 @@
 """What cameras and trackers share: camera intrinsics from a profile or a calibration file,
 that file's format, and the frame rate a video file declares.
 
-A camera section gives its intrinsics either inline (seed 004's C270 values)::
+A camera section gives its intrinsics either inline (Showers 2016's C270 values)::
 
     camera: {type: opencv, intrinsics: {fx: 810.06, fy: 810.76, cx: 325.40, cy: 249.02},
              distortion: [0.01584, 0.37926, -0.00056, 0.00331, 0]}

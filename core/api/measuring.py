@@ -1,6 +1,6 @@
 """A measuring device outside the arm: the ground truth of calibration and accuracy experiments.
 
-The seeds measured by hand: seed 000 read a laser pointer's spot on millimetre
+The seeds measured by hand: Durovic 2017 read a laser pointer's spot on millimetre
 paper (Tables I-III) and placed its target marker by hand (experiment 2); seed
 004 put a pencil tip on graph paper (model validation) and touched markers with
 the tool (touch tests, eq. 17). A :class:`MeasuringDevice` is that person with
@@ -61,7 +61,7 @@ class MeasuringDevice(ABC):
 
     @abstractmethod
     def marker_position(self, marker_id: int) -> Measurement:
-        """Where a marker's centre is, mm in the base frame (touching it, seed 004)."""
+        """Where a marker's centre is, mm in the base frame (touching it, Showers 2016)."""
 
     @abstractmethod
     def place_marker(self, marker_id: int, xy: np.ndarray) -> Measurement:

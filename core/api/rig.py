@@ -423,7 +423,7 @@ class Planner(ABC):
         """Waypoints to a Cartesian tool position (mm).
 
         Inverse-kinematics solutions are tried nearest-first, as the UR5 report
-        (seed 002) sorts them; the last refusal is raised if none has a path.
+        (Pozzani 2023) sorts them; the last refusal is raised if none has a path.
         """
         start = np.asarray(start, dtype=float)
         sols = self.model.ik_all(np.asarray(xyz, dtype=float))

@@ -7,7 +7,7 @@ the profile's nominal values, plus the ``calibration:`` section::
     camera: {extrinsics: [[...], ...]}          # hand-eye, camera offset: the camera's pose
     arm: {tool_offset_mm: 53.4, ...}            # kinematics: the arm's own keys
     calibration:
-      vision_correction: {ax: 1.003, bx: -0.4, ay: 0.998, by: 0.7}   # seed 000, eq. 8
+      vision_correction: {ax: 1.003, bx: -0.4, ay: 0.998, by: 0.7}   # Durovic 2017, eq. 8
       arm_correction: {ax: 0.995, bx: 0.9, ay: 1.001, by: -0.3}
       records:                                  # what each calibration measured (free form)
         hand_eye: {method: ..., residual_rms_mm: ..., poses: 15, date: ...}
@@ -36,7 +36,7 @@ from armtree.maths.perception.frames import LinearCorrection
 from .profile_access import profile_section
 from .spec import Anything, MapOf, Number, Record
 
-#: The coefficients of a linear correction (seed 000, eq. 8).
+#: The coefficients of a linear correction (Durovic 2017, eq. 8).
 CORRECTION_KEYS = ("ax", "bx", "ay", "by")
 #: A correction's scale must be near 1 and its shift within this (mm): anything else
 #: is not a correction of a calibrated rig but a different rig.
@@ -70,7 +70,7 @@ def _correction_spec(doc: str) -> Record:
     return Record(
         {"ax": scale, "bx": shift, "ay": scale, "by": shift},
         required=CORRECTION_KEYS,
-        doc=f"{doc} (seed 000, eq. 8: x' = ax x + bx, y' = ay y + by, mm)",
+        doc=f"{doc} (Durovic 2017, eq. 8: x' = ax x + bx, y' = ay y + by, mm)",
         wanted="{ax: A, bx: B, ay: A, by: B}: x' = ax x + bx, y' = ay y + by (mm)",
     )
 

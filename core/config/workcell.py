@@ -55,7 +55,7 @@ class Survey:
     """The region of the table the camera should survey, as the profile wrote it.
 
     ``ring``: points at ``radius_mm`` from the base axis, ``range_deg`` = [lo, hi]
-    base angles ``step_deg`` apart (seed 004, appendix B); with several radii
+    base angles ``step_deg`` apart (Showers 2016, appendix B); with several radii
     (``radii_mm``) each angle is looked at from each radius, so a band wider than
     one image is covered in every leg. ``rectangle``: a grid
     ``step_mm`` apart over ``x_mm`` x ``y_mm``. ``viewpoints``: explicit table
@@ -79,7 +79,7 @@ class Survey:
 class ToolMarker:
     """A marker fixed on the tool: its tag role and its centre in the tool frame (mm).
 
-    Seed 000 servoes and calibrates with such a marker seen by a fixed camera;
+    Durovic 2017 servoes and calibrates with such a marker seen by a fixed camera;
     the offset is the paper's ``G_t_M``, "expected to be known in advance".
     """
 

@@ -1,4 +1,4 @@
-"""``armtree jog --rig PROFILE``: jog the arm from the keyboard and record places (seed 004).
+"""``armtree jog --rig PROFILE``: jog the arm from the keyboard and record places (Showers 2016).
 
 The RPI report drove its Dobot from the keyboard and recorded poses to replay;
 here the same is a terminal UI (textual) over any rig, simulated or real, on the

@@ -1,6 +1,6 @@
 """The behaviours calibration trees are made of: plan poses, visit them, fit, write.
 
-``plan_poses`` chooses where the tool goes (seed 000's three positions, well-spread
+``plan_poses`` chooses where the tool goes (Durovic 2017's three positions, well-spread
 poses, a grid of reference points, views of a marker); ``visit_poses`` moves there
 one pose after another, reads the camera once the arm is still (the marker's pose
 in the camera frame, averaged over frames) and asks the rig's measuring device
@@ -195,7 +195,7 @@ class PlanPoses(ArmSkill):
         return list(spread(points, self.param("count"), rng))
 
     def _joints(self, rng: np.random.Generator) -> Procedure:
-        """Seed 004's validation poses: random joints within the limits, spread out, where the
+        """Showers 2016's validation poses: random joints within the limits, spread out, where the
         arm collides with nothing the planner knows (the profile's obstacles) and, with a
         fixed camera, the tool stays :data:`POSE_CLEARANCE_MM` above what it sees on the table."""
         rig = self.rig
@@ -244,7 +244,7 @@ class PlanPoses(ArmSkill):
         return out
 
     def _three(self, usable: Any, height: float) -> list[np.ndarray]:
-        """Seed 000, steps 1-5: a point on the base x axis, moved by a along x, then b along y."""
+        """Durovic 2017, steps 1-5: a point on the base x axis, moved by a along x, then b along y."""
         step = float(self.param("step_mm"))
         best = None
         for x0 in np.arange(20.0, 1000.0, 2.0):

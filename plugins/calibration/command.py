@@ -13,11 +13,11 @@ folder, a glob or files; or live frames of a profile's camera), the RMS and
 per-image reprojection errors, a PNG of corners and residuals, and a YAML
 file a profile's ``camera: {calibration: FILE}`` reads.
 
-``hand-eye``: the eye-to-hand calibration of seed 000 (eqs. 1-7) from three
+``hand-eye``: the eye-to-hand calibration of Durovic 2017 (eqs. 1-7) from three
 images of a marker on the tool, at tool positions 0, 1 (moved along the base
 x axis) and 2 (then moved along base y at the same height).
 
-``kinematics``: the least-squares kinematic calibration of seed 004 ("Model
+``kinematics``: the least-squares kinematic calibration of Showers 2016 ("Model
 Validation", Fig. 6), in :mod:`.kinematics_command`.
 
 ``servos``: a bus-servo arm's homing offsets and ranges, in :mod:`.servos_command`.
@@ -70,9 +70,9 @@ def image_files(specs: list[str]) -> list[str]:
 
 
 class CalibrateCommand:
-    """``armtree calibrate``: camera intrinsics, eye-to-hand pose, arm kinematics (seed 004)."""
+    """``armtree calibrate``: camera intrinsics, eye-to-hand pose, arm kinematics (Showers 2016)."""
 
-    help = "calibrate a camera, an eye-to-hand camera pose (seed 000) or arm kinematics (seed 004)"
+    help = "calibrate a camera, an eye-to-hand camera pose (Durovic 2017) or arm kinematics (Showers 2016)"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``camera``, ``hand-eye`` and ``kinematics`` sub-commands."""
@@ -95,7 +95,7 @@ class CalibrateCommand:
 
         he = kinds.add_parser(
             "hand-eye",
-            help="camera pose: --rig moves the arm (seed 000's three positions or N poses); "
+            help="camera pose: --rig moves the arm (Durovic 2017's three positions or N poses); "
             "--images takes 3 views",
         )
         he.add_argument(
@@ -108,7 +108,7 @@ class CalibrateCommand:
         _tree_options(he)
         he.add_argument(
             "--method", choices=("three-positions", "n-pose"), default="n-pose",
-            help="--rig: seed 000's three positions, or N well-spread poses (every method)",
+            help="--rig: Durovic 2017's three positions, or N well-spread poses (every method)",
         )  # fmt: skip
         he.add_argument("--poses", type=int, default=15, help="--rig n-pose: poses to visit")
         he.add_argument(
@@ -125,14 +125,17 @@ class CalibrateCommand:
         he.add_argument("--size-mm", type=float, help="offline: marker side (mm)")
         add_intrinsics_options(he)
 
-        cor = kinds.add_parser("correction", help="seed 000's linear correction (eq. 8) on a grid")
+        cor = kinds.add_parser(
+            "correction", help="Durovic 2017's linear correction (eq. 8) on a grid"
+        )
         _tree_options(cor)
         cor.add_argument("--grid", type=int, default=10, help="points along each side")
         cor.add_argument(
             "--height-mm", type=float, default=60.0, help="tool height above the table"
         )
         off = kinds.add_parser(
-            "camera-offset", help="eye-in-hand camera offset from touch tests (seed 004, eq. 17)"
+            "camera-offset",
+            help="eye-in-hand camera offset from touch tests (Showers 2016, eq. 17)",
         )
         _tree_options(off)
         off.add_argument("--tag", default="ducky", help="tag role of the still marker to look at")
@@ -260,7 +263,7 @@ class CalibrateCommand:
             camera.close()
         return images
 
-    # -- hand-eye (seed 000) -------------------------------------------------
+    # -- hand-eye (Durovic 2017) -------------------------------------------------
 
     def _hand_eye(self, args: argparse.Namespace) -> int:
         from armtree.maths.perception.frames import eye_to_hand_from_three_positions
@@ -299,9 +302,9 @@ class CalibrateCommand:
             seen.append(np.asarray(dets[0].tvec, dtype=float))
         camera_T_base = eye_to_hand_from_three_positions(
             seen, tool[0], offset
-        )  # seed 000, eqs. 1-7
+        )  # Durovic 2017, eqs. 1-7
         base_T_camera = np.linalg.inv(camera_T_base)
-        print("camera pose in the base frame (mm), seed 000 eqs. 1-7:")
+        print("camera pose in the base frame (mm), Durovic 2017 eqs. 1-7:")
         for row in base_T_camera:
             print("  " + "  ".join(f"{v:10.4f}" for v in row))
         for n, t in enumerate(seen):
@@ -314,7 +317,7 @@ class CalibrateCommand:
                 "extrinsics": np.round(base_T_camera, 6).tolist(),
                 "camera_T_base": np.round(camera_T_base, 6).tolist(),
             }
-            header = "# Eye-to-hand calibration (seed 000, eqs. 1-7): camera pose in the base frame, mm\n"
+            header = "# Eye-to-hand calibration (Durovic 2017, eqs. 1-7): camera pose in the base frame, mm\n"
             Path(args.output).write_text(header + yaml.safe_dump(data, sort_keys=False))
             print(f"wrote {args.output} (camera: {{mount: eye_to_hand, extrinsics: ...}})")
         return 0
@@ -375,7 +378,7 @@ def _tree(args: argparse.Namespace, kind: str, **params: Any) -> int:
 
 
 def _check_moves(tool: np.ndarray) -> None:
-    """Seed 000's three positions: 0 -> 1 along base x, 1 -> 2 along base y at the same height."""
+    """Durovic 2017's three positions: 0 -> 1 along base x, 1 -> 2 along base y at the same height."""
     a, b = tool[1] - tool[0], tool[2] - tool[1]
     if np.linalg.norm(a) < 1.0 or np.linalg.norm(b) < 1.0:
         raise ConfigError("--tool-positions: the moves 0 -> 1 and 1 -> 2 must be at least 1 mm")

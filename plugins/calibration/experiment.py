@@ -1,13 +1,13 @@
 """``armtree experiment accuracy --rig P [--out DIR]``: the seeds' accuracy experiments.
 
-* Experiment 1 (seed 000, Tables I and II): the tool visits a 10 x 10 grid; the
+* Experiment 1 (Durovic 2017, Tables I and II): the tool visits a 10 x 10 grid; the
   camera's measurement of the tool and the commanded position are compared with
-  the measuring device's (the truth), before and after seed 000's linear
+  the measuring device's (the truth), before and after Durovic 2017's linear
   correction (eq. 8) fitted on the same points, as the paper did, and held out.
 * Experiment 2 (Table III): 30 random targets, a direct move, then visual servoing
   until within an aim inside the tolerance (which decides success); the distance
   between the tool and the target's centre as the measuring device gives it.
-* Seed 004's model validation: the tool's position at well-spread poses against the
+* Showers 2016's model validation: the tool's position at well-spread poses against the
   forward kinematics, mean ± sd before and after a least-squares fit of the tool
   offset and joint offsets (in sample, as the report, and held out).
 
@@ -37,15 +37,15 @@ from armtree.maths.perception.frames import LinearCorrection
 from . import fits
 from .run import report, run_tree
 
-#: Seed 000, Table I (tool coordinates measured by vision): before and after correction, mm.
+#: Durovic 2017, Table I (tool coordinates measured by vision): before and after correction, mm.
 PAPER_TABLE_I = {"dx_max": (5.94, 4.87), "dy_max": (14.61, 2.30), "d_max": (8.93, 4.64),
                  "sx": (1.80, 1.74), "sy": (4.17, 0.93), "sd": (2.61, 1.76)}  # fmt: skip
-#: Seed 000, Table II (tool positions given to the robot).
+#: Durovic 2017, Table II (tool positions given to the robot).
 PAPER_TABLE_II = {"dx_max": (7.00, 1.86), "dy_max": (2.00, 1.25), "d_max": (7.23, 1.75),
                   "sx": (1.95, 0.77), "sy": (0.61, 0.44), "sd": (1.95, 0.78)}  # fmt: skip
-#: Seed 000, Table III (visual servoing): max distance and its sd, mm.
+#: Durovic 2017, Table III (visual servoing): max distance and its sd, mm.
 PAPER_TABLE_III = {"d_max": 6.0, "sd": 1.42}
-#: Seed 004, model validation: mean ± sd of the distance before and after the fit (mm), per dataset.
+#: Showers 2016, model validation: mean ± sd of the distance before and after the fit (mm), per dataset.
 PAPER_VALIDATION = [
     ("27 points", (3.08, 1.55), (2.20, 1.13)),
     ("39 points", (1.09, 0.77), (0.55, 0.27)),
@@ -70,7 +70,7 @@ def write_csv(path: Path, header: list[str], rows: list[list[Any]]) -> None:
 
 
 def statistics(diff: np.ndarray) -> dict[str, float]:
-    """Seed 000's statistics of x-y differences ``(N, 2+)`` (truth minus measured), mm."""
+    """Durovic 2017's statistics of x-y differences ``(N, 2+)`` (truth minus measured), mm."""
     d = np.linalg.norm(diff[:, :2], axis=1)
     return {
         "dx_max": float(np.max(np.abs(diff[:, 0]))),
@@ -98,9 +98,9 @@ def corrected(
 
 
 class ExperimentCommand:
-    """``armtree experiment accuracy``: seed 000's Tables I-III and seed 004's model validation."""
+    """``armtree experiment accuracy``: Durovic 2017's Tables I-III and Showers 2016's model validation."""
 
-    help = "the seeds' accuracy experiments: seed 000's Tables I-III, seed 004's model validation"
+    help = "the seeds' accuracy experiments: Durovic 2017's Tables I-III, Showers 2016's model validation"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``accuracy`` experiment and its options."""
@@ -108,7 +108,7 @@ class ExperimentCommand:
 
         which = parser.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
         acc = which.add_parser(
-            "accuracy", help="Tables I-III (seed 000) and the model validation (seed 004)"
+            "accuracy", help="Tables I-III (Durovic 2017) and the model validation (Showers 2016)"
         )
         acc.add_argument("--rig", required=True, metavar="PROFILE", help="the profile to measure")
         acc.add_argument("--out", metavar="DIR", help="report folder (default experiment-PROFILE)")
@@ -138,7 +138,7 @@ class ExperimentCommand:
             "--tolerance-mm",
             type=float,
             default=3.0,
-            help="experiment 2: a trial succeeds within this (seed 000: 3)",
+            help="experiment 2: a trial succeeds within this (Durovic 2017: 3)",
         )
         acc.add_argument(
             "--aim-mm",
@@ -147,7 +147,7 @@ class ExperimentCommand:
             help="experiment 2: correct until within this, inside the tolerance",
         )
         acc.add_argument(
-            "--poses", type=int, default=27, help="model validation: poses (seed 004: 27)"
+            "--poses", type=int, default=27, help="model validation: poses (Showers 2016: 27)"
         )
         acc.add_argument(
             "--only", action="append", choices=PARTS, help="run only these parts (repeatable)"
@@ -305,7 +305,7 @@ def servo_table(trials: list[dict[str, Any]], tolerance: float, out: Path) -> di
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.hist(d, bins=15)
-    ax.axvline(PAPER_TABLE_III["d_max"], color="red", ls="--", label="seed 000's max (6 mm)")
+    ax.axvline(PAPER_TABLE_III["d_max"], color="red", ls="--", label="Durovic 2017's max (6 mm)")
     ax.set_xlabel("distance between tool and target centre (mm)")
     ax.set_ylabel("targets")
     ax.set_title(
@@ -326,11 +326,11 @@ def servo_table(trials: list[dict[str, Any]], tolerance: float, out: Path) -> di
     }
 
 
-# -------------------------------------------------------------------- seed 004's validation
+# -------------------------------------------------------------------- Showers 2016's validation
 
 
 def validation_table(observations: dict[str, Any], rig: Rig, out: Path) -> dict[str, Any]:
-    """Seed 004's mean ± sd before and after the fit; writes validation.csv and its plot."""
+    """Showers 2016's mean ± sd before and after the fit; writes validation.csv and its plot."""
     unreached = [p for p in observations["poses"] if not p.get("reached", True)]
     poses = [p for p in observations["poses"] if p.get("reached", True)]
     joints = np.array([p["joints"] for p in poses])
@@ -354,7 +354,7 @@ def validation_table(observations: dict[str, Any], rig: Rig, out: Path) -> dict[
         [[*(f"{v:.4f}" for v in (*q, *t)), f"{b:.4f}", f"{a:.4f}", f"{h:.4f}"]
          for q, t, b, a, h in zip(joints, truth, before, after, held, strict=True)],
     )  # fmt: skip
-    fits.draw({"title": "model validation (seed 004)", "bars": {"before fit": before.tolist(), "after fit": after.tolist(),
+    fits.draw({"title": "model validation (Showers 2016)", "bars": {"before fit": before.tolist(), "after fit": after.tolist(),
                                                                "held out": held.tolist()}}, str(out / "validation.png"))  # fmt: skip
     return {
         "points": len(poses),
@@ -399,7 +399,7 @@ def write_report(results: dict[str, Any], out: Path) -> Path:
     lines += [f"Ground truth: {results.get('device') or 'the measuring device'}.", ""]
     grid = results.get("grid")
     if grid:
-        lines += [f"## Experiment 1: {grid['points']} grid points (seed 000, Tables I and II)", "",
+        lines += [f"## Experiment 1: {grid['points']} grid points (Durovic 2017, Tables I and II)", "",
                   f"The camera saw the tool's marker at {grid['seen']} of them. Differences are truth minus "
                   "measurement, mm; 'after' fits eq. 8 on the same points as the paper did, 'held out' on "
                   "the other folds (5-fold).", ""]  # fmt: skip
@@ -414,7 +414,7 @@ def write_report(results: dict[str, Any], out: Path) -> Path:
             if name == "II":
                 lines += [_slips_line(grid.get("slips")), ""]
             lines += [
-                      "| | before | after | held out | seed 000 before | seed 000 after |",
+                      "| | before | after | held out | Durovic 2017 before | Durovic 2017 after |",
                       "| --- | --- | --- | --- | --- | --- |"]  # fmt: skip
             for key, label in ROWS:
                 lines.append(f"| {label} [mm] | {_f(t['before'][key])} | {_f(t['after'][key])} | "
@@ -430,24 +430,24 @@ def write_report(results: dict[str, Any], out: Path) -> Path:
         lines += ["![grid errors](grid_errors.png)", ""]
     servo = results.get("servo")
     if servo:
-        lines += [f"## Experiment 2: {servo['targets']} targets (seed 000, Table III)", "",
+        lines += [f"## Experiment 2: {servo['targets']} targets (Durovic 2017, Table III)", "",
                   f"Servoing succeeded on {servo['successes']} of {servo['targets']} (tolerance "
                   f"{servo.get('tolerance', 3.0):g} mm, corrected until within {servo.get('aim', 3.0):g} mm); distance between the tool "
                   f"and the target's centre in x-y, mm (mean {_f(servo['mean'])}).", "",
-                  "| | here | seed 000 |", "| --- | --- | --- |",
+                  "| | here | Durovic 2017 |", "| --- | --- | --- |",
                   f"| Δd_max [mm] | {_f(servo['d_max'])} | {PAPER_TABLE_III['d_max']} |",
                   f"| σ_d [mm] | {_f(servo['sd'])} | {PAPER_TABLE_III['sd']} |", "",
                   *[f"- failed: {why}" for why in servo["failures"]], "",
                   "![servo distances](servo_histogram.png)", ""]  # fmt: skip
     val = results.get("validation")
     if val:
-        lines += [f"## Model validation: {val['points']} poses (seed 004)", "",
+        lines += [f"## Model validation: {val['points']} poses (Showers 2016)", "",
                   "Distance between the forward kinematics and the measured tool position, mean ± sd, mm.", "",
                   "| | before fit | after fit | held out |", "| --- | --- | --- | --- |",
                   f"| here | {_f(val['before'][0])} ± {_f(val['before'][1])} | {_f(val['after'][0])} ± {_f(val['after'][1])} | "
                   f"{_f(val['held_out'][0])} ± {_f(val['held_out'][1])} |"]  # fmt: skip
         for label, b, a in PAPER_VALIDATION:
-            lines.append(f"| seed 004, {label} | {b[0]} ± {b[1]} | {a[0]} ± {a[1]} | - |")
+            lines.append(f"| Showers 2016, {label} | {b[0]} ± {b[1]} | {a[0]} ± {a[1]} | - |")
         lines += ["", f"Fitted: {val['params']}", ""]
         lines += [f"- not reached (the planner refused): {why}" for why in val.get("unreached", [])]
         lines += ["", "![model validation](validation.png)", ""]

@@ -6,7 +6,7 @@ Each takes ``visit_poses``' observations and returns a plain mapping: a one-line
 camera offsets and kinematic fits are cross-validated: the data is split into
 folds, each fold's points are predicted by a fit of the others, and the held-out
 error with the fit is compared with the held-out error without it; a fit that
-makes it worse is refused (:class:`Refused`), as seed 004 suspected its own of
+makes it worse is refused (:class:`Refused`), as Showers 2016 suspected its own of
 overfitting. Units: mm, degrees.
 """
 
@@ -92,7 +92,7 @@ def _reached(poses: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def hand_eye(poses: list[dict[str, Any]], rig: Rig, methods: Sequence[str]) -> dict[str, Any]:
-    """Seed 000's three positions, or every method on N poses; the least residual wins."""
+    """Durovic 2017's three positions, or every method on N poses; the least residual wins."""
     poses = _reached(poses)
     views = [
         MarkerView(np.array(p["tool_pose"]), np.array(p["tvec"]) if p.get("seen") else None,
@@ -166,7 +166,7 @@ def vision_tool_positions(
 
     With ``along_ray`` the marker is put where its ray from the camera meets the height
     the joints give it, as the servo loop measures it: the marker's direction is what
-    vision measures best, its distance worst (seed 000's conclusion; from 480 mm a
+    vision measures best, its distance worst (Durovic 2017's conclusion; from 480 mm a
     25 mm marker's range is off by millimetres). Without, its pose as the camera
     solved it (PnP through the camera's believed pose).
     """
@@ -189,7 +189,7 @@ def vision_tool_positions(
 def cross_validated(
     measured: np.ndarray, truth: np.ndarray, folds: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Held-out x-y errors (mm, per point) without and with seed 000's eq. 8 fitted on the
+    """Held-out x-y errors (mm, per point) without and with Durovic 2017's eq. 8 fitted on the
     other folds."""
     before = np.linalg.norm(measured[:, :2] - truth[:, :2], axis=1)
     after = np.empty(len(measured))
@@ -201,7 +201,7 @@ def cross_validated(
 
 
 def correction(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, Any]:
-    """Seed 000, eq. 8 for what vision measures and for where the arm goes."""
+    """Durovic 2017, eq. 8 for what vision measures and for where the arm goes."""
     poses = _reached(poses)
     truth = np.array([p["truth"] for p in poses if p.get("truth") is not None])
     if len(truth) != len(poses):
@@ -243,14 +243,14 @@ def correction(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, A
     if not sections:
         raise Refused("every correction makes the held-out error worse: " + "; ".join(lines))
     return {"kind": "correction", "summary": "; ".join(lines), "sections": sections,
-            "record": ("correction", record), "plot": {"title": "linear correction (seed 000, eq. 8)", "bars": bars}}  # fmt: skip
+            "record": ("correction", record), "plot": {"title": "linear correction (Durovic 2017, eq. 8)", "bars": bars}}  # fmt: skip
 
 
 # -------------------------------------------------------------------- camera offset (eq. 17)
 
 
 def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Rig) -> dict[str, Any]:
-    """Seed 004, eq. 17: P_CT from touch tests, leave-one-out; refused when it predicts the
+    """Showers 2016, eq. 17: P_CT from touch tests, leave-one-out; refused when it predicts the
     touched marker worse than the profile's offset does."""
     poses = [p for p in _reached(poses) if p.get("seen")]
     if touched is None:
@@ -299,7 +299,10 @@ def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Rig) -> dict[s
             },
         ),  # fmt: skip
         "plot": _held_out_plot(
-            "camera offset from touch tests (seed 004, eq. 17)", "profile's offset", before, after
+            "camera offset from touch tests (Showers 2016, eq. 17)",
+            "profile's offset",
+            before,
+            after,
         ),
     }
 
@@ -336,7 +339,7 @@ def kinematic_cv(
 
 
 def kinematics(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, Any]:
-    """Seed 004's model validation: tool offset and joint offsets by least squares."""
+    """Showers 2016's model validation: tool offset and joint offsets by least squares."""
     poses = _reached(poses)
     make, arm, component = arm_model_builder(rig)
     names = {p.name for p in component.params}
@@ -373,7 +376,7 @@ def kinematics(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, A
             },
         ),  # fmt: skip
         "plot": _held_out_plot(
-            "kinematic calibration (seed 004, model validation)", "profile's model", b, a
+            "kinematic calibration (Showers 2016, model validation)", "profile's model", b, a
         ),
     }
 

@@ -1,4 +1,4 @@
-"""``armtree calibrate kinematics``: least-squares arm calibration (seed 004, "Model Validation").
+"""``armtree calibrate kinematics``: least-squares arm calibration (Showers 2016, "Model Validation").
 
 The report recorded joint angles with the tool tip on known graph-paper points
 (Fig. 6) and fitted the tool offset ``d``, angle offsets and scale factors
@@ -42,7 +42,7 @@ from armtree.maths.motion.kinematic_calibration import (
 )
 from armtree.plugins.trackers.commands import registry_of
 
-#: Structural keys fitted by default, per arm type (seed 004: only ``d`` for the Dobot).
+#: Structural keys fitted by default, per arm type (Showers 2016: only ``d`` for the Dobot).
 DEFAULT_FIT = {"dobot_v1": ("tool_offset_mm",)}
 #: Keys ``--fit-links`` adds, per arm type.
 LINK_KEYS = {"dobot_v1": ("l1_mm", "l2_mm")}
@@ -54,7 +54,7 @@ def configure_kinematics(kinds: Any) -> Any:
     """Add the ``kinematics`` sub-parser to ``kinds`` (the calibrate sub-parsers)."""
     kin = kinds.add_parser(
         "kinematics",
-        help="arm link lengths, tool offset, joint offsets by least squares (seed 004)",
+        help="arm link lengths, tool offset, joint offsets by least squares (Showers 2016)",
     )
     source = (
         kin.add_mutually_exclusive_group()
@@ -167,7 +167,7 @@ def _free_keys(args: argparse.Namespace, arm_type: str) -> tuple[str, ...]:
 
 
 def _report(fit: KinematicFit, n: int, device: str) -> None:
-    print(f"kinematic calibration (seed 004, least squares on the FK), {n} points; {device}")
+    print(f"kinematic calibration (Showers 2016, least squares on the FK), {n} points; {device}")
     for key in fit.free:
         sd = fit.std_errors.get(key, 0.0)
         print(f"  {key}: {fit.initial[key]:.3f} -> {fit.params[key]:.3f} (+/- {sd:.3f})")
@@ -184,7 +184,7 @@ def _write(path: str, fit: KinematicFit, arm_type: str, n: int, device: str) -> 
     data = {
         "arm": arm,
         "calibration": {"records": {"kinematics": {
-            "method": "least squares on the forward kinematics (seed 004, Model Validation)",
+            "method": "least squares on the forward kinematics (Showers 2016, Model Validation)",
             "points": n,
             "source": device,
             "rms_before_mm": round(fit.rms_before_mm, 4),
@@ -192,7 +192,7 @@ def _write(path: str, fit: KinematicFit, arm_type: str, n: int, device: str) -> 
             "std_errors": {k: round(v, 5) for k, v in fit.std_errors.items()},
         }}},
     }  # fmt: skip
-    header = "# Kinematic calibration (seed 004): a profile takes it with include: FILE\n"
+    header = "# Kinematic calibration (Showers 2016): a profile takes it with include: FILE\n"
     Path(path).write_text(header + yaml.safe_dump(data, sort_keys=False))
 
 

@@ -1,6 +1,6 @@
 """The measuring device on real hardware: the operator, asked at the console.
 
-Seed 000 read a laser spot on millimetre paper and seed 004 a pencil tip on graph
+Durovic 2017 read a laser spot on millimetre paper and Showers 2016 a pencil tip on graph
 paper; here the operator types what they read. Each question is printed once and
 the answer read on a thread of its own, so ticks go on while the person measures.
 """

@@ -14,7 +14,7 @@ from .trials import PlaceTarget, PlanTargets, RecordTrial
 @armtree.hookimpl
 def armtree_behaviours() -> dict[str, Any]:
     """plan_poses, visit_poses, fit_calibration, write_calibration (calibration trees) and
-    plan_targets, place_target, record_trial (seed 000's experiment 2)."""
+    plan_targets, place_target, record_trial (Durovic 2017's experiment 2)."""
     return {
         "plan_poses": PlanPoses,
         "visit_poses": VisitPoses,

@@ -1,4 +1,4 @@
-"""Behaviours of seed 000's experiment 2: targets placed one after another, the tool servoed
+"""Behaviours of Durovic 2017's experiment 2: targets placed one after another, the tool servoed
 over each, the distance measured from outside.
 
 ``plan_targets`` draws table points where the target can lie: the tool reaches

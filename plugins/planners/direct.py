@@ -1,6 +1,6 @@
 """The ``direct`` planner: a straight joint-space move, validated before it is returned.
 
-Seed 002's motion algorithm: the target's inverse-kinematics solutions are
+Pozzani 2023's motion algorithm: the target's inverse-kinematics solutions are
 tried nearest-first (:meth:`armtree.api.rig.Planner.plan_to`), and each straight
 move is validated (limits, collisions, singularity margin) before use.
 """
@@ -60,7 +60,7 @@ class DirectPlanner(Planner):
         return np.stack([start, goal])
 
     def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-        """Waypoints to a tool position (mm), IK solutions nearest-first (seed 002).
+        """Waypoints to a tool position (mm), IK solutions nearest-first (Pozzani 2023).
 
         A non-finite or unreachable target is refused (:class:`Unreachable`)
         before any inverse kinematics runs.

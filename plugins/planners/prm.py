@@ -1,6 +1,6 @@
-"""The ``prm`` planner: a probabilistic roadmap over the arm's joint space (seed 004).
+"""The ``prm`` planner: a probabilistic roadmap over the arm's joint space (Showers 2016).
 
-Seed 004 (Path Planning, appendix E) samples valid collision-free
+Showers 2016 (Path Planning, appendix E) samples valid collision-free
 configurations, joins each to its five nearest neighbours through a SciPy
 KD-tree where the evenly sampled segment is free, keeps them in a NetworkX
 graph, and answers a query by connecting start and goal to their nearest nodes
@@ -325,7 +325,7 @@ class PRMPlanner(Planner):
         def config(n: int) -> np.ndarray:
             return start if n == s_id else goal if n == g_id else nodes[n]
 
-        # The query nodes are added to the shared graph for the search (seed 004,
+        # The query nodes are added to the shared graph for the search (Showers 2016,
         # appendix E); the lock keeps concurrent queries from seeing each other's.
         import networkx as nx
 
@@ -374,7 +374,7 @@ class PRMPlanner(Planner):
         return [pair for pair, ok in zip(pairs, free, strict=True) if not ok]
 
     def plan_to(self, start: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-        """Waypoints to a tool position (mm), IK solutions nearest-first (seed 002).
+        """Waypoints to a tool position (mm), IK solutions nearest-first (Pozzani 2023).
 
         A non-finite or unreachable target is refused (:class:`Unreachable`)
         before any inverse kinematics or roadmap search runs.
@@ -455,7 +455,7 @@ prm_factory.PARAMS = (
         "int",
         5,
         "",
-        "nearest milestones each one is joined to (seed 004: 5)",
+        "nearest milestones each one is joined to (Showers 2016: 5)",
         minimum=1,
         maximum=50,
     ),

@@ -1,6 +1,6 @@
 """``armtree workspace --rig PROFILE [--delta MM] [--plot FILE.png]``: an arm's reachable workspace.
 
-Covers the arm's reachable tool positions with boxes (seed 003) to diameter
+Covers the arm's reachable tool positions with boxes (Rybak 2016) to diameter
 ``--delta`` mm, prints the box counts and volumes, and with ``--plot`` draws a
 PNG: the top view, a vertical slice through the base axis and a horizontal
 slice, with inner and boundary boxes, the arm's base and the profile's places.
@@ -40,9 +40,9 @@ def arm_model(profile: Profile | dict[str, Any], manager: Any = None) -> Any:
 
 
 class WorkspaceCommand:
-    """Cover an arm's reachable workspace with boxes (seed 003) and plot it (armtree workspace)."""
+    """Cover an arm's reachable workspace with boxes (Rybak 2016) and plot it (armtree workspace)."""
 
-    help = "cover the arm's reachable workspace with boxes (seed 003); --plot FILE.png draws it"
+    help = "cover the arm's reachable workspace with boxes (Rybak 2016); --plot FILE.png draws it"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add --rig, --delta, --plot and --set."""

@@ -25,7 +25,7 @@ from .geometry import look_at, pose, rpy_matrix
 from .renderer import CameraModel, Renderer
 from .world import World, world_for
 
-#: Camera in the tool frame for the Dobot's eye-in-hand webcam (seed 004): looking
+#: Camera in the tool frame for the Dobot's eye-in-hand webcam (Showers 2016): looking
 #: down with R_TC = [[0, 1, 0], [1, 0, 0], [0, 0, -1]] and P_CT = (-10.48, -21.58,
 #: 28.42) mm (eq. 17), the tool seen from the camera, so the camera sits at -R_TC P_CT.
 DOBOT_R_TC = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])

@@ -1,9 +1,9 @@
 """The Duckybot: a differential-drive robot following a route with Lyapunov tracking control.
 
-The robot is a unicycle (seed 002, eqs. 5-6). A reference unicycle drives the
+The robot is a unicycle (Pozzani 2023, eqs. 5-6). A reference unicycle drives the
 route at constant speeds (straight segments at ``speed``, turns on the spot at
 ``turn_rate``); the real one follows it with the Lyapunov control law of
-seed 002, eqs. 7-8, under seeded actuator noise, so a tracker sees a robot that
+Pozzani 2023, eqs. 7-8, under seeded actuator noise, so a tracker sees a robot that
 moves smoothly but not exactly as planned. Positions are mm, headings radians
 inside (degrees in the route), times seconds on the run's clock.
 """
@@ -60,7 +60,7 @@ def sinc(x: float) -> float:
 
 
 def unicycle_step(state: UnicycleState, v: float, omega: float, dt: float) -> UnicycleState:
-    """Integrate the unicycle model over ``dt`` seconds (seed 002, eqs. 5-6).
+    """Integrate the unicycle model over ``dt`` seconds (Pozzani 2023, eqs. 5-6).
 
     x' = v cos(theta), y' = v sin(theta), theta' = omega; integrated exactly
     for constant (v, omega) over the step so turns on the spot stay in place.
@@ -87,7 +87,7 @@ def lyapunov_control(
 ) -> tuple[float, float]:
     """Velocities (mm/s, rad/s) that make ``actual`` converge to ``desired``.
 
-    Seed 002, eqs. 7-8: v = v_d + dv, w = w_d + dw with
+    Pozzani 2023, eqs. 7-8: v = v_d + dv, w = w_d + dw with
     dv = -kp e_xy cos(theta - psi) and
     dw = -v_d e_xy sinc(e_theta / 2) sin(psi - alpha / 2) - ktheta e_theta,
     where (e_x, e_y, e_theta) = actual - desired, psi = atan2(e_y, e_x),
@@ -101,7 +101,7 @@ def lyapunov_control(
     psi = math.atan2(ey, ex)
     # alpha / 2 taken as the mean heading: desired + e_theta / 2 keeps it continuous across +-pi.
     half_alpha = desired.theta + 0.5 * e_theta
-    dv = -kp * e_xy * math.cos(actual.theta - psi)  # seed 002, eq. 7
+    dv = -kp * e_xy * math.cos(actual.theta - psi)  # Pozzani 2023, eq. 7
     dw = -v_d * e_xy * sinc(e_theta / 2) * math.sin(psi - half_alpha) - ktheta * e_theta  # eq. 8
     return v_d + dv, omega_d + dw
 
@@ -185,7 +185,7 @@ class Duckybot:
         dist = math.hypot(dx, dy)
         heading = ref.theta
         if dist > 1e-6:
-            heading = math.atan2(dy, dx)  # seed 002, eq. 3: face the goal, then drive (eq. 4)
+            heading = math.atan2(dy, dx)  # Pozzani 2023, eq. 3: face the goal, then drive (eq. 4)
             turn = wrap(heading - ref.theta)
             if abs(turn) > 1e-6:
                 self._segments.append(

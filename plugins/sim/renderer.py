@@ -576,7 +576,7 @@ class Renderer:
     # -- shadows ------------------------------------------------------------------
 
     def _draw_shadows(self, img: np.ndarray, drawables: list[Drawable], r_cw, t_cw) -> None:
-        """Shadows cast on the table by the point lamp (seed 004 notes moving shadows).
+        """Shadows cast on the table by the point lamp (Showers 2016 notes moving shadows).
 
         ``img`` is still the bare table (the background) when they are drawn.
         """

@@ -150,7 +150,7 @@ class PhysicsSpec:
 
 @dataclass(frozen=True)
 class SlipSpec:
-    """Missed steps under load (seeds 000 and 004): a random joint slips now and then.
+    """Missed steps under load (Durovic 2017 and Showers 2016): a random joint slips now and then.
 
     While the arm moves or holds something, slips come at ``rate`` per second,
     each by up to ``max_amount`` degrees (or mm) either way, on one of ``joints``
@@ -348,7 +348,7 @@ def _parse_marker(
     else:
         raise err(path, f"a {kind} marker needs an id (no tags: entry for role {role!r})")
     owner = tags.role_of(mid, family)
-    # a spot is a printed sheet: its marker may be any role's (seed 000's target marker)
+    # a spot is a printed sheet: its marker may be any role's (Durovic 2017's target marker)
     if kind == "spot" and owner is not None:
         role = owner
     if owner is not None and owner != role:

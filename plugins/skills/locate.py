@@ -1,6 +1,6 @@
 """Finding a tag before acting on it: look where it should be, look around, look again closer.
 
-A place in a profile is where to look, not where a thing is (seed 004's
+A place in a profile is where to look, not where a thing is (Showers 2016's
 "Loading a ducky" relied on static positions and frequent touch tests; here
 the camera decides). :func:`locate` brings the camera over the hint, looks
 around it within the profile's ``workcell.search_radius_mm`` when the tag is not

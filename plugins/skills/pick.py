@@ -1,7 +1,7 @@
 """Picking a tagged object: find it with the camera, grip it clear of its neighbours,
 check that it came with the tool.
 
-Seed 004 ("Loading a ducky"): the pump holds an object while the tool touches it.
+Showers 2016 ("Loading a ducky"): the pump holds an object while the tool touches it.
 The report's static ducky position needed frequent touch tests; here a place is only
 where to look: :func:`~.locate.locate` finds the tag around it, and a pick the camera
 contradicts (:mod:`.pick_check`) is a FAILURE with the measured numbers, which a retry

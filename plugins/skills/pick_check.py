@@ -1,7 +1,7 @@
 """Checking a grip with the camera: did the marker leave its spot with the tool?
 
 Eye-in-hand: the camera looks back at the spot, and a marker still lying there failed
-the grip. Eye-to-hand: the marker must have risen with the tool (seed 000's set-up sees
+the grip. Eye-to-hand: the marker must have risen with the tool (Durovic 2017's set-up sees
 tool and object in one view), or, hidden under the gripper, be gone from the spot once
 the arm has carried it out of the view. A failed check raises
 :class:`~armtree.api.skill.actions.SkillFailure` with the measured numbers; each check

@@ -1,4 +1,4 @@
-"""Search the workspace for a tag, and clean up trash markers on the way (seed 004, appendix B).
+"""Search the workspace for a tag, and clean up trash markers on the way (Showers 2016, appendix B).
 
 The report's search turns the base in 5 degree steps, the other joints still,
 reversing past 100 degrees either side; at each step it asks the camera for the
@@ -61,7 +61,7 @@ def clean_one(
     """Carry one trash marker to the bin and come back to ``origin``.
 
     Trash the arm cannot get to (a refused approach or descent) is left where it
-    is and noted in ``log``; seed 004's clean-up is a side task of the search.
+    is and noted in ``log``; Showers 2016's clean-up is a side task of the search.
     """
     rig, speed = skill.rig, skill.speed()
     log.attempts[item.id] = log.attempts.get(item.id, 0) + 1
@@ -177,7 +177,7 @@ def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
     """The tool positions (mm) a sweeping skill looks from, in order.
 
     Each puts the camera ``workcell.look_height_mm`` over a point of the
-    profile's ``workcell.survey`` region (seed 004, appendix B turns the base in
+    profile's ``workcell.survey`` region (Showers 2016, appendix B turns the base in
     5 degree steps), or as near to that as the arm reaches; computed one at a
     time as the sweep goes.
     """

@@ -1,6 +1,6 @@
-"""Visual servoing to a marker (seed 000, section III.C, steps 1-7, and experiment 2).
+"""Visual servoing to a marker (Durovic 2017, section III.C, steps 1-7, and experiment 2).
 
-Eye-to-hand (seed 000's rig: a fixed camera and a marker on the tool): the target
+Eye-to-hand (Durovic 2017's rig: a fixed camera and a marker on the tool): the target
 marker is measured once, before the arm comes near enough to hide it ("after
 capturing an image, the center of the target marker ... was determined"); the
 arm moves there directly by inverse kinematics; then each iteration measures the
@@ -91,7 +91,7 @@ class VisualServo(ArmSkill):
             "float",
             3.0,
             "mm",
-            "stop when the error is below this (seed 000: 3 mm)",
+            "stop when the error is below this (Durovic 2017: 3 mm)",
             exclusive_minimum=0.0,
             maximum=1000.0,
         ),
@@ -141,7 +141,7 @@ class VisualServo(ArmSkill):
             return (yield from self._eye_in_hand())
         return (yield from self._eye_to_hand())
 
-    # -- eye-to-hand (seed 000) ------------------------------------------------
+    # -- eye-to-hand (Durovic 2017) ------------------------------------------------
 
     def _eye_to_hand(self) -> Procedure:
         rig, tag = self.rig, self.param("tag")

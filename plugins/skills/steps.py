@@ -14,7 +14,7 @@ Positions mm, base frame.
 
 A sweep halted (preempted by a branch above it: trash to clear) keeps its place
 and, ticked again, goes back to the point it was at and goes on from there
-(seed 004, appendix B: the arm "will return to its previous position and
+(Showers 2016, appendix B: the arm "will return to its previous position and
 continue the searching process").
 """
 
@@ -119,7 +119,7 @@ class Sweep(ArmSkill):
     """Bring the camera over each point of the profile's ``workcell.survey`` region in
     turn and look for tag role ``tag``; SUCCESS when seen (``pose``, ``marker``).
 
-    ``sweeps`` legs back and forth (a ring from the tool's heading, seed 004
+    ``sweeps`` legs back and forth (a ring from the tool's heading, Showers 2016
     appendix B). Without ``tag`` the sweep just covers the region and succeeds at
     its end; with one, the end of the last leg is FAILURE. Halted, it keeps its
     place (module docstring).

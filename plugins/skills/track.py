@@ -1,4 +1,4 @@
-"""Follow a moving marker with the camera (seed 004, appendices C and D).
+"""Follow a moving marker with the camera (Showers 2016, appendices C and D).
 
 The report hovers the camera 5 tag sizes above the marker, smooths the
 marker's base-frame position with weight 0.2 on each new measurement, moves
@@ -28,7 +28,7 @@ BLIND_RADIUS_MM = 10.0
 class Track(ArmSkill):
     """Keep the camera above a moving marker; SUCCESS once it stood still or `until` holds.
 
-    The marker's base position is low-pass filtered (``alpha``, seed 004
+    The marker's base position is low-pass filtered (``alpha``, Showers 2016
     appendix D) and written to ``pose``; the arm follows when the wanted
     position moved more than ``deadband_mm``. SUCCESS when the marker moved less
     than ``still_mm`` for ``still_s`` seconds, or when ``until`` (usually a

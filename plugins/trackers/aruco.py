@@ -5,13 +5,13 @@
 ArUco dictionaries), so ``{type: aruco, dictionary: apriltag_36h11}`` is the
 same tracker spelled the long way (docs/trackers.md).
 
-Seed 000 tracks its marker with ArUco; seed 004 solves the marker pose with
+Durovic 2017 tracks its marker with ArUco; Showers 2016 solves the marker pose with
 solvePnP. Corners are refined to sub-pixel accuracy by default from the
 marker's four edges on the grey image (``refine: edges``, :mod:`.refine`),
 which is several times more accurate than OpenCV's corner-based method on
 blurred corners; ``refine: opencv`` keeps the detector's own refinement
 (``detector: {cornerRefinementMethod: ...}``, sub-pixel by default). When the
-profile's preprocessing binarises the image (seed 004's threshold and blur),
+profile's preprocessing binarises the image (Showers 2016's threshold and blur),
 markers are found in the preprocessed image and refined on the grey one,
 where the edges still carry sub-pixel information. Small candidates OpenCV
 rejected are read again on their refined corners (``rescue``, :mod:`.rescue`):

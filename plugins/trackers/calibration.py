@@ -1,6 +1,6 @@
 """Camera calibration from chessboard or ChArUco views, with OpenCV.
 
-Seed 004 calibrated its C270 with the Caltech toolbox from 12 views of a
+Showers 2016 calibrated its C270 with the Caltech toolbox from 12 views of a
 25.4 mm chessboard (closed-form start, then non-linear refinement); OpenCV's
 ``calibrateCamera`` does the same. Board sizes are counted in squares, as a
 user counts them on the print: a chessboard of ``cols`` x ``rows`` squares

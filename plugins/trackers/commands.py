@@ -2,7 +2,7 @@
 
 ``detect`` runs any registered tracker on images or videos and prints what
 it found (``--json``: one JSON record per image), draws it (``--annotate``),
-or measures the marker detection rate of seed 004 eq. 15 (``--rate``).
+or measures the marker detection rate of Showers 2016 eq. 15 (``--rate``).
 ``markers`` writes printable markers, one per PNG or a sheet of many on A4.
 Bad input raises :class:`ConfigError` naming the file or option (exit 2).
 """
@@ -88,7 +88,7 @@ class DetectCommand:
         parser.add_argument(
             "--rate",
             action="store_true",
-            help="marker detection rate (seed 004 eq. 15) over all frames",
+            help="marker detection rate (Showers 2016 eq. 15) over all frames",
         )
         parser.add_argument(
             "--fps", type=float, help="frame rate for --rate (a video's own by default)"

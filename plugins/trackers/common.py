@@ -1,6 +1,6 @@
 """What both trackers share: config checking, the profile's tag roles, marker pose.
 
-Poses follow seed 004 ("Marker Location"): OpenCV's PnP on the four corners
+Poses follow Showers 2016 ("Marker Location"): OpenCV's PnP on the four corners
 of a marker whose frame is at its centre, in millimetres; here with the
 square-marker solver (``SOLVEPNP_IPPE_SQUARE``). The marker frame has x to
 the right and y up as printed, z out of the paper towards the viewer, so a
@@ -110,7 +110,7 @@ def solve_marker_pose(
 ) -> MarkerPose | None:
     """Pose of a square marker from its four image corners (pixels, OpenCV's order).
 
-    Uses OpenCV's PnP with ``SOLVEPNP_IPPE_SQUARE`` (seed 004, "Marker
+    Uses OpenCV's PnP with ``SOLVEPNP_IPPE_SQUARE`` (Showers 2016, "Marker
     Location"), keeping the better of IPPE's two solutions; ``reprojection_px``
     is the RMS distance between the corners and their reprojections. None when
     OpenCV finds no solution.

@@ -1,4 +1,4 @@
-"""Marker detection rate, seed 004 eq. 15: detections per frame times the camera frame rate.
+"""Marker detection rate, Showers 2016 eq. 15: detections per frame times the camera frame rate.
 
 The Dobot report recorded 200 frames at 20 fps and counted how often one
 marker was found: 18.91 markers/s for a stationary marker and 9.79 for a
@@ -29,7 +29,7 @@ class DetectionRate:
 
     @property
     def rate(self) -> float:
-        """Seed 004 eq. 15: MDR = (# markers detected / # frames taken) * frame rate, markers/s."""
+        """Showers 2016 eq. 15: MDR = (# markers detected / # frames taken) * frame rate, markers/s."""
         return self.per_frame * self.fps
 
 

@@ -1,7 +1,7 @@
 """Marker families: their names, their ids, which ids are valid, and which one a tracker reads.
 
 A family is named as ``tags: ROLE: family_ids:``, ``armtree markers --family`` and
-a tracker's ``marker_family`` name it: ``hamming`` (the Hampy format, seed 004),
+a tracker's ``marker_family`` name it: ``hamming`` (the Hampy format, Showers 2016),
 or an ArUco dictionary as OpenCV names it (``4x4_50``, ``apriltag_36h11``, ...).
 Every id of an ArUco dictionary is valid (OpenCV's dictionaries are built so
 that no marker reads as another under any turn); a Hampy id is valid when its

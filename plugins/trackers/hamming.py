@@ -1,6 +1,6 @@
-"""The ``hamming`` tracker: Hampy-format markers (seed 004), our own detector.
+"""The ``hamming`` tracker: Hampy-format markers (Showers 2016), our own detector.
 
-Pipeline per frame: grey, the profile's preprocessing (seed 004: threshold at
+Pipeline per frame: grey, the profile's preprocessing (Showers 2016: threshold at
 40 % of full scale, slight blur), outer contours of dark regions that are
 convex quadrilaterals, the 9x9 cells read through each quad's homography
 (:mod:`.kernels`, all candidates at once), each cell compared with the midpoint of
@@ -44,7 +44,7 @@ FAMILY = "hamming"
 #: enough to refuse the guesses that made wrong ids of small tilted markers, not so
 #: much that clean rows are refused (docs/benchmarks-history.md, "Small markers").
 MIN_ROW_GAP = 1.0
-#: Seed 004's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
+#: Showers 2016's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
 # Sample offsets inside a cell (in cells): the centre and four points around it.
@@ -286,7 +286,7 @@ def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
 
 
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
-    """Hampy-format Hamming markers (9x9, 28-bit ids), seed 004's preprocessing by default."""
+    """Hampy-format Hamming markers (9x9, 28-bit ids), Showers 2016's preprocessing by default."""
     values = check_config(config, hamming_factory.PARAMS, "tracker", context.profile)
     return _tracker(values, context.profile)
 

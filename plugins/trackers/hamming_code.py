@@ -1,6 +1,6 @@
 """The Hampy marker format: a 9x9 grid, black border, seven Hamming(7,4) rows, 28-bit id.
 
-This is the format the Dobot report used (seed 004, ref. [10]) as PyPI hampy
+This is the format the Dobot report used (Showers 2016, ref. [10]) as PyPI hampy
 1.4.2's ``detect_markers`` reads it:
 
 * the outer ring of cells is black; inside it a 7x7 grid where a white cell

@@ -1,6 +1,6 @@
 """Image preprocessing before marker detection, as the Dobot report measured it.
 
-Seed 004, "Marker Detection": grey-scaling, thresholding to full black/white at
+Showers 2016, "Marker Detection": grey-scaling, thresholding to full black/white at
 40 % of full scale and a slight Gaussian blur raised the marker detection rate
 from 9.79 to 14.10 markers/s for a moving marker with moving shadows. Both
 trackers take the same ``preprocess:`` mapping from the profile:
@@ -28,7 +28,10 @@ from .kernels import clockwise_quads
 #: The keys of a ``preprocess:`` mapping.
 PREPROCESS_PARAMS: tuple[Param, ...] = (
     Param(
-        "threshold", "float", None, doc="global threshold, fraction of full scale (0.4 in seed 004)"
+        "threshold",
+        "float",
+        None,
+        doc="global threshold, fraction of full scale (0.4 in Showers 2016)",
     ),
     Param("adaptive", "bool", False, doc="adaptive (local mean) thresholding instead"),
     Param("block_px", "int", 31, unit="px", doc="adaptive threshold neighbourhood, odd"),
@@ -70,7 +73,7 @@ class Preprocessing:
             raise config_error(
                 where,
                 "tracker.preprocess.threshold",
-                f"a fraction of full scale between 0 and 1 (0.4 in seed 004), got {prep.threshold}",
+                f"a fraction of full scale between 0 and 1 (0.4 in Showers 2016), got {prep.threshold}",
             )
         if prep.block_px < 3 or prep.block_px % 2 == 0:
             raise config_error(
@@ -93,7 +96,7 @@ class Preprocessing:
         """255 where :meth:`apply`'s image is dark (at most 127), else 0; only when it binarises.
 
         The same pixels as thresholding :meth:`apply`'s output at 127, computed
-        without the blur for seed 004's 3 px one (see :func:`dark_after_blur3`).
+        without the blur for Showers 2016's 3 px one (see :func:`dark_after_blur3`).
         """
         if not self.binarises:
             raise ValueError("dark() needs a binarising preprocessing (threshold or adaptive)")
@@ -118,7 +121,7 @@ class Preprocessing:
                 self.offset,
             )
         if self.threshold is not None:
-            # seed 004: decision boundary at a fraction (40 %) of full pixel strength
+            # Showers 2016: decision boundary at a fraction (40 %) of full pixel strength
             return threshold_image(gray, 255.0 * self.threshold, cv2.THRESH_BINARY)
         return gray
 

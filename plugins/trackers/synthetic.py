@@ -7,7 +7,7 @@ averaged down so edges are anti-aliased the way a real sensor integrates
 them. Ground-truth corners come from ``cv2.projectPoints`` of the same
 pose. Image coordinates follow OpenCV: pixel centres at whole numbers.
 
-Effects imitate the conditions of seed 004's detection-rate trials: sensor
+Effects imitate the conditions of Showers 2016's detection-rate trials: sensor
 noise, defocus blur, uneven light and a moving shadow.
 """
 
@@ -143,7 +143,7 @@ class Effects:
 
 
 def nominal_camera(width: int = 640, height: int = 480, fx: float = 810.0) -> np.ndarray:
-    """A pinhole camera matrix like seed 004's C270 (fx 810 px at 640x480)."""
+    """A pinhole camera matrix like Showers 2016's C270 (fx 810 px at 640x480)."""
     return np.array([[fx, 0, (width - 1) / 2], [0, fx, (height - 1) / 2], [0, 0, 1.0]])
 
 

@@ -65,7 +65,7 @@ class Action:
 class Move(Action):
     """Move the tool centre to ``xyz`` (mm, base frame), or the joints to ``joints``.
 
-    A profile's arm correction (seed 000, eq. 8; ``corrected=False`` to leave it out)
+    A profile's arm correction (Durovic 2017, eq. 8; ``corrected=False`` to leave it out)
     turns ``xyz`` into the position to command. With a planner the path is planned
     (limits, reachability, collisions) and its waypoints are sent one after another; without one the arm's own target checks
     apply. A refused target fails the step with the reason; nothing is sent. A
@@ -91,7 +91,7 @@ class Move(Action):
     ) -> None:
         self.rig = rig
         self.xyz = None if xyz is None else np.asarray(xyz, dtype=float).reshape(3)
-        #: Whether the profile's arm correction (seed 000, eq. 8) applies to ``xyz``.
+        #: Whether the profile's arm correction (Durovic 2017, eq. 8) applies to ``xyz``.
         self.corrected = corrected
         self.joints = None if joints is None else np.asarray(joints, dtype=float)
         self.speed = speed

@@ -2,7 +2,7 @@
 
 Positions are the tool centre in the arm's base frame, mm. A skill asks the
 arm's model what it can reach (``reach.py``) rather than failing on a height
-it cannot get to: a Dobot V1.0 within seed 004's joint limits reaches only a
+it cannot get to: a Dobot V1.0 within Showers 2016's joint limits reaches only a
 few centimetres of height.
 """
 

@@ -5,7 +5,7 @@ one), and locating markers costs milliseconds a frame, so the behaviours of a
 tree must not each read and detect on their own: a condition ticked every tick
 would take the frame an action was waiting for, and render and detect twenty
 times a simulated second. :class:`Eye` reads a frame, locates its markers in the
-arm's base frame once (through the profile's vision correction, seed 000 eq. 8,
+arm's base frame once (through the profile's vision correction, Durovic 2017 eq. 8,
 when a calibration gives one), and keeps the newest :class:`View` for everyone.
 """
 
@@ -99,7 +99,7 @@ class Eye:
         self.planes = (
             {} if table is None else {role: table + h for role, h in cell.marker_heights_mm.items()}
         )
-        #: The profile's linear correction of what vision measures (seed 000, eq. 8), if any.
+        #: The profile's linear correction of what vision measures (Durovic 2017, eq. 8), if any.
         self.calibration = calibration_of(getattr(rig, "profile", None))
 
     def newest(self) -> View | None:

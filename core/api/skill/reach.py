@@ -1,7 +1,7 @@
 """Choosing reachable tool positions near wanted ones, for arms with small workspaces.
 
 A tree says "approach 60 mm above" or "scan at 120 mm"; a Dobot V1.0 within
-seed 004's conservative joint limits reaches only a few centimetres of height,
+Showers 2016's conservative joint limits reaches only a few centimetres of height,
 so a skill asks here for the closest position the arm's model can reach
 instead of failing. Everything is a batched inverse-kinematics query on the
 rig's :class:`~armtree.maths.motion.kinematics.KinematicModel`; positions in mm.

@@ -1,6 +1,6 @@
 """The table points a search looks at, in order, from the profile's ``workcell.survey``.
 
-A ring is swept back and forth in base-angle steps (seed 004, appendix B: 5
+A ring is swept back and forth in base-angle steps (Showers 2016, appendix B: 5
 degrees, reversing at +/-100 degrees); a rectangle row by row, each row the other
 way round; viewpoints in the order written, then back. Points are on the table
 top (``workcell.table_z_mm``) unless a viewpoint gives its own z. mm and degrees.
@@ -19,7 +19,7 @@ def sweep_legs(start: float, lo: float, hi: float, step: float, sweeps: int) -> 
     """Base angles (degrees) of a back-and-forth sweep from ``start`` within [lo, hi], leg by leg.
 
     First towards ``hi`` then back to ``lo`` and so on, ``sweeps`` legs in all
-    (seed 004, appendix B: 5 degree steps, reversing at +/-100 degrees); the first
+    (Showers 2016, appendix B: 5 degree steps, reversing at +/-100 degrees); the first
     leg begins with ``start`` itself. Every other leg begins with half a step, so
     its poses fall between those of the leg before: a marker that no pose of one
     leg shows whole (cut by the image's edge) is seen from new poses on the way

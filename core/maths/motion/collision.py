@@ -1,14 +1,14 @@
 """Collision checking of an arm's link boxes against a :class:`~armtree.maths.motion.scene.Scene`.
 
 The arm is the set of link boxes its :class:`~armtree.maths.motion.kinematics.KinematicModel`
-places for a configuration (seed 004, eqs. 11-13: each link's box rotated by the
+places for a configuration (Showers 2016, eqs. 11-13: each link's box rotated by the
 joints before it and offset by the preceding link lengths). A configuration
 collides when a moving link box
 
 * dips below the table plane (exact: the box's lowest corner),
 * overlaps an obstacle box (exact separating-axis test over the 15 axes),
 * touches a mesh triangle (bounding-box broad phase, then the box's 12 surface
-  triangles against the mesh triangle with Moller's exact test, seed 004
+  triangles against the mesh triangle with Moller's exact test, Showers 2016
   Algorithm 1, plus a mesh vertex inside the box for triangles swallowed whole),
 * or overlaps a non-adjacent link box of the same arm (self-collision).
 

@@ -1,4 +1,4 @@
-"""Interval arithmetic over numpy arrays, for box covering (seed 003, eqs. 7-8 and 11).
+"""Interval arithmetic over numpy arrays, for box covering (Rybak 2016, eqs. 7-8 and 11).
 
 An :class:`Interval` holds arrays ``lo`` and ``hi`` of the same shape: many
 intervals at once, so a whole level of boxes is evaluated in a few numpy calls.

@@ -1,10 +1,10 @@
-"""Least-squares kinematic calibration of an arm model (seed 004, "Model Validation", Fig. 6).
+"""Least-squares kinematic calibration of an arm model (Showers 2016, "Model Validation", Fig. 6).
 
 The report moved the Dobot's tool tip to known points, recorded the joint
 angles, and fitted the model's parameters (tool offset ``d``, angle offsets,
 angle scale factors; the link lengths held fixed against overfitting) with a
 damped least-squares fit (MATLAB's ``lsqcurvefit``) so that the forward
-kinematics (seed 004, eqs. 5-7) agree with the measured positions. This module
+kinematics (Showers 2016, eqs. 5-7) agree with the measured positions. This module
 does the same for any :class:`~armtree.maths.motion.kinematics.KinematicModel`:
 
 * structural parameters (link lengths, tool offset, ...) are set by a
@@ -98,7 +98,7 @@ def fit_kinematics(
     """Fit ``free`` structural parameters and the joints' offsets / scales by least squares.
 
     Minimises ``sum |FK(scale * q + offset; params) - p_measured|^2`` over the
-    points (seed 004, "Model Validation": the report's ``lsqcurvefit`` fit of
+    points (Showers 2016, "Model Validation": the report's ``lsqcurvefit`` fit of
     eqs. 5-7), with scipy's trust-region reflective solver. Parameters not in
     ``free`` keep their ``initial`` value. Raises :class:`ConfigError` when there
     are fewer residuals than unknowns or the shapes disagree.
@@ -137,7 +137,7 @@ def fit_kinematics(
 
     def residuals(x: np.ndarray) -> np.ndarray:
         params, offsets, scales = unpack(x)
-        # seed 004, eqs. 5-7 through the model, on the corrected angles
+        # Showers 2016, eqs. 5-7 through the model, on the corrected angles
         return (build(params).position(q * scales + offsets) - measured).ravel()
 
     x0 = np.concatenate(
@@ -325,7 +325,7 @@ def plot_residuals(fit: KinematicFit, path: str | Path) -> None:
     ax2.set_ylabel("y residual (mm)")
     ax2.set_title("residuals in the base x-y plane")
     ax2.legend()
-    fig.suptitle("kinematic calibration (seed 004, least squares on eqs. 5-7)")
+    fig.suptitle("kinematic calibration (Showers 2016, least squares on eqs. 5-7)")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -1,13 +1,13 @@
 """Timed joint trajectories: cubic and quintic polynomials through waypoints.
 
-Seed 002 (section 4.2, eq. 2) joins two configurations with a cubic
+Pozzani 2023 (section 4.2, eq. 2) joins two configurations with a cubic
 ``q(t) = a3 t^3 + a2 t^2 + a1 t + a0`` whose coefficients solve the linear
 system of the end positions and velocities; armtree adds the quintic (end
 accelerations too), via-points with continuous velocity (the usual heuristic:
 the mean of the neighbouring slopes, zero where the direction turns), segment
 durations from per-joint velocity and acceleration limits, sampling for drivers
 that take waypoints, and validation along the timed path (limits, speeds,
-collisions, and the Jacobian's smallest singular value, seed 002 validatePath).
+collisions, and the Jacobian's smallest singular value, Pozzani 2023 validatePath).
 
 Units: joints in degrees (revolute) or mm (prismatic), time in seconds.
 """
@@ -34,7 +34,7 @@ def cubic_coefficients(
     v0: np.ndarray | float = 0.0,
     v1: np.ndarray | float = 0.0,
 ) -> np.ndarray:
-    """Coefficients ``(4, n)`` ``[a0, a1, a2, a3]`` of seed 002 eq. 2 on ``[t_s, t_f]`` (absolute time).
+    """Coefficients ``(4, n)`` ``[a0, a1, a2, a3]`` of Pozzani 2023 eq. 2 on ``[t_s, t_f]`` (absolute time).
 
     Solves ``q(t_s) = q0, q(t_f) = q1, q'(t_s) = v0, q'(t_f) = v1`` as the seed does.
     """
@@ -212,7 +212,7 @@ def plan_trajectory(
 ) -> Trajectory:
     """A trajectory through ``waypoints`` ``(S + 1, n)`` (deg / mm), at rest at both ends.
 
-    ``kind`` is ``"cubic"`` (seed 002 eq. 2) or ``"quintic"``. Give either the
+    ``kind`` is ``"cubic"`` (Pozzani 2023 eq. 2) or ``"quintic"``. Give either the
     segment ``durations`` (s) or the per-joint limits ``max_speed`` (units/s)
     and ``max_accel`` (units/s^2): each segment then gets the shortest duration
     that keeps every joint within both, with continuous velocity at via-points.
@@ -268,7 +268,7 @@ def validate_trajectory(
     """Check a timed trajectory: limits, joint speeds, collisions, singularity margin.
 
     Samples in time so that no joint moves more than ``resolution`` (deg / mm)
-    between samples, then checks each sample in order (seed 002, validatePath).
+    between samples, then checks each sample in order (Pozzani 2023, validatePath).
     Speeds above a joint's ``max_speed`` are reported as ``too_fast``. With
     ``start_contact_mm`` > 0 the trajectory may begin by leaving a contact at most
     that deep (mm) (:func:`~armtree.maths.motion.validation.validate_samples`).

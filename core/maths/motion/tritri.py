@@ -1,11 +1,11 @@
 """Exact triangle-triangle intersection after Moller (1997), one pair or millions at once.
 
-Seed 004 (Collision Detection, Algorithm 1) checks the Dobot's mesh against the
+Showers 2016 (Collision Detection, Algorithm 1) checks the Dobot's mesh against the
 scene with "A Fast Triangle-Triangle Intersection Test" (T. Moller, Journal of
 Graphics Tools 2(2), 1997): reject when one triangle lies on one side of the
 other's plane, else compare the two triangles' intervals on the line where the
 planes meet; coplanar triangles are tested in 2-D (edge crossings and
-vertex-in-triangle, seed 004 eq. 14).
+vertex-in-triangle, Showers 2016 eq. 14).
 
 Triangles are ``(..., 3, 3)`` arrays: three vertices of x, y, z in mm. Touching
 counts as intersecting. Signed plane distances below ``1e-9`` mm (measured with
@@ -111,7 +111,7 @@ def _coplanar(n, t1, t2):
 def triangles_intersect(t1: Sequence[Sequence[float]], t2: Sequence[Sequence[float]]) -> bool:
     """True when triangles ``t1`` and ``t2`` (three xyz vertices each, mm) touch or cross.
 
-    Plain Python, one pair at a time: Moller's algorithm step by step (seed 004,
+    Plain Python, one pair at a time: Moller's algorithm step by step (Showers 2016,
     Algorithm 1). Use :func:`intersect_pairs` or :func:`intersect_matrix` for batches.
     """
     t1 = [tuple(map(float, v)) for v in t1]

@@ -1,6 +1,6 @@
 """Checks of configurations and sampled paths that say why a motion is refused.
 
-Seed 002 (validatePath) refuses a trajectory when a configuration along it
+Pozzani 2023 (validatePath) refuses a trajectory when a configuration along it
 collides or nears a singularity (the Jacobian's smallest singular value near
 zero); armtree adds the joint limits and coupled constraints. Joint values are
 degrees / mm; singular values are in mm per degree (or mm per mm).
@@ -104,7 +104,7 @@ def validate_samples(
 
     Reports the first sample that is non-finite, outside the limits, colliding,
     or (with ``min_singular``) whose Jacobian's smallest singular value is below
-    it (seed 002, validatePath). ``times`` (s) only label the message. With
+    it (Pozzani 2023, validatePath). ``times`` (s) only label the message. With
     ``start_contact_mm`` > 0 the first sample is where the arm is, and a path may
     begin in a contact at most that deep (mm) if it only leaves it
     (:func:`~armtree.maths.motion.penetration.leaving_run`).

@@ -1,6 +1,6 @@
-"""Workspace approximation by box covering (seed 003), and an arm's reachable workspace.
+"""Workspace approximation by box covering (Rybak 2016), and an arm's reachable workspace.
 
-:func:`cover` is seed 003's non-uniform covering method for a system
+:func:`cover` is Rybak 2016's non-uniform covering method for a system
 ``g_j(x) <= 0`` on a starting box P (eq. 4): a box is *outside* when some
 ``g_j > 0`` on all of it (eq. 7), *inside* when every ``g_j <= 0`` on all of it
 (eq. 8), and *boundary* when neither holds and its diameter is at most delta
@@ -39,7 +39,7 @@ class Covering:
     """The result of :func:`cover`: boxes as ``(N, d)`` lower and upper corners.
 
     ``inner`` boxes lie inside the solution set; ``boundary`` boxes are undecided
-    boxes of diameter at most ``delta``. Their union contains the set (seed 003,
+    boxes of diameter at most ``delta``. Their union contains the set (Rybak 2016,
     eq. 10). ``outer_count`` boxes were proved outside; ``levels`` is the depth
     of the bisection.
     """
@@ -90,7 +90,7 @@ def cover(
     delta: float,
     max_boxes: int = 20_000_000,
 ) -> Covering:
-    """Seed 003's covering of ``{x in [lower, upper] : g_j(x) <= 0 for all j}`` to diameter ``delta``.
+    """Rybak 2016's covering of ``{x in [lower, upper] : g_j(x) <= 0 for all j}`` to diameter ``delta``.
 
     ``constraints`` is a function of an :class:`~armtree.maths.motion.interval.Interval` ``x``
     whose last axis holds the coordinates (``x[..., 0]`` ...) returning the
@@ -410,7 +410,7 @@ class ArmWorkspace:
         return self.system is not None
 
     def cover(self, delta: float, max_boxes: int = 20_000_000) -> Covering:
-        """Seed 003's covering of the reachable workspace to box diameter ``delta`` mm."""
+        """Rybak 2016's covering of the reachable workspace to box diameter ``delta`` mm."""
         if self.system is None or self.bounds is None:
             raise ConfigError(
                 f"arm model {self.model.name!r} does not describe its workspace as constraints "

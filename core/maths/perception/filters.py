@@ -1,6 +1,6 @@
 """Low-pass smoothing of marker poses, one estimate per marker id.
 
-Seed 004, appendix D: the tracking behaviour keeps an estimate of the marker
+Showers 2016, appendix D: the tracking behaviour keeps an estimate of the marker
 position and blends each new measurement in with weight ``alpha = 0.2``
 (``P_est = alpha * P + (1 - alpha) * P_est``), so a faulty reading moves the
 arm by a fifth of its error at most. The estimate starts from the first
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Weight of a new measurement, seed 004 appendix D.
+#: Weight of a new measurement, Showers 2016 appendix D.
 DEFAULT_ALPHA = 0.2
 
 
@@ -41,7 +41,7 @@ class SmoothedPose:
 
 
 class PoseFilter:
-    """Exponential low-pass filter of marker poses per marker id (seed 004, appendix D).
+    """Exponential low-pass filter of marker poses per marker id (Showers 2016, appendix D).
 
     ``alpha`` is the weight of a new measurement (0 < alpha <= 1; 1 disables
     smoothing). A marker missing from more than ``max_missed`` consecutive
@@ -95,7 +95,7 @@ class PoseFilter:
             pose = SmoothedPose(marker_id, t.copy(), _rotvec(q_new), float(timestamp))
             self._poses[marker_id] = pose
             return pose
-        # seed 004, appendix D: P_est = alpha * P + (1 - alpha) * P_est
+        # Showers 2016, appendix D: P_est = alpha * P + (1 - alpha) * P_est
         old.tvec = self.alpha * t + (1.0 - self.alpha) * old.tvec
         if q_new is not None:
             q_old = self._quats.get(marker_id)

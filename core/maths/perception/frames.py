@@ -2,13 +2,13 @@
 
 Plugin-free maths shared by the skills. Units: millimetres for positions,
 4x4 homogeneous matrices for poses, rotation vectors in radians (OpenCV's
-Rodrigues form). Frame names follow seed 004: 0 the arm base, T the tool
+Rodrigues form). Frame names follow Showers 2016: 0 the arm base, T the tool
 centre, C the camera, A a marker.
 
 * Eye-in-hand (camera on the tool): ``base_T_marker = base_T_tool @ tool_T_camera
-  @ camera_T_marker`` (seed 004, eqs. 16 and 18 written with matrices).
+  @ camera_T_marker`` (Showers 2016, eqs. 16 and 18 written with matrices).
 * Eye-to-hand (fixed camera): ``base_T_marker = base_T_camera @ camera_T_marker``
-  (seed 000, step 2 of the visual-servoing loop).
+  (Durovic 2017, step 2 of the visual-servoing loop).
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def marker_in_base(
 ) -> np.ndarray:
     """A marker's pose in the base frame from its camera-frame pose, 4x4 mm.
 
-    Seed 004, eq. 18 and the sum that follows it: P_0A = P_0T + R_0T R_TC (P_CA - P_CT);
+    Showers 2016, eq. 18 and the sum that follows it: P_0A = P_0T + R_0T R_TC (P_CA - P_CT);
     with matrices this is base_T_camera @ camera_T_marker.
     """
     return np.asarray(base_T_camera, dtype=float) @ transform(rvec, tvec)
@@ -75,7 +75,7 @@ def tool_to_marker(
 ) -> np.ndarray:
     """(P_TA)_0: the move in base axes that brings the tool centre onto the marker, mm.
 
-    Seed 004, eq. 18: (P_TA)_0 = R_0T R_TC (P_CA - P_CT), where P_CT is the tool
+    Showers 2016, eq. 18: (P_TA)_0 = R_0T R_TC (P_CA - P_CT), where P_CT is the tool
     centre seen from the camera, i.e. ``inverse(tool_T_camera)``'s translation
     expressed in camera axes.
     """
@@ -89,7 +89,7 @@ def tool_to_marker(
 def along_ray_to_height(camera_position: np.ndarray, point: np.ndarray, z: float) -> np.ndarray:
     """Where the ray from the camera through ``point`` meets the height ``z`` (mm, base frame).
 
-    A marker's distance is the least accurate part of its measured pose (seed 000,
+    A marker's distance is the least accurate part of its measured pose (Durovic 2017,
     Conclusion: "the main error source ... is inaccurate determination of the
     marker distance"); when its height is known otherwise, its direction from the
     camera is kept and its distance replaced. ``point`` is returned unchanged
@@ -109,7 +109,7 @@ def estimate_camera_offset(
     p_0a: Sequence[np.ndarray],
     r_tc: np.ndarray,
 ) -> np.ndarray:
-    """P_CT (mm, camera axes) averaged over touch tests, seed 004 eq. 17.
+    """P_CT (mm, camera axes) averaged over touch tests, Showers 2016 eq. 17.
 
     For each test k the camera saw the marker at ``p_ca[k]`` while the tool was at
     ``base_T_tools[k]``; the marker's base position ``p_0a[k]`` was measured by
@@ -133,7 +133,7 @@ def estimate_camera_offset(
 def eye_to_hand_from_three_positions(
     c_t_m: Sequence[np.ndarray], r_t_g0: np.ndarray, g_t_m: np.ndarray
 ) -> np.ndarray:
-    """camera_T_base (4x4 mm) from a tool marker seen at three arm positions, seed 000 eqs. 1-7.
+    """camera_T_base (4x4 mm) from a tool marker seen at three arm positions, Durovic 2017 eqs. 1-7.
 
     ``c_t_m[k]`` is the marker in the camera frame at position k: position 1 is
     position 0 moved along the base x-axis, position 2 is position 1 moved along
@@ -156,7 +156,7 @@ def eye_to_hand_from_three_positions(
 
 @dataclass(frozen=True)
 class LinearCorrection:
-    """Per-axis linear map x' = a_x x + b_x, y' = a_y y + b_y (seed 000, eq. 8); mm."""
+    """Per-axis linear map x' = a_x x + b_x, y' = a_y y + b_y (Durovic 2017, eq. 8); mm."""
 
     ax: float = 1.0
     bx: float = 0.0
@@ -165,7 +165,7 @@ class LinearCorrection:
 
     @classmethod
     def fit(cls, measured: np.ndarray, reference: np.ndarray) -> LinearCorrection:
-        """Least squares of seed 000's J_x and J_y over ``(N, >=2)`` measured and reference points."""
+        """Least squares of Durovic 2017's J_x and J_y over ``(N, >=2)`` measured and reference points."""
         m = np.asarray(measured, dtype=float)
         r = np.asarray(reference, dtype=float)
         if m.shape[0] < 2 or m.shape != r.shape:

@@ -2,20 +2,20 @@
 
 Each :class:`MarkerView` is one pose of the arm: the tool pose its joints give
 (4x4, mm, base frame) and the marker as the camera saw it (pose in the camera
-frame). Eye-to-hand (a fixed camera, seed 000) the marker rides on the tool at
+frame). Eye-to-hand (a fixed camera, Durovic 2017) the marker rides on the tool at
 ``marker_offset`` (tool frame, the paper's ``G_t_M``) and the unknown is the
-camera's pose in the base frame; eye-in-hand (the camera on the tool, seed 004)
+camera's pose in the base frame; eye-in-hand (the camera on the tool, Showers 2016)
 the marker lies still on the table and the unknowns are the camera's pose in the
 tool frame and the marker's position.
 
 Methods (:func:`solve`):
 
-* ``three_positions``: seed 000, eqs. 1-7, from views 0, 1 (moved along base x)
+* ``three_positions``: Durovic 2017, eqs. 1-7, from views 0, 1 (moved along base x)
   and 2 (then along base y); eye-to-hand only.
 * ``pnp``: the marker centres' directions from the camera against where the
   joints put them, by least squares on the image (``cv2.solvePnP`` eye-to-hand,
   scipy eye-in-hand). It leaves out the marker's distance, the least accurate
-  thing a camera measures (seed 000's conclusion).
+  thing a camera measures (Durovic 2017's conclusion).
 * OpenCV's ``calibrateHandEye`` (``tsai``, ``park``, ``horaud``, ``andreff``,
   ``daniilidis``) and ``calibrateRobotWorldHandEye`` (``shah``, ``li``), on the
   full marker poses. They need the tool to turn about two axes at least; a
@@ -197,7 +197,7 @@ def turning_axes(views: Sequence[MarkerView]) -> str:
 
 
 def check_three_moves(tools: np.ndarray) -> None:
-    """Seed 000's positions: 0 -> 1 along base x, 1 -> 2 along base y at the same height."""
+    """Durovic 2017's positions: 0 -> 1 along base x, 1 -> 2 along base y at the same height."""
     a, b = tools[1] - tools[0], tools[2] - tools[1]
     if np.linalg.norm(a) < 10.0:
         raise DegenerateData("the move 0 -> 1 along x is shorter than 10 mm", tools[1])
@@ -230,7 +230,7 @@ def _e2h_fit(
 
 
 def e2h_three_positions(views: Sequence[MarkerView], marker: np.ndarray) -> HandEyeFit:
-    """Seed 000, eqs. 1-7 from the first three views (see :func:`check_three_moves`)."""
+    """Durovic 2017, eqs. 1-7 from the first three views (see :func:`check_three_moves`)."""
     three = list(views[:3])
     if len(three) < 3:
         raise DegenerateData(f"the three-position method needs 3 poses, got {len(three)}")

@@ -137,7 +137,7 @@ class _Stream:
 class BusServoDriver(SerialArmDriver):
     """An arm of bus servos ``spec`` describes, with URDF ``model``; see the module docstring.
 
-    ``trajectory`` is ``"cubic"`` (seed 002, eq. 2) or ``"quintic"``; ``checker``
+    ``trajectory`` is ``"cubic"`` (Pozzani 2023, eq. 2) or ``"quintic"``; ``checker``
     validates trajectories against the profile's obstacles (default: the arm itself).
     """
 

@@ -270,7 +270,7 @@ def _params(preset: dict[str, Any]) -> tuple[Param, ...]:
             "trajectory",
             "str",
             "cubic",
-            doc="how the host times a motion: cubic (seed 002, eq. 2) or quintic polynomials, "
+            doc="how the host times a motion: cubic (Pozzani 2023, eq. 2) or quintic polynomials, "
             "streamed as set points",
             choices=TRAJECTORY_KINDS,
         ),

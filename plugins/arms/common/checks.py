@@ -1,4 +1,4 @@
-"""Checks every target passes before a byte is sent (seed 004, first safeguard).
+"""Checks every target passes before a byte is sent (Showers 2016, first safeguard).
 
 Each raises :class:`armtree.Unreachable` with a message naming the target and
 the limit it breaks; a driver turns that into a FAILED handle and sends nothing.

@@ -291,7 +291,7 @@ class SerialArmDriver(ArmDriver):
             handle.update(MotionStatus.STOPPED)
 
     def is_duplicate(self, key: object) -> bool:
-        """True when ``key`` equals the last command sent (seed 004, third safeguard)."""
+        """True when ``key`` equals the last command sent (Showers 2016, third safeguard)."""
         return self._last_sent is not None and _same(self._last_sent, key)
 
     def remember_sent(self, key: object) -> None:

@@ -3,7 +3,7 @@
 An SSC-32 takes a target and a time and moves every listed servo there at a
 constant speed: no acceleration limit, no via-points; bus servos given a goal
 and a speed (or a time) do the same. To drive an arm along a
-cubic or quintic trajectory (seed 002, eq. 2; :mod:`armtree.maths.motion.trajectory`) the
+cubic or quintic trajectory (Pozzani 2023, eq. 2; :mod:`armtree.maths.motion.trajectory`) the
 host sends, every ``period`` seconds, the trajectory's position ``lead``
 seconds ahead with that ramp time. Each ramp starts from where the servos are
 when it arrives, so a late send leaves no lag behind: the chords stay within

@@ -1,8 +1,8 @@
 """The reachable workspaces of the arm families the built-in plugins drive, as constraints.
 
 Each function gives a :class:`~armtree.maths.motion.workspace.WorkspaceShape` that
-:class:`~armtree.maths.motion.workspace.ArmWorkspace` covers (seed 003) and tests
-points against: the Dobot family (seed 004's geometry: base, rear arm, forearm
+:class:`~armtree.maths.motion.workspace.ArmWorkspace` covers (Rybak 2016) and tests
+points against: the Dobot family (Showers 2016's geometry: base, rear arm, forearm
 and a level tool at a horizontal offset; the Dobot V1.0 and the Magician) and
 SCARA arms (a vertical axis and two planar links; the VICRA). Units: mm and
 degrees at the interface.
@@ -83,16 +83,16 @@ def dobot_profile(
     coupled: Sequence[Callable[[Any], Any]] = (),
     drop: float = 0.0,
 ) -> Callable[[Any, Any], list[Any]]:
-    """Reachability of a Dobot-style arm (seed 004 geometry) in its plane: ``g_j(r, z) <= 0``, mm.
+    """Reachability of a Dobot-style arm (Showers 2016 geometry) in its plane: ``g_j(r, z) <= 0``, mm.
 
     ``r`` is the tool's distance from the base axis: everything but the base
-    joint's sector depends on (r, z) alone. The inverse kinematics of seed 004
+    joint's sector depends on (r, z) alone. The inverse kinematics of Showers 2016
     (eqs. 8-10) written in interval-friendly operations: theta1 = 90 deg - phi -
     alpha, theta2 = 180 deg - phi - alpha - gamma for the elbow-up branch (and the
     elbow-down branch too, the union of both), each held to the joint limits
     ``lower``/``upper`` (deg; joint 0 is the base, 1 the rear arm, 2 the forearm,
     any further joints do not move the tool) and to the ``coupled`` constraints
-    ``c(q_deg) <= 0`` (seed 004, eq. 4). ``d`` is the horizontal wrist-to-tool
+    ``c(q_deg) <= 0`` (Showers 2016, eq. 4). ``d`` is the horizontal wrist-to-tool
     offset, ``drop`` the tool below the wrist. :func:`plane_constraints` turns it
     into 3-D constraints.
     """
@@ -100,7 +100,7 @@ def dobot_profile(
 
     def system(r: Any, z: Any) -> list[Any]:
         z = z + drop
-        rw = r - d  # seed 004, eq. 8
+        rw = r - d  # Showers 2016, eq. 8
         rho2 = rw**2 + z**2
         rho = iv.sqrt(rho2)
         gs = [rho2 - (l1 + l2) ** 2, (l1 - l2) ** 2 - rho2]

@@ -2,11 +2,11 @@
 
 Joint targets are checked against the model's limits (and the range each
 servo reaches, which the model's limits already include) before a byte is
-sent and turned into pulses through each joint's fitted servo map (seed 001).
+sent and turned into pulses through each joint's fitted servo map (Aceves slides).
 The board only ramps each servo linearly to a target, so the driver times the
 motion itself: a target, or a planner's whole path (:meth:`SSC32Driver.follow_path`),
 becomes a cubic or quintic trajectory within the joints' speed and
-acceleration limits (seed 002, eq. 2), is validated along the way (limits,
+acceleration limits (Pozzani 2023, eq. 2), is validated along the way (limits,
 speeds, collisions with the profile's scene, the arm with itself) and only
 then streamed as short timed group moves (:mod:`.streaming`); a trajectory
 that fails is refused with the reason and nothing is sent. With
@@ -62,7 +62,7 @@ class _Stream:
 class SSC32Driver(SerialArmDriver):
     """A DH arm whose joints are servos on an SSC-32 (115200 8N1 by default).
 
-    ``trajectory`` is ``"cubic"`` (seed 002, eq. 2), ``"quintic"`` or
+    ``trajectory`` is ``"cubic"`` (Pozzani 2023, eq. 2), ``"quintic"`` or
     ``"none"``; ``stream_period`` (s) is the time between streamed set points;
     ``checker`` validates trajectories against the profile's obstacles
     (without one, against the arm itself only). ``tool`` is ``"suction"`` (a

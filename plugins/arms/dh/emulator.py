@@ -8,7 +8,7 @@ the new one linearly so that they all arrive together, after ``T`` ms, at the
 ``#<ch>H`` / ``#<ch>L`` drive a channel as a digital output (a pump);
 ``STOP<ch>`` freezes a channel; ``VER`` prints the version. Nothing else is
 ever answered. Joint angles come from the pulses through each joint's servo
-map (seed 001). Units: degrees / mm, microseconds, seconds on the run's clock.
+map (Aceves slides). Units: degrees / mm, microseconds, seconds on the run's clock.
 
 A hobby servo holds its position with its own feedback loop, so a slip (the
 ``missed_steps`` fault: a load or a knock turning the horn) does not pile up as

@@ -1,8 +1,8 @@
 """A serial arm described by a Denavit-Hartenberg table: batched FK, Jacobian and DLS IK.
 
-Seed 001 gives the two conventions. Modified DH (Craig, "análisis por
+Aceves slides gives the two conventions. Modified DH (Craig, "análisis por
 articulaciones") builds link ``i`` from the previous frame as
-``T = Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)`` (seed 001, the MaTran
+``T = Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)`` (Aceves slides, the MaTran
 function); standard DH as ``T = Rz(theta_i) Dz(d_i) Dx(a_i) Rx(alpha_i)``.
 Table units at the edges are mm and degrees; the maths runs in radians and mm.
 
@@ -39,7 +39,7 @@ class DHRow:
     """One row of a DH table, mm and degrees.
 
     For ``convention="modified"`` ``a`` and ``alpha`` are ``a_{i-1}`` and
-    ``alpha_{i-1}`` of seed 001; for ``"standard"`` they are ``a_i`` and
+    ``alpha_{i-1}`` of Aceves slides; for ``"standard"`` they are ``a_i`` and
     ``alpha_i``. ``theta`` (revolute) or ``d`` (prismatic) is the joint's
     offset: the joint value is added to it.
     """
@@ -135,7 +135,7 @@ class DHModel(KinematicModel):
 
     ``tool_axis`` (a base-frame direction) makes position targets keep the
     tool's z axis along it: a hobby arm's wrist pitch holds the gripper
-    vertical (``[0, 0, -1]``) while the other joints place it, as seed 001's
+    vertical (``[0, 0, -1]``) while the other joints place it, as Aceves slides's
     arms are used. ``link_width`` is the least thickness (mm) of the link
     boxes drawn and checked for collisions; ``tool_boxes`` (in the last joint's
     frame) replace the box from the last joint to the tool centre, so an end
@@ -231,7 +231,7 @@ class DHModel(KinematicModel):
             ca, sa, a = self._ca[i], self._sa[i], self._a[i]
             ct, st, d = cos_t[i], sin_t[i], dd[i]
             if modified:
-                # seed 001, MaTran: Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)
+                # Aceves slides, MaTran: Rx(alpha_{i-1}) Dx(a_{i-1}) Rz(theta_i) Dz(d_i)
                 if a:
                     p = p + a * c0
                 b1, b2 = _twist(c1, c2, ca, sa)

@@ -199,7 +199,7 @@ dh_factory.PARAMS = (
         "trajectory",
         "str",
         "cubic",
-        doc="how the host times a motion for the board: cubic (seed 002, eq. 2) or quintic "
+        doc="how the host times a motion for the board: cubic (Pozzani 2023, eq. 2) or quintic "
         "polynomials streamed as short group moves, or none (one group move per target)",
         choices=TRAJECTORY_KINDS,
     ),

@@ -1,9 +1,9 @@
 """Lynxmotion SSC-32 servo controller protocol and the pulse-to-angle map of each joint.
 
-Seed 001 ("Servomotores", "SSC-32 Servo Controller") drives each joint of a
+Aceves slides ("Servomotores", "SSC-32 Servo Controller") drives each joint of a
 hobby arm with a servo whose pulse width maps linearly to the joint angle,
 ``q_i = f_i(x) = m_i x + b_i``, fitted by least squares from a table of
-measured (pulse, angle) pairs (seed 001, "ajuste de curva (Ej. Mínimos
+measured (pulse, angle) pairs (Aceves slides, "ajuste de curva (Ej. Mínimos
 cuadrados)"). The slides' own example: 0.3 ms -> 170 deg, 1.2 ms -> 85 deg,
 2.1 ms -> 0 deg.
 
@@ -43,7 +43,7 @@ class ServoMap:
 
     @classmethod
     def fit(cls, channel: int, table: Sequence[Sequence[float]]) -> ServoMap:
-        """Least-squares line through ``[[pulse_us, angle], ...]`` (seed 001, servo mapping).
+        """Least-squares line through ``[[pulse_us, angle], ...]`` (Aceves slides, servo mapping).
 
         ``residual`` is the RMS error of the fit in joint units.
         """

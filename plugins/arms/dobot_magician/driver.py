@@ -4,7 +4,7 @@ Follows the official DLL's flow ([DLL CDobotCommunicator.cpp]): one request
 outstanding at a time, the reply matched by its id, a request resent when its
 reply does not come. Queued commands (moves, suction, gripper, wait, home)
 return a queue index; a motion is DONE when GetQueuedCmdCurrentIndex reaches
-it, judged from the arm's own reports (seed 004, second safeguard). Every
+it, judged from the arm's own reports (Showers 2016, second safeguard). Every
 target is checked against the model before a byte is sent (first safeguard)
 and a duplicate of the last command is not re-sent (third safeguard).
 Units: mm and degrees.

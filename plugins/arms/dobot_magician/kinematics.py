@@ -124,7 +124,7 @@ class MagicianModel(KinematicModel):
 
     def workspace_shape(self) -> WorkspaceShape | None:
         """The reachable tool positions as constraints: the Dobot family's geometry
-        (seed 004) while the tool sits straight ahead of the wrist (no sideways offset)."""
+        (Showers 2016) while the tool sits straight ahead of the wrist (no sideways offset)."""
         tx, ty, tz = self.tool_offset
         if ty != 0.0 or tx < 0.0:
             return None

@@ -2,7 +2,7 @@
 
 Modules
 -------
-``kinematics``          :class:`DobotV1Model`: seed 004's limits (eqs. 1-4, the coupled
+``kinematics``          :class:`DobotV1Model`: Showers 2016's limits (eqs. 1-4, the coupled
                         elbow limit as a Constraint), FK (eqs. 5-7), analytic IK (eqs.
                         8-10, both elbow branches) and link boxes (eqs. 11-13), batched.
 ``codec``               the original firmware's 42-byte frames (Dobot protocol).

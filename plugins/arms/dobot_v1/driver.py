@@ -5,7 +5,7 @@ frames and at most one command is written per status frame received, so the
 firmware never drops one (the firmware's documented quirk). A command goes out when its status frame
 arrives, or at once when asked for if no command has been written since the
 last frame. The
-RPI report's safeguards (seed 004, "Serial Interface") hold: targets are
+RPI report's safeguards (Showers 2016, "Serial Interface") hold: targets are
 checked before a byte is sent; a command is sent only once the move before
 it is complete, judged from the arm's reported angles; and a duplicate of the
 last command is not re-sent (a suction change alone goes as a jog frame).
@@ -133,7 +133,7 @@ class DobotV1Driver(SerialArmDriver):
                 self.frames_received += 1
                 self._wrote_since_status = False
                 self._update_handles(status)
-                # seed 004, second safeguard: the next command waits for the move before it
+                # Showers 2016, second safeguard: the next command waits for the move before it
                 if (
                     self._queue
                     and self.guard.stable
@@ -266,7 +266,7 @@ class DobotV1Driver(SerialArmDriver):
             here = np.array(self._status.joints) if self._status else None
             there = here is not None and float(np.max(np.abs(here - target))) <= self.tolerance
             if self.is_duplicate(key) and not self._queue and (self._inflight or there):
-                # seed 004, third safeguard: do not re-send the same angles while the arm
+                # Showers 2016, third safeguard: do not re-send the same angles while the arm
                 # is going there or is there (if it was moved away since, send again)
                 start = here if here is not None else target
                 self._inflight.append((handle, start, target))

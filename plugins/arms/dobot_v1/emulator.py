@@ -39,7 +39,7 @@ from . import codec
 from . import opendobot as od
 from .kinematics import DobotV1Model
 
-#: Mechanical joint ranges of the V1.0 (seed 004, "Hardware"); the firmware clamps to these.
+#: Mechanical joint ranges of the V1.0 (Showers 2016, "Hardware"); the firmware clamps to these.
 HARDWARE_LOWER = np.array([-135.0, -5.0, -10.0])
 HARDWARE_UPPER = np.array([135.0, 85.0, 95.0])
 #: Seconds from a reset (the port opened) to the first status frame: the Arduino's boot,

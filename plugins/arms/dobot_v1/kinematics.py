@@ -1,6 +1,6 @@
-"""Dobot V1.0 kinematics after the RPI report (seed 004): limits, FK, analytic IK, link boxes.
+"""Dobot V1.0 kinematics after the RPI report (Showers 2016): limits, FK, analytic IK, link boxes.
 
-Joint convention (seed 004, Fig. 3; the status frame's baseAngle, longArmAngle,
+Joint convention (Showers 2016, Fig. 3; the status frame's baseAngle, longArmAngle,
 shortArmAngle): ``q0`` base rotation about z; ``q1`` rear arm measured from the
 vertical, forward positive; ``q2`` forearm measured from the horizontal (not
 relative to the rear arm), downward positive. The tool stays level (parallel
@@ -17,18 +17,18 @@ from armtree.maths.motion.workspace import WorkspaceShape
 
 from ..common.workspace_shapes import dobot_shape
 
-#: Rear arm (shoulder to elbow), mm (seed 004).
+#: Rear arm (shoulder to elbow), mm (Showers 2016).
 L1 = 135.0
 #: Forearm (elbow to wrist joint), mm.
 L2 = 160.0
 #: Horizontal wrist-to-suction-cup offset of the report, mm (open-dobot uses 50.9).
 DEFAULT_TOOL_OFFSET = 55.0
-#: Minimum elbow opening, degrees (seed 004, eq. 4).
+#: Minimum elbow opening, degrees (Showers 2016, eq. 4).
 ELBOW_MIN = 35.0
 
 
 def _elbow_gap(q: np.ndarray) -> np.ndarray:
-    # seed 004, eq. 4: 35 deg <= q2 - q1, as g(q) <= 0
+    # Showers 2016, eq. 4: 35 deg <= q2 - q1, as g(q) <= 0
     q = np.asarray(q, dtype=float)
     return ELBOW_MIN - (q[..., 2] - q[..., 1])
 
@@ -55,7 +55,7 @@ class DobotV1Model(KinematicModel):
     conservative eqs. 1-3 with the coupled limit eq. 4 as a :class:`Constraint`.
 
     ``l1_mm``, ``l2_mm``, ``joint_offsets_deg`` and ``joint_scales`` are what the
-    report's least-squares calibration fits (seed 004, "Model Validation"): the
+    report's least-squares calibration fits (Showers 2016, "Model Validation"): the
     kinematics use ``scale * q + offset`` for each reported angle ``q``, while
     joints, limits and IK solutions stay in the arm's reported angles.
     """
@@ -79,7 +79,7 @@ class DobotV1Model(KinematicModel):
         self.joint_scales = np.asarray(joint_scales, dtype=float).reshape(3)
         if np.any(self.joint_scales == 0.0):
             raise ValueError("DobotV1Model: a joint scale of 0 cannot be inverted")
-        # seed 004, eqs. 1-3 (speeds and accelerations: assumed, the report gives none)
+        # Showers 2016, eqs. 1-3 (speeds and accelerations: assumed, the report gives none)
         self.joints = (
             Joint("base", "revolute", -135.0, 135.0, max_speed=90.0, max_accel=180.0),
             Joint("rear_arm", "revolute", 0.0, 60.0, max_speed=60.0, max_accel=120.0),
@@ -90,7 +90,7 @@ class DobotV1Model(KinematicModel):
         self.tool_offset = np.array([self.d, 0.0, -self.drop])
         self._lower = np.array([j.lower for j in self.joints])
         self._upper = np.array([j.upper for j in self.joints])
-        # seed 004, eqs. 11-13: rear arm, forearm, end effector and camera boxes
+        # Showers 2016, eqs. 11-13: rear arm, forearm, end effector and camera boxes
         self.boxes = (
             LinkBox("rear_arm", 0, (30.0, 40.0, self.l1 + 20.0), _offset(0.0, 0.0, self.l1 / 2)),
             LinkBox("forearm", 1, (self.l2 + 20.0, 30.0, 30.0), _offset(self.l2 / 2, 0.0, 0.0)),
@@ -124,7 +124,7 @@ class DobotV1Model(KinematicModel):
         """Tool centre position ``(..., 3)`` in mm for joints ``(..., 3)`` in degrees."""
         q = self._radians(q)
         t0, t1, t2 = q[..., 0], q[..., 1], q[..., 2]
-        # seed 004, eqs. 5-7
+        # Showers 2016, eqs. 5-7
         r = self.l1 * np.sin(t1) + self.l2 * np.cos(t2) + self.d
         out = np.empty(q.shape[:-1] + (3,))
         out[..., 0] = np.cos(t0) * r
@@ -149,7 +149,7 @@ class DobotV1Model(KinematicModel):
         """Frames ``(..., 4, 4, 4)``: rear arm at the shoulder, forearm at the elbow, wrist, tool.
 
         The rear-arm frame is Rz(q0) Ry(q1) (the link along its z), the forearm frame
-        Rz(q0) Ry(q2) at the elbow (the link along its x), as seed 004 eqs. 11-13
+        Rz(q0) Ry(q2) at the elbow (the link along its x), as Showers 2016 eqs. 11-13
         rotate the meshes; wrist and tool frames are level, Rz(q0).
         """
         q = self._radians(q)
@@ -179,7 +179,7 @@ class DobotV1Model(KinematicModel):
             frames[..., k, 1, 0] = s0
             frames[..., k, 1, 1] = c0
             frames[..., k, 2, 2] = 1.0
-        # seed 004, eqs. 12-13: each link offset by the preceding link lengths
+        # Showers 2016, eqs. 12-13: each link offset by the preceding link lengths
         elbow_r, elbow_z = self.l1 * s1, self.l1 * c1
         wrist_r, wrist_z = elbow_r + self.l2 * c2, elbow_z - self.l2 * s2
         tool_r, tool_z = wrist_r + self.d, wrist_z - self.drop
@@ -210,7 +210,7 @@ class DobotV1Model(KinematicModel):
     # ------------------------------------------------------------------ inverse
 
     def workspace_shape(self) -> WorkspaceShape | None:
-        """The reachable tool positions as constraints (seed 004's geometry), or None
+        """The reachable tool positions as constraints (Showers 2016's geometry), or None
         with calibrated angle offsets or scales, which the constraints do not model."""
         if np.any(self.joint_offsets != 0.0) or np.any(self.joint_scales != 1.0):
             return None
@@ -229,19 +229,19 @@ class DobotV1Model(KinematicModel):
         x, y = target[..., 0], target[..., 1]
         z = target[..., 2] + self.drop
         l1, l2 = self.l1, self.l2
-        # seed 004, eq. 8
+        # Showers 2016, eq. 8
         r = np.hypot(x, y)
         rd = r - self.d
         rho2 = rd * rd + z * z
         rho = np.sqrt(rho2)
         with np.errstate(invalid="ignore", divide="ignore"):
-            # seed 004, eq. 9 (law of cosines; NaN outside the reach)
+            # Showers 2016, eq. 9 (law of cosines; NaN outside the reach)
             cos_a = (l1 * l1 + rho2 - l2 * l2) / (2.0 * l1 * rho)
             cos_g = (l1 * l1 + l2 * l2 - rho2) / (2.0 * l1 * l2)
             alpha = np.arccos(np.where(np.abs(cos_a) <= 1.0, cos_a, np.nan))
             gamma = np.arccos(np.where(np.abs(cos_g) <= 1.0, cos_g, np.nan))
         phi = np.arctan2(z, rd)
-        # seed 004, eq. 10
+        # Showers 2016, eq. 10
         t0 = np.arctan2(y, x)
         half_pi = 0.5 * np.pi
         out = np.empty(target.shape[:-1] + (2, 3))

@@ -232,7 +232,7 @@ class OpenDobotDriver(SerialArmDriver):
         while self._stream and self._slots_ahead < SLOTS_AHEAD:
             item = self._stream[0]
             if item[0] == "wait":
-                # seed 004, second safeguard: a move starts once the one before has finished
+                # Showers 2016, second safeguard: a move starts once the one before has finished
                 if not item[1].done:
                     return
                 self._stream.popleft()

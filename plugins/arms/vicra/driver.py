@@ -5,7 +5,7 @@ The host does the SCARA inverse kinematics and sends joint targets as axes
 One line is in flight at a time (Marlin's flow control: the safe host
 strategy); ``Resend: n`` sends line ``n`` again and swallows the ``ok`` Marlin
 1.1 / 2.1 print after it. Moves are refused until G28 has homed the arm on its
-end stops, confirmed by M119 (seed 000: micro-switch end stops, steppers
+end stops, confirmed by M119 (Durovic 2017: micro-switch end stops, steppers
 without encoders). A move is DONE when the real-time position (``M114 R``)
 reaches the target; servo commands (wrist, gripper) go after ``M400`` so they
 happen once the arm has stopped. ``stop()`` sends M410, which Marlin's

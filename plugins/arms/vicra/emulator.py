@@ -6,7 +6,7 @@ column (mm); servo 0 is the wrist (M280 S = wrist + 90), servo 1 the gripper
 (S = opening in degrees); a vacuum pump, when fitted, is on the fan output
 (M106 / M107). End stops: x_min at theta1's lower limit, y_max at theta2's upper
 one (so homing leaves the elbow on the same side as the home pose),
-z_max at the top of the column (seed 000: micro-switches on all three axes).
+z_max at the top of the column (Durovic 2017: micro-switches on all three axes).
 
 What it reproduces (Marlin 2.0.x): the start-up banner (printed when the host
 first talks, as the board resets on a port open), ``N``/``*`` line checks with

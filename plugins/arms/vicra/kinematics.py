@@ -1,6 +1,6 @@
-"""VICRA SCARA geometry (seed 000, §III.A): a vertical prismatic column and two arm links.
+"""VICRA SCARA geometry (Durovic 2017, §III.A): a vertical prismatic column and two arm links.
 
-Seed 000 gives "one translational and three rotational joints", "vertical reach
+Durovic 2017 gives "one translational and three rotational joints", "vertical reach
 of approximately 0.6 m" and "horizontal reach of approximately 0.6 m", a servo
 wrist and a servo gripper. This model fixes the rest, overridable in a profile:
 

@@ -98,7 +98,7 @@ class SwiftProModel(KinematicModel):
         """Reachability of tool points ``p`` ``(..., 3)`` mm as ``g_j(p) <= 0``.
 
         The inverse kinematics in interval-friendly operations (:mod:`armtree.maths.motion.interval`),
-        so ``armtree workspace`` can cover the workspace with boxes (seed 003) and the
+        so ``armtree workspace`` can cover the workspace with boxes (Rybak 2016) and the
         planners test targets exactly: the wrist within the arms' reach, ``left``,
         ``right`` and the arms' angle within their limits (elbow-up: the other branch
         never fits them), and the base's half-turn (x >= 0). Works on points
