@@ -49,7 +49,8 @@ from rich.progress import track
 from armtree.api.rig import Frame
 from armtree.plugins.trackers import hamming_code as hc
 from armtree.plugins.trackers import synthetic as syn
-from armtree.plugins.trackers.aruco import ArucoTracker, get_dictionary
+from armtree.plugins.trackers.aruco import ArucoTracker
+from armtree.plugins.trackers.dictionaries import get_dictionary
 from armtree.plugins.trackers.hamming import HammingTracker
 from armtree.plugins.trackers.markers import cells_per_side, marker_image
 from armtree.plugins.trackers.preprocess import Preprocessing

@@ -11,9 +11,9 @@ from armtree.plugins.trackers.aruco import (
     ArucoTracker,
     aruco_factory,
     detector_parameters,
-    get_dictionary,
 )
 from armtree.plugins.trackers.common import TagRoles
+from armtree.plugins.trackers.dictionaries import get_dictionary
 from armtree.plugins.trackers.preprocess import Preprocessing
 
 K = syn.nominal_camera()

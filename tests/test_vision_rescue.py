@@ -7,7 +7,8 @@ import numpy as np
 
 from armtree.api.rig import Frame
 from armtree.plugins.trackers import synthetic as syn
-from armtree.plugins.trackers.aruco import ArucoTracker, get_dictionary
+from armtree.plugins.trackers.aruco import ArucoTracker
+from armtree.plugins.trackers.dictionaries import get_dictionary
 from armtree.plugins.trackers.rescue import Rescuer
 
 #: 60 x 60 px of a sim_vicra frame (PNG): Durovic 2017's target marker (id 9, 25 mm) 650 mm

@@ -29,56 +29,31 @@ import numpy as np
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config, config_error
 from armtree.config.params import Param
-from armtree.errors import ConfigError, did_you_mean
+from armtree.errors import did_you_mean
 from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
+from .dictionaries import (
+    APRILTAG,
+    APRILTAG_FAMILIES,
+    DEFAULT_APRILTAG,
+    DEFAULT_DICTIONARY,
+    dictionary_key,
+    get_dictionary,
+)
 from .kernels import apart_from, framed_by_light
+from .markers import warm_up
 from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
 from .refine import refine_corners
 from .rescue import Rescuer
 
 FAMILY = "aruco"
-APRILTAG = "apriltag"
-DEFAULT_DICTIONARY = "4x4_50"
-#: AprilTag families OpenCV's ArUco module carries, and the one most people print.
-APRILTAG_FAMILIES = ("16h5", "25h9", "36h10", "36h11")
-DEFAULT_APRILTAG = "36h11"
 #: Pixels per cell when reading a candidate's bits (OpenCV's default is 4).
 SMALL_MARKER_PIXELS_PER_CELL = 8
 #: Least :func:`.kernels.framed_by_light` of a marker: a printed one's quiet zone is
 #: about as light as its white cells, a light blob in a dark patch's is not (docs/
 #: benchmarks-history.md, "Small markers").
 MIN_FRAMED = 0.4
-
-
-def dictionary_names() -> dict[str, int]:
-    """Short dictionary name (``4x4_50``, ``apriltag_36h11``, ...) -> OpenCV's constant."""
-    names: dict[str, int] = {}
-    for attr in dir(cv2.aruco):
-        if attr.startswith("DICT_"):
-            names.setdefault(attr[5:].lower(), getattr(cv2.aruco, attr))
-    return names
-
-
-def get_dictionary(name: str, where: Any = None) -> cv2.aruco.Dictionary:
-    """OpenCV's predefined dictionary called ``name`` (``4x4_50``, ``DICT_6X6_250``, ...).
-
-    An unknown name is a :class:`ConfigError` with a did-you-mean (about the
-    profile's ``tracker.dictionary`` when ``where`` is the profile).
-    """
-    names = dictionary_names()
-    key = str(name).strip().lower()
-    key = key.removeprefix("dict_")
-    if key not in names:
-        hint = did_you_mean(key, names, cutoff=0.5, list_up_to=len(names))
-        message = f"unknown ArUco dictionary {name!r}{hint}"
-        raise (
-            ConfigError(message)
-            if where is None
-            else config_error(where, "tracker.dictionary", message)
-        )
-    return cv2.aruco.getPredefinedDictionary(names[key])
 
 
 _REFINEMENT = {
@@ -228,7 +203,6 @@ class ArucoTracker(Tracker):
 
     def start(self) -> None:
         """Detect once in a made-up frame, so the first real frame costs what later ones do."""
-        from .markers import warm_up  # markers imports this module
 
         warm_up(self, FAMILY, self.dictionary_name)
 
@@ -301,11 +275,6 @@ def _tracker(values: dict[str, Any], dictionary: str, where: Any, family: str) -
     )
     tracker.family = family
     return tracker
-
-
-def dictionary_key(name: str) -> str:
-    """A dictionary's name as families and ``tags: family_ids:`` spell it (``apriltag_36h11``)."""
-    return str(name).strip().lower().removeprefix("dict_")
 
 
 def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:

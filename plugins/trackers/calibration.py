@@ -19,7 +19,7 @@ import numpy as np
 from armtree.api.imaging import Intrinsics
 from armtree.errors import ConfigError
 
-from .aruco import get_dictionary
+from .dictionaries import get_dictionary
 from .preprocess import to_gray
 
 BOARDS = ("chessboard", "charuco")

@@ -25,8 +25,8 @@ from armtree.errors import ConfigError
 from armtree.loader.profile import Profile
 
 from .annotate import annotate
-from .aruco import APRILTAG_FAMILIES, get_dictionary
 from .detection_rate import marker_detection_rate
+from .dictionaries import APRILTAG_FAMILIES, get_dictionary
 from .families import MarkerFamily, apriltag_dictionary, family_named
 from .inputs import Source, add_intrinsics_options, intrinsics_from_args, is_video, sources
 from .markers import printable_marker, write_png, write_sheet

@@ -17,7 +17,7 @@ from typing import Any
 from armtree.errors import ConfigError
 
 from . import hamming_code
-from .aruco import (
+from .dictionaries import (
     APRILTAG_FAMILIES,
     DEFAULT_APRILTAG,
     DEFAULT_DICTIONARY,

@@ -20,7 +20,7 @@ import numpy as np
 from armtree.api.rig import Frame
 
 from . import hamming_code
-from .aruco import get_dictionary
+from .dictionaries import get_dictionary
 
 MM_PER_INCH = 25.4
 #: A4 portrait, millimetres.
