@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 from .geometry import obb_penetration
 from .physics import CollisionMonitor, SolidBox, clearly_apart
-
-if TYPE_CHECKING:
-    from .world import World
+from .world_state import WorldState
 
 
 class ArmContacts:
@@ -22,7 +19,7 @@ class ArmContacts:
     ``physics.halt_on_collision`` the emulated arm halts and the run is told.
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: WorldState) -> None:
         self._world = world
         self._inputs_checked: bytes | None = None
 

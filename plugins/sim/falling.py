@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+from .bodies import Body
 from .geometry import point_in_polygon
-
-if TYPE_CHECKING:
-    from .world import Body, World
+from .world_state import WorldState
 
 #: Gravity, mm/s^2.
 GRAVITY = 9810.0
@@ -27,7 +24,7 @@ class Gravity:
     table) as a ``drop`` too.
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: WorldState) -> None:
         self._world = world
 
     def support_below(self, body: Body) -> tuple[str, float]:

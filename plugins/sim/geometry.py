@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 #: The eight corners of a unit box centred at the origin, (8, 3), in the order
 #: bottom face (z = -1/2) counter-clockwise seen from above, then the top face.
@@ -52,7 +53,7 @@ def rpy_matrix(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.ndarray:
     return rot_z(y) @ ry @ rx
 
 
-def pose(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
+def pose(rotation: npt.ArrayLike, translation: npt.ArrayLike) -> np.ndarray:
     """4x4 homogeneous transform from a 3x3 rotation and a translation (mm)."""
     t = np.eye(4)
     t[:3, :3] = rotation

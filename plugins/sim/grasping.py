@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from .bodies import ArmView, Body
 from .geometry import point_in_polygon, pose, rot_z
-
-if TYPE_CHECKING:
-    from .world import ArmView, Body, World
+from .world_state import WorldState
 
 #: Kinds an end effector can lift.
 MOVABLE = ("ducky", "trash", "block")
@@ -26,7 +23,7 @@ class Grasp:
     events.
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: WorldState) -> None:
         self._world = world
         #: The name of the body held, or None.
         self.held: str | None = None

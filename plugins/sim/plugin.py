@@ -30,6 +30,7 @@ from armtree.config.profile_sections import ProfileSection
 from armtree.loader.profile import Profile
 from armtree.runtime.runner import Run
 
+from .bodies import WorldEvent
 from .camera import sim_camera
 from .recording import Recorder, write_score
 from .rig_world import arm_factory, as_built_model, attach_world, uses_sim, world_stepper
@@ -38,7 +39,7 @@ from .scoring import score_line
 from .serve import ServeSimCommand
 from .truth import scene_truth, world_truth
 from .view import scene_objects
-from .world import World, WorldEvent
+from .world import World
 
 #: Profile sections the world is parsed from; when one is already invalid the world is not.
 _WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})

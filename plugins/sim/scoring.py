@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from .world import World
+from .world_state import WorldState
 
 
-def world_score(world: World) -> dict[str, Any]:
+def world_score(world: WorldState) -> dict[str, Any]:
     """Every body's place, what lies in a bin or on a Duckybot, collisions, missed steps
     and the Duckybots' tracking, as plain data (mm, degrees, seconds). Never for deciding.
     The caller holds the world's lock.
