@@ -37,7 +37,7 @@ from armtree.api.factories import COMPOSITE, DECORATOR, LEAF, construct, node_ki
 from armtree.config.constructor_params import declared_params, name_argument, takes_signature_params
 from armtree.config.params import Param
 from armtree.config.profile_sections import PROFILE_KEYS, ProfileSection
-from armtree.errors import ConfigError
+from armtree.errors import ConfigError, did_you_mean
 from armtree.maths.motion.kinematics import KinematicModel
 
 #: The module attribute in which a plugin names the armtree versions it supports.
@@ -171,8 +171,6 @@ def hook_name_problems(plugin: Any, name: str, hooks: Any) -> list[ConfigError]:
     (``armtre_behaviours``): pluggy would ignore the last and refuse the others
     after the tree already failed on what the hook should have registered.
     """
-    import difflib
-
     hooks = sorted(hooks)
     problems = []
     for attribute in dir(plugin):
@@ -186,18 +184,17 @@ def hook_name_problems(plugin: Any, name: str, hooks: Any) -> list[ConfigError]:
         if not inspect.isfunction(function) or not _defined_by(plugin, function):
             continue
         marked = hasattr(function, HOOKIMPL_ATTRIBUTE)
-        close = difflib.get_close_matches(attribute, hooks, n=1, cutoff=0.6)
         # Unmarked and unprefixed, only a name that nearly is a hook's: "armtre_behaviours".
-        near = attribute.startswith("arm") and difflib.get_close_matches(
-            attribute, hooks, n=1, cutoff=NEAR_HOOK
+        near = attribute.startswith("arm") and did_you_mean(
+            attribute, hooks, cutoff=NEAR_HOOK, list_up_to=0
         )
         if not (marked or attribute.startswith("armtree_") or near):
             continue
-        hint = f"did you mean {close[0]!r}?" if close else "see armtree.hooks.hookspecs"
+        hint = did_you_mean(attribute, hooks, list_up_to=0) or "; see armtree.hooks.hookspecs"
         file, line = _def_line(function)
         problems.append(
             ConfigError(
-                f"plugin {name!r}: {attribute}() is not an armtree hook; {hint} (the hooks: "
+                f"plugin {name!r}: {attribute}() is not an armtree hook{hint} (the hooks: "
                 f"`armtree hooks`; or skip the plugin with -p no:{name})",
                 file=file,
                 line=line,

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from armtree.errors import ConfigError
+from armtree.errors import ConfigError, did_you_mean
 
 from . import hamming_code
 from .dictionaries import (
@@ -104,11 +104,9 @@ def family_named(name: str) -> MarkerFamily:
         return MarkerFamily(HAMMING, HAMMING, "", hamming_code.MAX_ID)
     key = dictionary_key(key)
     if key not in dictionary_names():
-        import difflib
-
-        close = difflib.get_close_matches(key, family_names(), n=1, cutoff=0.5)
-        hint = f"did you mean {close[0]!r}?" if close else f"known: {', '.join(family_names())}"
-        raise ConfigError(f"unknown marker family {name!r}: hamming or an ArUco dictionary; {hint}")
+        names = family_names()
+        hint = did_you_mean(key, names, cutoff=0.5, list_up_to=len(names))
+        raise ConfigError(f"unknown marker family {name!r}: hamming or an ArUco dictionary{hint}")
     return MarkerFamily(key, "aruco", key, int(get_dictionary(key).bytesList.shape[0]))
 
 
