@@ -58,15 +58,20 @@ def test_profile_reference_update_needs_the_markers(tmp_path, capsys):
     assert text.startswith("before\n") and text.endswith("after\n")
 
 
-def test_nothing_cites_files_outside_the_repository_or_machine_paths():
+def _lines_matching(pattern: re.Pattern[str]) -> list[str]:
+    """``FILE:LINE: text`` of every tracked line (this file's aside) ``pattern`` finds."""
     this = Path(__file__).resolve()
-    found = [
+    return [
         f"{path.relative_to(ROOT)}:{n}: {line.strip()}"
         for path in _tracked_text_files()
         if path.resolve() != this and path.is_file()
         for n, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
-        if OUTSIDE.search(line)
+        if pattern.search(line)
     ]
+
+
+def test_nothing_cites_files_outside_the_repository_or_machine_paths():
+    found = _lines_matching(OUTSIDE)
     assert found == [], "cite docs/references.md's short names, not these:\n" + "\n".join(found)
 
 
@@ -75,14 +80,7 @@ SOURCE_NUMBER = re.compile(r"\b[Ss]eeds? 00[0-9]\b")
 
 
 def test_source_documents_go_by_their_short_names_and_seed_means_a_random_world():
-    this = Path(__file__).resolve()
-    found = [
-        f"{path.relative_to(ROOT)}:{n}: {line.strip()}"
-        for path in _tracked_text_files()
-        if path.resolve() != this and path.is_file()
-        for n, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
-        if SOURCE_NUMBER.search(line)
-    ]
+    found = _lines_matching(SOURCE_NUMBER)
     assert found == [], "cite docs/references.md's short names:\n" + "\n".join(found)
 
 
