@@ -296,3 +296,16 @@ def test_every_sim_profile_with_a_ducky_draws_it_anywhere_on_60_mm_at_any_headin
     assert {"sim_dobot", "sim_vicra", "sim_magician", "sim_dh", "sim_so101", "sim_koch"} <= set(
         with_ducky
     )
+
+
+def test_a_count_past_its_minimum_leaves_out_what_finds_no_room(tmp_path):
+    # A single point has room for one trash: the second of count [1, 2] is left out
+    # (sim_so101 refused 3 seeds in 100 so before); the first is still required.
+    point = {"x": [150, 150], "y": [150, 150]}
+    path = profile_with(tmp_path, {"objects": {"trash": {"count": [1, 2], "region": point}}})
+    profile = load_profile(path)
+    scene = parse_scene(profile)
+    for seed in range(1, 9):
+        trash = [o for o in draw_scene(scene, seed, _Errors(profile)).objects if o.kind == "trash"]
+        assert len(trash) == 1
+        assert np.allclose(trash[0].position[:2], [150.0, 150.0])

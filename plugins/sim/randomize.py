@@ -22,7 +22,8 @@ and one region: ``on: SPOT`` (its footprint wholly on a spot), ``ring: {r: [MIN,
 MAX], angle: [MIN, MAX]}`` (mm, degrees about the arm's base) or ``region: {x:
 [MIN, MAX], y: [MIN, MAX]}`` (mm). ``count: [MIN, MAX]`` (kinds only) draws how
 many there are: the profile's own bodies first, then more named ``kind_c``,
-``kind_d``..., with the next marker ids of their tag role. A Duckybot's ``park``
+``kind_d``..., with the next marker ids of their tag role; past MIN, a body the
+region has no room left for is left out (the world has fewer of the kind). A Duckybot's ``park``
 draws its parking point (``ring`` or ``region``) and turns its heading by up to
 ``heading`` degrees; its whole route turns with it about the arm's base (a
 ring) or moves with it (a region). A range is ``[MIN, MAX]``; a single number
@@ -31,8 +32,8 @@ is fixed.
 Every drawn world is valid: bodies on the table, ``gap_mm`` apart and clear of
 the Duckybots' routes (spots, bins and obstacles included: a Duckybot does not
 drive over the spot a ducky is drawn on; a body ``on`` a spot lies on it),
-routes on the table. A profile whose ranges leave no room is
-refused when the world is drawn, naming the entry. That the regions are
+routes on the table. A profile whose ranges leave no room for a body it must
+have is refused when the world is drawn, naming the entry. That the regions are
 reachable and seen by the camera is the profile's business: the shipped sim
 profiles' tests check it over many seeds.
 """
@@ -392,8 +393,14 @@ def draw_scene(scene: SceneSpec, seed: int, err: _Errors) -> SceneSpec:
     bots = [_draw_park(rng, scene, spec, b, layout, err) for b in scene.duckybots]
     drawn: dict[str, ObjectSpec] = {}
     for draw in spec.objects:
-        for body in _bodies_of(draw, scene, spec, rng):
-            drawn[body.name] = _place(rng, draw, body, scene, layout, err)
+        for i, body in enumerate(_bodies_of(draw, scene, spec, rng)):
+            # Past a count's minimum a body with no room left is left out: the world
+            # has fewer of the kind, rather than no world at all.
+            optional = draw.count is not None and i >= draw.count[0]
+            placed = _place(rng, draw, body, scene, layout, err, optional=optional)
+            if placed is None:
+                break
+            drawn[body.name] = placed
     objects = [
         drawn.get(o.name, o) for o in scene.objects if o.name not in moved or o.name in drawn
     ]
@@ -425,7 +432,11 @@ def _place(
     scene: SceneSpec,
     layout: _Layout,
     err: _Errors,
-) -> ObjectSpec:
+    *,
+    optional: bool = False,
+) -> ObjectSpec | None:
+    """``body`` drawn into its region clear of what is placed; None (``optional``) or a
+    ConfigError at the entry when it finds no room in :data:`TRIES` draws."""
     spot = next((o for o in scene.objects if o.name == draw.region.spot), None)
     for _ in range(TRIES):
         xy = _point(rng, draw.region, spot)
@@ -440,6 +451,8 @@ def _place(
         if layout.fits(candidate, allowed=draw.region.spot):
             layout.placed.append(candidate)
             return candidate
+    if optional:
+        return None
     raise err(
         draw.path, f"no room for {body.name} in {TRIES} tries: widen its region or lower count"
     )
