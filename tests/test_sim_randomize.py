@@ -17,8 +17,9 @@ from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.plugins.sim.camera import SimCamera, camera_extrinsics
 from armtree.plugins.sim.geometry import point_in_polygon
 from armtree.plugins.sim.randomize import draw_scene
-from armtree.plugins.sim.scene import _check_layout, _Errors, parse_scene
+from armtree.plugins.sim.scene import _check_layout, parse_scene
 from armtree.plugins.sim.world import world_for
+from armtree.plugins.sim.world_parsing import _Errors
 
 #: Seeds checked per shipped profile (each draw takes a few tens of milliseconds).
 SEEDS = range(1, 41)

@@ -15,7 +15,7 @@ import numpy as np
 
 from .geometry import pose
 from .physics import SolidBox
-from .scene import MarkerSpec, ObjectSpec
+from .scene_spec import MarkerSpec, ObjectSpec
 
 
 @dataclass

@@ -11,7 +11,7 @@ import numpy as np
 
 from armtree.plugins.trackers.markers import marker_square as generated_marker
 
-from .scene import MarkerSpec
+from .scene_spec import MarkerSpec
 
 #: Resolutions (pixels per side) kept per marker; the renderer picks the one
 #: just above the marker's size in the image so warping never aliases.

@@ -34,7 +34,8 @@ from .bodies import WorldEvent
 from .camera import sim_camera
 from .recording import Recorder, write_score
 from .rig_world import arm_factory, as_built_model, attach_world, uses_sim, world_stepper
-from .scene import BASE_FAULTS, SceneSpec, parse_scene
+from .scene import BASE_FAULTS, parse_scene
+from .scene_spec import SceneSpec
 from .scoring import score_line
 from .serve import ServeSimCommand
 from .truth import scene_truth, world_truth

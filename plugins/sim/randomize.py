@@ -51,16 +51,8 @@ import numpy as np
 
 from .duckybot import RouteSpec
 from .geometry import footprint_overlap, point_in_polygon
-from .scene import (
-    DuckybotSpec,
-    LightSpec,
-    ObjectSpec,
-    SceneSpec,
-    SlipSpec,
-    _Errors,
-    _mapping,
-    _number,
-)
+from .scene_spec import DuckybotSpec, LightSpec, ObjectSpec, SceneSpec, SlipSpec
+from .world_parsing import _Errors, _mapping, _number
 
 #: Attempts to place one body before the profile is refused.
 TRIES = 400

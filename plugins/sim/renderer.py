@@ -28,7 +28,7 @@ import numpy as np
 
 from .geometry import BOX_FACES, UNIT_BOX
 from .markers import MarkerAtlas
-from .scene import LightSpec, MarkerSpec, TableSpec
+from .scene_spec import LightSpec, MarkerSpec, TableSpec
 
 #: Near clipping distance in front of the camera, mm.
 NEAR = 5.0

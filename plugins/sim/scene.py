@@ -14,13 +14,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from armtree.api.rig import TagSpec
-from armtree.config.profile_access import profile_error, profile_section
+from armtree.config.profile_access import profile_section
 from armtree.errors import ConfigError, did_you_mean, shown
 from armtree.loader.profile import Profile, tag_spec
 from armtree.plugins.trackers.families import (
@@ -32,9 +32,21 @@ from armtree.plugins.trackers.families import (
     tracker_family,
 )
 
-from .as_built import AsBuilt, parse_as_built
+from .as_built import parse_as_built
 from .duckybot import DuckybotParams, Leg, RouteSpec
-from .geometry import footprint_overlap, point_in_polygon, rot_z
+from .geometry import footprint_overlap, point_in_polygon
+from .randomize import parse_randomize
+from .scene_spec import (
+    DuckybotSpec,
+    LightSpec,
+    MarkerSpec,
+    ObjectSpec,
+    PhysicsSpec,
+    SceneSpec,
+    SlipSpec,
+    TableSpec,
+)
+from .world_parsing import _Errors, _mapping, _number, _vector
 
 #: Object kinds, their default shape, size (mm), colour (BGR) and tag role.
 KINDS: dict[str, dict[str, Any]] = {
@@ -75,177 +87,6 @@ _WORLD_KEYS = (
     "as_built",
     "reference",
 )
-
-
-@dataclass(frozen=True)
-class MarkerSpec:
-    """A printed marker on a top face: family (``aruco`` or ``hamming``, the generator
-    that draws it), dictionary (aruco), id, side (mm) and the tag role it is in ``tags:``."""
-
-    family: str
-    id: int
-    size_mm: float
-    dictionary: str = "4x4_50"
-    role: str | None = None
-
-
-@dataclass
-class ObjectSpec:
-    """One object as the profile places it.
-
-    ``size`` is (x, y, z) extents in mm (a cylinder's x and y are its diameter);
-    ``position`` is the centre of its bottom face; ``yaw`` is radians.
-    """
-
-    name: str
-    kind: str
-    shape: str
-    size: np.ndarray
-    position: np.ndarray
-    yaw: float
-    color: tuple[int, int, int]
-    marker: MarkerSpec | None
-    wall: float = 0.0
-
-    def footprint(self) -> np.ndarray:
-        """Corners (4, 2) of the footprint in the table plane, counter-clockwise."""
-        hx, hy = 0.5 * self.size[0], 0.5 * self.size[1]
-        local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
-        return local @ rot_z(self.yaw)[:2, :2].T + self.position[:2]
-
-
-@dataclass
-class DuckybotSpec:
-    """A Duckybot: its body, marker, route and controller parameters."""
-
-    body: ObjectSpec
-    route: RouteSpec
-    params: DuckybotParams
-
-
-@dataclass
-class TableSpec:
-    """The table top: x and y ranges (mm), height of its surface (mm), texture."""
-
-    x: tuple[float, float] = (-250.0, 450.0)
-    y: tuple[float, float] = (-400.0, 400.0)
-    height: float = 0.0
-    texture: str = "wood"
-
-    def polygon(self) -> np.ndarray:
-        """Table outline (4, 2), counter-clockwise."""
-        (x0, x1), (y0, y1) = self.x, self.y
-        return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
-
-
-@dataclass
-class PhysicsSpec:
-    """Tool and collision physics options (mm)."""
-
-    pick_tolerance_mm: float = 5.0
-    collision_tolerance_mm: float = 3.0
-    halt_on_collision: bool = True
-    gripper_mm_per_unit: float = 1.0
-
-
-@dataclass(frozen=True)
-class SlipSpec:
-    """Missed steps under load (Durovic 2017 and Showers 2016): a random joint slips now and then.
-
-    While the arm moves or holds something, slips come at ``rate`` per second,
-    each by up to ``max_amount`` degrees (or mm) either way, on one of ``joints``
-    (all joints when empty). The emulator keeps reporting the commanded angle.
-    """
-
-    rate: float
-    max_amount: float = 2.0
-    joints: tuple[int, ...] = ()
-
-
-@dataclass
-class LightSpec:
-    """A point lamp above the table (mm) and the ambient share of light (0-1)."""
-
-    position: tuple[float, float, float] = (150.0, -250.0, 900.0)
-    ambient: float = 0.55
-
-
-@dataclass
-class SceneSpec:
-    """Everything the ``world:`` section sets, validated."""
-
-    seed: int = 0
-    table: TableSpec = field(default_factory=TableSpec)
-    objects: list[ObjectSpec] = field(default_factory=list)
-    duckybots: list[DuckybotSpec] = field(default_factory=list)
-    faults: dict[str, dict[str, float]] = field(default_factory=dict)
-    physics: PhysicsSpec = field(default_factory=PhysicsSpec)
-    light: LightSpec = field(default_factory=LightSpec)
-    tool_marker: MarkerSpec | None = None
-    tool_marker_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    slips: SlipSpec | None = None
-    #: ``world.randomize``: what ``--seed`` varies (None: nothing).
-    randomize: Any = None
-    #: ``world.as_built`` and ``world.reference``: how the rig really is, and the
-    #: simulated measuring device's reading error (:mod:`.as_built`).
-    as_built: AsBuilt = field(default_factory=AsBuilt)
-    #: The sim camera's ``noise``, ``blur`` and ``drop_rate`` as a seed drew them.
-    camera: dict[str, float] = field(default_factory=dict)
-
-
-# ---------------------------------------------------------------------------
-# Profile positions (for errors at the entry's file, line and column)
-# ---------------------------------------------------------------------------
-
-
-class _Errors:
-    """Builds ConfigErrors that name the entry and point into the profile."""
-
-    def __init__(self, profile: Profile) -> None:
-        self.profile = profile
-
-    def __call__(self, path: tuple[Any, ...], message: str) -> ConfigError:
-        return profile_error(self.profile, ".".join(str(p) for p in path), message)
-
-
-# ---------------------------------------------------------------------------
-# Parsing
-# ---------------------------------------------------------------------------
-
-
-def _number(err: _Errors, path: tuple[Any, ...], value: Any, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not -1e300 < value < 1e300:
-        raise err(path, f"expected a number, got {shown(value)}")
-    if positive and value <= 0:
-        raise err(path, f"must be positive, got {value!r}")
-    return float(value)
-
-
-def _vector(
-    err: _Errors, path: tuple[Any, ...], value: Any, lengths: tuple[int, ...]
-) -> list[float]:
-    if (
-        isinstance(value, (str, bytes))
-        or not isinstance(value, Sequence)
-        or len(value) not in lengths
-    ):
-        want = " or ".join(str(n) for n in lengths)
-        raise err(path, f"expected a list of {want} numbers, got {value!r}")
-    return [_number(err, path, v) for v in value]
-
-
-def _mapping(
-    err: _Errors, path: tuple[Any, ...], value: Any, keys: Sequence[str]
-) -> Mapping[str, Any]:
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise err(path, f"expected a mapping, got {value!r}")
-    for key in value:
-        if key not in keys:
-            hint = did_you_mean(str(key), keys, list_up_to=len(keys))
-            raise err((*path, key), f"unknown key {key!r}{hint}")
-    return value
 
 
 @dataclass
@@ -626,8 +467,6 @@ def parse_scene(profile: Profile) -> SceneSpec:
         if first.marker is None:
             entry["marker"] = False
         return _parse_body(err, path, name, entry, tags, auto_index, table)
-
-    from .randomize import parse_randomize  # it builds on this module's parsers
 
     randomize = parse_randomize(err, world.get("randomize"), objects, duckybots, spare)
     objects += _profile_obstacles(err, profile, table)

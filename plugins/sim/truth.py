@@ -17,7 +17,8 @@ from armtree.api.views import ProfileView
 from armtree.config.profile_access import profile_section
 from armtree.loader.profile import Profile
 
-from .scene import KINDS, MarkerSpec, SceneSpec
+from .scene import KINDS
+from .scene_spec import MarkerSpec, SceneSpec
 from .world import World
 
 

@@ -31,8 +31,10 @@ from .geometry import point_in_polygon, pose, rot_z
 from .grasping import Grasp
 from .physics import CollisionMonitor
 from .randomize import draw_scene
-from .scene import SceneSpec, _Errors, parse_scene
+from .scene import parse_scene
+from .scene_spec import SceneSpec
 from .scoring import world_score
+from .world_parsing import _Errors
 
 #: Step (s) and longest time (s) :meth:`World.settle` lets falling bodies fall.
 SETTLE_STEP_S = 0.01

@@ -12,7 +12,7 @@ from typing import Any, Protocol
 from .bodies import ArmView, Body, WorldEvent
 from .duckybot import Duckybot
 from .physics import CollisionMonitor
-from .scene import PhysicsSpec, TableSpec
+from .scene_spec import PhysicsSpec, TableSpec
 
 
 class WorldState(Protocol):
