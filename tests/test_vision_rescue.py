@@ -104,3 +104,70 @@ def test_texture_is_not_read_as_a_marker():
         assert (ids is None or len(ids) == 0) and len(rejected) >= 10
         frame = Frame(cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR), 0.0, k, np.zeros(5))
         assert ArucoTracker().detect(frame) == []
+
+
+def small_blurred_tags(seed: int, blur: float = 0.9) -> tuple[Frame, dict[int, np.ndarray]]:
+    """Three AprilTag 36h11 markers about 16 px wide (2 px a cell) under a defocus blur
+    of ``blur`` px and sensor noise: where a threshold reads too few cells right."""
+    k = syn.nominal_camera()
+    rng = np.random.default_rng(seed)
+    placements = []
+    for i, marker_id in enumerate((0, 41, 586)):
+        rvec, tvec = syn.look_at_pose(1270.0, rng.uniform(-15, 15), rng.uniform(0, 360),
+                                      offset_mm=(-150.0 + 150.0 * i, 20.0))  # fmt: skip
+        placements.append(syn.Placement(marker_id, 25.0, rvec, tvec))
+    effects = syn.Effects(blur=blur, noise=3.0, seed=seed)
+    image, truth = syn.render_markers(
+        "aruco", placements, k, effects=effects, dictionary="apriltag_36h11"
+    )
+    return Frame(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR), 0.0, k, np.zeros(5)), truth
+
+
+def test_a_blurred_16_px_apriltag_is_read_by_fitting_its_words(monkeypatch):
+    from armtree.plugins.trackers import blur_decode
+
+    def found(seeds: range) -> int:
+        count = 0
+        for seed in seeds:
+            frame, truth = small_blurred_tags(seed)
+            assert all(15.0 < np.linalg.norm(c[1] - c[0]) < 17.5 for c in truth.values())
+            dets = ArucoTracker("apriltag_36h11").detect(frame)
+            assert {d.id for d in dets} <= set(truth)  # never a wrong id
+            for det in dets:
+                # right id, corners in OpenCV's order (top-left first), within a pixel
+                assert np.abs(det.corners - truth[det.id]).max() < 1.0
+            count += len(dets)
+        return count
+
+    with_fit = found(range(8))
+    monkeypatch.setattr(
+        blur_decode.BlurFitReader, "read", lambda self, gray, quads: (np.full(len(quads), -1),) * 2
+    )
+    assert found(range(8)) + 2 <= with_fit  # of 24 markers: 17 without the fit, 20 with
+
+
+def test_the_blur_fit_refuses_what_is_not_a_word_of_its_dictionary():
+    from armtree.plugins.trackers.blur_decode import BlurFitReader
+
+    rescuer = Rescuer(get_dictionary("apriltag_36h11"))
+    reader = BlurFitReader(rescuer.words)
+    frame, truth = small_blurred_tags(1)
+    grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+    quads = np.stack([truth[i] for i in sorted(truth)]).astype(np.float32)
+    ids, turns = reader.read(grey, quads)
+    assert list(ids) == sorted(truth) and list(turns) == [0, 0, 0]
+    # the same places in a frame of another family's markers (4x4_50), and in plain texture
+    k = syn.nominal_camera()
+    rng = np.random.default_rng(1)
+    placements = []
+    for i, marker_id in enumerate((0, 41, 49)):  # as small_blurred_tags(1) draws them
+        rvec, tvec = syn.look_at_pose(1270.0, rng.uniform(-15, 15), rng.uniform(0, 360),
+                                      offset_mm=(-150.0 + 150.0 * i, 20.0))  # fmt: skip
+        placements.append(syn.Placement(marker_id, 25.0, rvec, tvec))
+    other, _ = syn.render_markers("aruco", placements, k, effects=syn.Effects(blur=0.8, seed=1))
+    texture = cv2.GaussianBlur(
+        cv2.resize((rng.random((60, 80)) < 0.5).astype(np.uint8) * 255, (640, 480),
+                   interpolation=cv2.INTER_NEAREST), (0, 0), 0.8)  # fmt: skip
+    for image in (other, texture):
+        ids, _ = reader.read(image, quads)
+        assert list(ids) == [-1, -1, -1]

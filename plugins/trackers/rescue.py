@@ -8,7 +8,9 @@ rejected candidate of at most :data:`MAX_SIDE_PX` gets its corners from its
 four edges (:mod:`.refine`), its cells are read in their middles
 (:func:`.kernels.sample_cells`), its border must be black, and its inside must
 be a word of the dictionary exactly, under one of the four turns: no bit is
-corrected, so a rescued marker is as sure as OpenCV's.
+corrected, so a rescued marker is as sure as OpenCV's. A candidate whose cells
+no threshold reads (two pixels a cell under blur) is read by fitting every
+word of the dictionary, blurred, to its levels (:mod:`.blur_decode`).
 
 The same first look (:meth:`Rescuer.marker_like`: a dark border around light
 cells) tells the tracker's ``unread`` count which shapes look like markers.
@@ -19,6 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .blur_decode import BlurFitReader
 from .kernels import clockwise_quads, sample_cells
 from .refine import refine_corners
 
@@ -56,6 +59,7 @@ class Rescuer:
         ring = np.ones((c, c), dtype=bool)
         ring[1:-1, 1:-1] = False
         self.border = ring.reshape(-1)
+        self._blurred: BlurFitReader | None = None  # built when first needed
 
     def __call__(
         self, gray: np.ndarray, rejected: np.ndarray, found: np.ndarray, min_side: float
@@ -90,9 +94,19 @@ class Rescuer:
         white = (levels[:, ~self.border] > threshold).astype(np.uint8)
         match = np.all(white[:, None, :] == self.words[None], axis=2)  # (N, ids * 4)
         ok &= match.sum(axis=1) == 1
+        read_id, read_turn = np.divmod(np.argmax(match, axis=1), 4)
+        # what no threshold reads, read as a whole blurred pattern
+        unread = np.flatnonzero(~ok & (contrast >= MIN_CONTRAST))
+        if len(unread):
+            if self._blurred is None:
+                self._blurred = BlurFitReader(self.words)
+            fit_id, fit_turn = self._blurred.read(gray, refined[unread])
+            fitted = fit_id >= 0
+            read_id[unread[fitted]], read_turn[unread[fitted]] = fit_id[fitted], fit_turn[fitted]
+            ok[unread[fitted]] = True
         out_q, out_id, centres = [], [], []
         for k in np.flatnonzero(ok):
-            marker_id, turn = divmod(int(np.argmax(match[k])), 4)
+            marker_id, turn = int(read_id[k]), int(read_turn[k])
             centre = quads[k].mean(axis=0)
             if any(np.linalg.norm(centre - c) < 0.5 * sides[k].min() for c in centres):
                 continue  # two contours of one marker
