@@ -837,6 +837,18 @@ class BusServoDriver(SerialArmDriver):
                 )
         return handle
 
+    def bus_facts(self) -> dict[str, object]:
+        """How the bus went so far (JSON-safe, for the run log): ``bus``, ``lost_status``
+        (status packets that did not come when asked), ``retries`` (asks a request gets
+        past the first) and ``servos_heard`` (ids that answered)."""
+        with self._lock:
+            return {
+                "bus": self.spec.bus,
+                "lost_status": self.lost_status,
+                "retries": self.retries,
+                "servos_heard": sorted(self.servos_heard),
+            }
+
     def joint_counts(self) -> list[int | None]:
         """Each arm joint's servo position as last read (counts, 4096 a turn), joint order."""
         with self._lock:
