@@ -234,7 +234,7 @@ def _params(preset: dict[str, Any]) -> tuple[Param, ...]:
             "vector",
             preset.get("home"),
             unit="deg",
-            doc="the home pose, one angle per joint",
+            doc="the home pose, one angle per joint; with tool_axis, the tool along it",
         ),
         Param(
             "servos",
