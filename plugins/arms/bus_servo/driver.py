@@ -26,8 +26,10 @@ for again, up to ``retries`` more times, and counted (:attr:`lost_status`);
 past the budget the link is lost naming the servo. A status packet reporting
 overload, overheat, over-current, a voltage or sensor error (Dynamixel: its
 alert bit, then Hardware Error Status read) stops the arm: torque off on every
-servo, a fault naming the servo and the cause (exit 3). Torque goes off on every
-way the driver closes. Units: degrees at the interface, counts on the bus;
+servo, a fault naming the servo and the cause (exit 3). Every fault, whatever
+found it (a servo gone silent, implausible readings, a driver error, a dead port),
+and every close sends the torque-off sync write past the faulted link's refusal to
+write (:meth:`BusServoDriver.on_fault`; tried once, bounded, never waited on). Units: degrees at the interface, counts on the bus;
 seconds on the run's clock (wall seconds while connecting).
 """
 
@@ -272,8 +274,7 @@ class BusServoDriver(SerialArmDriver):
             if request is not None and request.waiting and self._late(request, now):
                 self.lost_status += len(request.waiting)
                 if self._given_up(request, now):
-                    failure = self._silent(request, now)
-                    self._torque_off()
+                    failure = self._silent(request, now)  # lose_link turns torque off
                 else:
                     out += self._send(request, now)
             if request is not None and not request.waiting:
@@ -494,7 +495,12 @@ class BusServoDriver(SerialArmDriver):
             abs(counts - self._goals.get(servo_id, counts)),
             0 if present is None else abs(counts - present),
         )
-        return 0 if distance == 0 else max(1, int(round(distance / seconds)))
+        if distance == 0:
+            return 0
+        # a servo far from its goal (knocked, or read wrong) asks more than the register
+        # holds: as fast as it goes, not a driver error
+        top = (1 << self._model_of[servo_id].register("goal_velocity").encoding) - 1
+        return min(top, max(1, int(round(distance / seconds))))
 
     def _goal_request(
         self, goals: dict[int, int], speeds: dict[int, int] | None = None
@@ -656,8 +662,7 @@ class BusServoDriver(SerialArmDriver):
         if not self._ready:
             self._setup_error = message
             return True
-        self._torque_off()
-        self.lose_link(message, reason=f"{servo}: {' and '.join(names)}")
+        self.lose_link(message, reason=f"{servo}: {' and '.join(names)}")  # torque off first
         return True
 
     # ------------------------------------------------------------------ motion
@@ -832,6 +837,18 @@ class BusServoDriver(SerialArmDriver):
                 )
         return handle
 
+    def bus_facts(self) -> dict[str, object]:
+        """How the bus went so far (JSON-safe, for the run log): ``bus``, ``lost_status``
+        (status packets that did not come when asked), ``retries`` (asks a request gets
+        past the first) and ``servos_heard`` (ids that answered)."""
+        with self._lock:
+            return {
+                "bus": self.spec.bus,
+                "lost_status": self.lost_status,
+                "retries": self.retries,
+                "servos_heard": sorted(self.servos_heard),
+            }
+
     def joint_counts(self) -> list[int | None]:
         """Each arm joint's servo position as last read (counts, 4096 a turn), joint order."""
         with self._lock:
@@ -842,12 +859,17 @@ class BusServoDriver(SerialArmDriver):
         with self._lock:
             return {i: s.present for i, s in self.servos.items()}
 
-    def _torque_off(self) -> None:
-        """Torque off on every servo, at once (a stopped arm, a closing driver)."""
-        request = self._write_all("torque_enable", 0)
-        ser = self._ser
-        if ser is not None and self._fault is None:
-            self.write(request.packet([]))
+    def _torque_off(self) -> bool:
+        """Torque off on every servo in one sync write, past a fault too (best effort,
+        bounded: :meth:`write_anyway`); True when it left."""
+        return self.write_anyway(self._write_all("torque_enable", 0).packet([]))
+
+    def on_fault(self) -> None:
+        """Any fault (a servo's error, one gone silent, implausible readings, a driver
+        error, a dead port): torque off on every servo, unless the bus never answered as
+        these servos or this is a probe, which changes nothing."""
+        if not self._probing and (self._torque_on or self.servos_heard):
+            self._torque_off()
 
     def probe(self) -> None:
         """Connect as far as the pings and model numbers, changing nothing (detect-port)."""
@@ -858,8 +880,9 @@ class BusServoDriver(SerialArmDriver):
             self._probing = False
 
     def close(self) -> None:
-        """Torque off on every servo it turned on, then release the port (on every way out)."""
-        if self._torque_on and self._fault is None:
+        """Torque off on every servo it turned on, then release the port (on every way out,
+        a faulted link too: the torque-off is tried once more, bounded)."""
+        if self._torque_on:
             self._torque_off()
         self._torque_on = False
         super().close()

@@ -234,7 +234,7 @@ def _params(preset: dict[str, Any]) -> tuple[Param, ...]:
             "vector",
             preset.get("home"),
             unit="deg",
-            doc="the home pose, one angle per joint",
+            doc="the home pose, one angle per joint; with tool_axis, the tool along it",
         ),
         Param(
             "servos",
@@ -339,6 +339,23 @@ koch_factory = _factory("koch")
 def armtree_arms() -> dict[str, Any]:
     """Register ``bus_servo``, ``so101`` and ``koch``."""
     return {"bus_servo": bus_servo_factory, "so101": so101_factory, "koch": koch_factory}
+
+
+@armtree.hookimpl
+def armtree_run_finished(run: Any, result: Any) -> None:
+    """A run on a bus-servo arm records how its bus went: the status packets lost (each
+    asked again) in the log (a ``servo_bus`` event) and in the summary (``servo bus:``)."""
+    arm = getattr(getattr(run, "rig", None), "arm", None)
+    if not isinstance(arm, BusServoDriver):
+        return
+    facts = arm.bus_facts()
+    run.report_event("servo_bus", **facts)
+    details = getattr(result, "details", None)
+    if isinstance(details, dict):
+        details["servo bus"] = (
+            f"{facts['lost_status']} status packets lost, each asked again "
+            f"(up to {facts['retries']} times a request)"
+        )
 
 
 __all__ = [

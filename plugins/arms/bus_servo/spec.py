@@ -7,7 +7,8 @@ its line and column, in an included calibration file too): a servo model the bus
 does not speak, an id given twice, a baud rate a servo does not support, joints
 the URDF does not have, a calibration for other ids. :func:`arm_model` builds the
 URDF model (kept for the next call with the same file and keys), its joint limits
-cut to the ranges the calibration measured.
+cut to the ranges the calibration measured, and refuses a home that does not hold the
+tool along ``tool_axis``.
 """
 
 from __future__ import annotations
@@ -22,11 +23,15 @@ import numpy as np
 
 from armtree.config.resolve import resolve
 from armtree.errors import ConfigError, shown
-from armtree.maths.motion.urdf import UrdfModel, load_urdf
+from armtree.maths.motion.urdf import AXIS_WEIGHT, IK_TOL_MM, UrdfModel, load_urdf
 
 from .bus import MAX_ID
 from .calibration import ServoCalibration, parse_calibration
 from .tables import MODELS, ServoModel
+
+#: How far (deg) home may hold the tool off ``tool_axis``: as far as inverse kinematics
+#: holds it on a position target, so a move to home's position finds home again.
+HOME_AXIS_TOL_DEG = float(np.degrees(IK_TOL_MM / AXIS_WEIGHT))
 
 
 @dataclass(frozen=True)
@@ -256,7 +261,7 @@ def arm_model(config: Mapping[str, Any]) -> UrdfModel:
         )
     if home is not None and (not isinstance(home, Sequence) or len(home) != len(joints)):
         raise ConfigError(f"arm.home: give {len(joints)} joint angles (deg), got {shown(home)}")
-    return UrdfModel(
+    built = UrdfModel(
         model.chain,
         joints,
         model.boxes,
@@ -265,6 +270,23 @@ def arm_model(config: Mapping[str, Any]) -> UrdfModel:
         home=None if home is None else np.asarray(home, dtype=float),
         tool_axis=model.tool_axis,
     )
+    if home is not None and built.tool_axis is not None:
+        _check_home_axis(built, home)
+    return built
+
+
+def _check_home_axis(model: UrdfModel, home: Sequence[Any]) -> None:
+    """Home must hold the tool along ``tool_axis``, as every position target does (else
+    no move reaches home's position as home, and the plugin checks fail far from here)."""
+    z = model.link_frames(np.asarray(home, dtype=float))[-1][:3, 2]
+    off = float(np.degrees(np.arccos(np.clip(np.dot(z, model.tool_axis), -1.0, 1.0))))
+    if off > HOME_AXIS_TOL_DEG:
+        axis = [round(float(v), 3) + 0.0 for v in model.tool_axis]
+        raise ConfigError(
+            f"arm.home: {shown(home)} holds the tool {off:.1f} deg off tool_axis {axis} "
+            "(every position target keeps the tool along it): give joint angles that point "
+            "the tool link's z along tool_axis"
+        )
 
 
 @functools.lru_cache(maxsize=16)

@@ -16,7 +16,9 @@ Modules
                   permission), the I/O thread, link-lost detection, wrong-protocol
                   diagnosis, motion-handle bookkeeping, duplicate suppression and
                   target checks. A subclass implements ``on_data(data)``,
-                  ``on_time(now)``, ``handshake_done()`` and the ArmDriver methods.
+                  ``on_time(now)``, ``handshake_done()`` and the ArmDriver methods;
+                  ``on_fault()`` makes the arm safe when the link fails (it may
+                  write past the fault with ``write_anyway(data)``, bounded).
 ``barrier``       :class:`StepBarrier`, the in-process handshake that makes a driver
                   and its emulator deterministic on a virtual clock.
 ``framing``       resynchronising parsers (:class:`FixedFrameParser`,

@@ -9,6 +9,8 @@ byte is sent. A subclass writes the protocol:
 * :meth:`SerialArmDriver.on_time` takes the actions due at a time (polls,
   retries, streaming steps), also on the I/O thread;
 * :meth:`SerialArmDriver.handshake_done` says when :meth:`connect` may return;
+* :meth:`SerialArmDriver.on_fault` makes the arm safe when the link fails (a
+  torque-off, sent with :meth:`SerialArmDriver.write_anyway`);
 * the :class:`~armtree.api.rig.ArmDriver` methods (moves, suction, stop).
 
 It calls :meth:`SerialArmDriver.write` to send, :meth:`SerialArmDriver.mark_alive`
@@ -107,6 +109,9 @@ def _not_a_tty(port: str) -> str | None:
 
 #: How often a flush interrupted by a signal is tried again before the link counts as lost.
 FLUSH_TRIES = 5
+#: Wall seconds :meth:`SerialArmDriver.write_anyway` may wait for the port and for its bytes
+#: to leave: a stop on the way out is tried, never waited on.
+WRITE_ANYWAY_S = 0.2
 
 try:
     import termios
@@ -205,6 +210,11 @@ class SerialArmDriver(ArmDriver):
         """True once the arm has answered as it should; :meth:`connect` waits for it."""
         return self._last_alive > -math.inf
 
+    def on_fault(self) -> None:  # noqa: B027 - arms with nothing to switch off
+        """The link just failed, for any reason: make the arm safe (torque off), best
+        effort, with :meth:`write_anyway`. Called once per fault, before the run hears of
+        it, on whichever thread found it; what it raises is ignored."""
+
     # ------------------------------------------------------------------ helpers
 
     @property
@@ -227,16 +237,46 @@ class SerialArmDriver(ArmDriver):
         ser = self._ser
         if ser is None or self._fault is not None:
             return False
+        failed = None
         with self._write_lock:
             try:
                 n = ser.write(data)
                 _flush(ser)
             except (serial.SerialException, OSError) as exc:
-                self.lose_link(f"link lost while writing: {exc}")
-                return False
-            self.last_write_wall = time.perf_counter()
-            if self.barrier is not None:
-                self.barrier.wrote(n or 0)
+                failed = exc
+            else:
+                self.last_write_wall = time.perf_counter()
+                if self.barrier is not None:
+                    self.barrier.wrote(n or 0)
+        if failed is not None:
+            # outside the write lock: losing the link writes a torque-off (on_fault)
+            self.lose_link(f"link lost while writing: {failed}")
+            return False
+        return True
+
+    def write_anyway(self, data: bytes, timeout: float = WRITE_ANYWAY_S) -> bool:
+        """Send ``data`` even when the link has failed (a torque-off on the way out);
+        True when it left. Best effort and bounded: at most ``timeout`` wall seconds for
+        the port and for the bytes to drain; a port that fails is left as it is."""
+        ser = self._ser
+        if ser is None:
+            return False
+        if not self._write_lock.acquire(timeout=timeout):
+            return False
+        try:
+            n = ser.write(data)
+            # not tcdrain (flush): it has no timeout, and a device that stopped reading
+            # must not hold the way out
+            deadline = time.monotonic() + timeout
+            while ser.out_waiting and time.monotonic() < deadline:
+                time.sleep(0.001)
+        except Exception:  # noqa: BLE001 - the link is already lost; nothing more to say
+            return False
+        finally:
+            self._write_lock.release()
+        self.last_write_wall = time.perf_counter()
+        if self.barrier is not None:
+            self.barrier.wrote(n or 0)
         return True
 
     def mark_alive(self) -> None:
@@ -246,7 +286,8 @@ class SerialArmDriver(ArmDriver):
             self._last_alive = self.clock.now()
 
     def lose_link(self, message: str, reason: str | None = None) -> None:
-        """The link is gone: record the fault, fail every motion, interrupt the run.
+        """The link is gone: record the fault, make the arm safe (:meth:`on_fault`), fail
+        every motion, interrupt the run.
 
         ``reason`` is the interrupt's (default: ``link lost on DEVICE``); a device that
         stopped itself (an overloaded servo) names that instead.
@@ -257,6 +298,9 @@ class SerialArmDriver(ArmDriver):
             fault = HardwareFault(message, self.device)
             self._fault = fault
             handles, self._handles = self._handles, []
+        # Safe first: the arm's torque goes off before anyone is told, on every fault.
+        with contextlib.suppress(Exception):
+            self.on_fault()
         if self.barrier is not None:
             self.barrier.detach()
         # The run hears of the fault before any behaviour sees its motion fail, so the
