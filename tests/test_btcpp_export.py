@@ -21,6 +21,8 @@ from armtree.plugins.btcpp.writer import export_tree
 SHIPPED = sorted(p.stem for p in shipped_dir("tree").glob("*.yaml"))
 #: Values a shipped tree needs to be checked (search.yaml's tag has no default).
 NEEDS = {"search": ["tag=duckybot"]}
+#: Every registered behaviour's name: the nodes of armtree's palette.
+PALETTE = sorted(get_plugin_manager().registry.names("behaviour"))
 
 
 @pytest.fixture(scope="module")
@@ -35,29 +37,38 @@ def exported(name: str, manager) -> str:
 def btcpp_tree(text: str, ticked: list[str]) -> bt.Tree:
     """The exported XML loaded by BehaviorTree.CPP, its custom leaves as stubs.
 
-    behaviortreepy 0.1.4 registers Python leaves without ports (its
+    Every behaviour of armtree's palette is registered as a node first, as a BT.CPP
+    user who loaded the palette has them, so BT.CPP refuses a ``<BehaviorTree>`` or
+    ``<SubTree>`` ID that is a node's name, as it would in a C++ program.
+    behaviortreepy 0.1.4 registers Python nodes without ports (its
     ``register_simple_action`` takes none), and BT.CPP refuses a port its node does
     not declare; so each leaf the ``<TreeNodesModel>`` declares stands in as a
-    ``<SubTree>`` of that ID (which takes any port as a remapping) whose tree is one
-    stub action that records its name and succeeds (fails under an Inverter). Everything else is the XML as
-    exported: BT.CPP's built-ins with their ports, the subtrees with their remaps.
-    The main tree's parameters go on the root blackboard, from their model defaults.
+    ``<SubTree ID="stub.LEAF">`` (which takes any port as a remapping) whose tree is
+    one stub action that records the leaf and succeeds (fails under an Inverter). The
+    stubs' IDs are none of the file's, so no stub replaces a real tree (asserted).
+    Everything else is the XML as exported: BT.CPP's built-ins with their ports, the
+    subtrees with their remaps. The file is loaded as docs/tree_files.md says: every
+    tree registered, the first one created by its ID. The main tree's parameters go on
+    the root blackboard, from their model defaults.
     """
     root = ET.fromstring(text)
     models = root.find("TreeNodesModel")
     leaves = {m.get("ID") for m in models if m.tag in ("Action", "Condition")}
     others = [m.get("ID") for m in models if m.tag in ("Control", "Decorator")]
     assert not others, f"custom composites or decorators in a shipped tree: {others}"
+    trees = [t.get("ID") for t in root.findall("BehaviorTree")]
     # A leaf under an Inverter is a check the tree wants false (sort's "Nothing left in
     # hand"): its stub fails, so the inverted check passes as in a run that went well.
     inverted = {child.tag for parent in root.iter("Inverter") for child in parent}
     for element in root.iter():
         if element.tag in leaves:
-            element.attrib = {"ID": element.tag, **element.attrib}
+            element.attrib = {"ID": f"stub.{element.tag}", **element.attrib}
             element.tag = "SubTree"
     factory = bt.BehaviorTreeFactory()
+    for node_id in PALETTE:
+        factory.register_simple_action(node_id, lambda node: bt.NodeStatus.FAILURE)
     for leaf in sorted(leaves):
-        stub = ET.SubElement(root, "BehaviorTree", ID=leaf)
+        stub = ET.SubElement(root, "BehaviorTree", ID=f"stub.{leaf}")
         ET.SubElement(stub, f"stub_{leaf}")
 
         def tick(node, leaf=leaf):
@@ -66,13 +77,14 @@ def btcpp_tree(text: str, ticked: list[str]) -> bt.Tree:
 
         factory.register_simple_action(f"stub_{leaf}", tick)
     factory.register_behavior_tree_from_text(ET.tostring(root, encoding="unicode"))
-    main = root.find("BehaviorTree").get("ID")
+    registered = factory.registered_behavior_trees()
+    assert sorted(registered) == sorted(trees + [f"stub.{leaf}" for leaf in leaves])
     blackboard = bt.Blackboard.create()
-    model = models.find(f"SubTree[@ID='{main}']")
+    model = models.find(f"SubTree[@ID='{trees[0]}']")
     for port in model if model is not None else ():
         if port.get("default") is not None:
             blackboard.set_string(port.get("name"), port.get("default"))
-    return factory.create_tree(main, blackboard)
+    return factory.create_tree(trees[0], blackboard)
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -106,10 +118,34 @@ def test_load_ducky_ticks_in_behaviortree_cpp_in_armtree_order(manager):
     ]
 
 
+# the search's reactive fallback: the clean-up check, the trash carried (then
+# ForceFailure), the tag in view
+SEARCH = ["check_blackboard_variable_value", "tag_visible", "pick", "place", "tag_visible"]
+
+
+@pytest.mark.parametrize(
+    ("name", "leaves"),
+    [
+        ("track", [*SEARCH, "track"]),
+        ("search", SEARCH),
+        ("clean_up", ["tag_visible", "pick", "place", "sweep", "home"]),
+    ],
+)
+def test_a_tree_named_like_a_node_loads_as_itself_in_behaviortree_cpp(name, leaves, manager):
+    # track.yaml is the tree "track" with the skill "track" in it: BT.CPP refuses a tree
+    # with a registered node's name, so its ID is "track_tree", its name in _tree
+    text = exported(name, manager)
+    main = ET.fromstring(text).find("BehaviorTree")
+    assert (main.get("ID"), main.get("_tree")) == (f"{name}_tree", name)
+    ticked: list[str] = []
+    assert btcpp_tree(text, ticked).tick_while_running() == bt.NodeStatus.SUCCESS
+    assert ticked == leaves
+
+
 def test_export_maps_to_btcpp_built_ins_and_keeps_the_rest_as_models(manager):
     root = ET.fromstring(exported("load_ducky", manager))
     trees = [t.get("ID") for t in root.findall("BehaviorTree")]
-    assert trees == ["load_ducky", "search", "clear_trash"]
+    assert trees == ["load_ducky", "search_tree", "clear_trash"]
     main = root.find("BehaviorTree")
     assert main.get("_rig") == "sim_dobot" and main.get("_tick_hz") == "20"
     sequence = main[0]
@@ -117,16 +153,17 @@ def test_export_maps_to_btcpp_built_ins_and_keeps_the_rest_as_models(manager):
     retry = sequence[0]
     assert (retry.tag, retry.get("num_attempts")) == ("RetryUntilSuccessful", "3")
     subtree = retry[0][0]
-    assert subtree.attrib == {"ID": "search", "tag": "duckybot", "_autoremap": "true"}
+    assert subtree.attrib == {"ID": "search_tree", "tag": "duckybot", "_autoremap": "true"}
     timeout = retry[0][1]
     assert (timeout.tag, timeout.get("msec")) == ("Timeout", "120000")
     assert timeout[0].attrib["pose"] == "{duckybot_pose}"
-    search = root.find("BehaviorTree[@ID='search']")
+    search = root.find("BehaviorTree[@ID='search_tree']")
+    assert search.get("_tree") == "search"
     assert search[0][0].tag == "ReactiveFallback"  # selector: re-checked every tick
     model = root.find("TreeNodesModel")
     kinds = {m.get("ID"): m.tag for m in model}
     assert kinds["holding"] == "Condition" and kinds["grasp"] == "Action"
-    assert kinds["search"] == "SubTree" and "Sequence" not in kinds
+    assert kinds["search_tree"] == "SubTree" and "Sequence" not in kinds
     look = model.find("Action[@ID='look']")
     ports = {p.get("name"): (p.tag, p.get("type"), p.get("default")) for p in look}
     assert ports["pose"] == ("output_port", None, None)
@@ -193,6 +230,13 @@ def _leaf() -> st.SearchStrategy:
         st.just({"failure": {}}),
         st.builds(lambda d: {"tick_counter": {"duration": d}}, st.integers(0, 3)),
         st.builds(lambda s: {"wait": {"seconds": s}}, st.sampled_from([0.0, 0.25, 1.0, 0.0005])),
+        # skills with text and vector parameters (a tag role of sim_dobot's, an offset)
+        st.builds(lambda t: {"look": {"tag": t}}, st.sampled_from(["ducky", "duckybot"])),
+        st.builds(
+            lambda t, o: {"visual_servo": {"tag": t, "offset": o}},
+            st.sampled_from(["ducky", "duckybot"]),
+            st.lists(st.floats(-30, 30).map(lambda f: round(f, 2)), min_size=3, max_size=3),
+        ),
         st.builds(
             lambda v: {"set_blackboard_variable": {"variable_name": "k", "variable_value": v}},
             _values,
@@ -272,11 +316,21 @@ _trees = st.recursive(
     root=_trees,
     tick_hz=st.sampled_from([10, 20.0, 12.5]),
     blackboard=st.dictionaries(st.sampled_from(["k", "a", "b"]), _values, max_size=2),
+    # tree names that are node names too (armtree's, BT.CPP's) travel as NAME_tree
+    name=st.sampled_from(["gen", "track", "look", "Sequence", "SubTree", "gen_tree"]),
 )
-def test_generated_trees_survive_export_and_import(root, tick_hz, blackboard, tmp_path_factory):
+def test_generated_trees_survive_export_and_import(
+    root, tick_hz, blackboard, name, tmp_path_factory
+):
     folder = tmp_path_factory.mktemp("gen")
     source = folder / "gen.yaml"
-    data = {"tree": "gen", "tick_hz": tick_hz, "blackboard": {"k": 0, **blackboard}, "root": root}
+    data = {
+        "tree": name,
+        "rig": "sim_dobot",
+        "tick_hz": tick_hz,
+        "blackboard": {"k": 0, **blackboard},
+        "root": root,
+    }
     source.write_text(yaml.safe_dump(data, allow_unicode=True))
     manager = get_plugin_manager()
     try:
@@ -285,4 +339,21 @@ def test_generated_trees_survive_export_and_import(root, tick_hz, blackboard, tm
         return  # a generated combination armtree refuses is not exported either
     target = folder / "gen.xml"
     target.write_text(export_tree(source, manager))
+    assert shape(armtree.load_tree(target, manager=manager)) == shape(original)
+
+
+def test_a_tree_of_skills_named_like_a_node_survives_export_and_import(tmp_path):
+    # what the generator draws, written out once: armtree accepts it, so the round trip
+    # above is not vacuous for skills with text and vector parameters
+    source = tmp_path / "gen.yaml"
+    source.write_text(
+        "tree: look\nrig: sim_dobot\nroot:\n  sequence:\n    children:\n"
+        "      - look: {tag: ducky}\n"
+        "      - visual_servo: {tag: duckybot, offset: [0.5, -2, 20]}\n"
+    )
+    manager = get_plugin_manager()
+    original = armtree.load_tree(source, manager=manager)
+    target = tmp_path / "gen.xml"
+    target.write_text(export_tree(source, manager))
+    assert 'offset="0.5;-2;20"' in target.read_text()
     assert shape(armtree.load_tree(target, manager=manager)) == shape(original)

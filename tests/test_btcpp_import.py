@@ -236,3 +236,38 @@ def test_an_exported_xml_exports_to_the_same_xml(tmp_path):
     first = tmp_path / "a.xml"
     first.write_text(export_tree("load_ducky", manager))
     assert export_tree(first, manager) == first.read_text()
+
+
+def test_without_a_model_ports_take_the_registered_parameters_types(tmp_path):
+    # a hand-written file with no <TreeNodesModel>: YAML would read "on" as true and
+    # "0;0;20" as text; the registered skills say a tag is text and an offset a vector
+    from armtree.plugins.btcpp.reader import read_tree
+
+    path = write(
+        tmp_path / "t.xml",
+        tree(
+            '    <Sequence><look tag="on"/><visual_servo tag="ducky" offset="0;0;20"/></Sequence>'
+        ),
+    )
+    look, servo = read_tree(path)["root"]["sequence"]["children"]
+    assert look["look"]["tag"] == "on"
+    assert list(servo["visual_servo"]["offset"]) == [0, 0, 20]
+
+
+def test_vectors_travel_as_btcpp_writes_them(tmp_path):
+    text = export_tree("touch_tag", get_plugin_manager())
+    root = ET.fromstring(text)
+    assert root.get("main_tree_to_execute") == root.find("BehaviorTree").get("ID")
+    offsets = [e.get("offset") for e in root.iter("visual_servo")]
+    assert offsets and all(";" in o and "[" not in o for o in offsets), offsets
+
+
+def test_a_node_described_twice_in_the_model_is_an_error_at_the_second(tmp_path, capsys):
+    entry = '<Action ID="home"/>'
+    path = write(
+        tmp_path / "t.xml",
+        tree("    <home/>", f"  <TreeNodesModel>\n    {entry}\n    {entry}\n  </TreeNodesModel>\n"),
+    )
+    lines = check(path, capsys)
+    assert lines[0].startswith(f"{path}:7:17: <Action ID='home'> is described twice")
+    assert "first at line 6" in lines[0]

@@ -320,6 +320,10 @@ BUILTINS: tuple[Builtin, ...] = (
 #: BT.CPP's built-in by ID.
 BY_BTCPP: dict[str, Builtin] = {b.btcpp: b for b in BUILTINS}
 
+#: The IDs of BT.CPP's own nodes, which a ``<BehaviorTree ID>`` may not take (BT.CPP
+#: refuses a tree named like a registered node).
+BTCPP_NODE_IDS = frozenset(BY_BTCPP) | frozenset(UNMATCHED) | {"SubTree"}
+
 
 def exported(ntype: str, options: dict[str, Any]) -> tuple[str, dict[str, str]] | None:
     """The BT.CPP built-in and its ports for an armtree node, or None (a custom node)."""

@@ -10,8 +10,9 @@ tag="duckybot"/>`` is ``subtree: {file: "#search", with: {tag: duckybot}}``, sha
 blackboard with ``_autoremap="true"``, else in a namespace of its own (``_namespace``,
 else its name or ID). armtree's own top-level keys travel as ``_description``,
 ``_rig``, ``_tick_hz``, ``_blackboard``, ``_expect`` and ``_plugins`` attributes of
-``<BehaviorTree>`` (BT.CPP ignores them), a tree's ``params:`` as the ports of its
-``<SubTree ID>`` model in ``<TreeNodesModel>``.
+``<BehaviorTree>`` (BT.CPP ignores them), and ``_tree``, the tree's name where its ID
+had to differ (a tree named like a node, see :func:`.writer.tree_id`); a tree's
+``params:`` as the ports of its ``<SubTree ID>`` model in ``<TreeNodesModel>``.
 """
 
 from __future__ import annotations
@@ -23,9 +24,10 @@ from pathlib import Path
 from armtree import ConfigError
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
 from armtree.errors import Mark, shown
+from armtree.hooks.plugin_manager import get_plugin_manager
 
 from .mapping import BY_BTCPP, SCRIPT_ATTRIBUTES, UNMATCHED
-from .values import from_port, is_text_type
+from .values import PORT_TYPES, from_port
 from .xmlfile import Element, parse_xml_file
 
 #: Element names that say the node's kind and take its type from ``ID``.
@@ -63,6 +65,7 @@ class NodeModel:
 
     kind: str
     ports: dict[str, PortModel] = field(default_factory=dict)
+    element: Element | None = None
 
 
 def read_tree(path: Path) -> MarkedDict | None:
@@ -156,7 +159,16 @@ class XmlDocument:
             if node_id is None:
                 self.error(f"<{entry.tag}> in <TreeNodesModel> needs an ID", entry.mark)
                 continue
-            model = NodeModel(entry.tag)
+            if node_id in self.models:
+                first = self.models[node_id].element
+                where = f" (first at line {first.mark.line})" if first is not None else ""
+                self.error(
+                    f"<{entry.tag} ID={shown(node_id)}> is described twice in <TreeNodesModel>"
+                    f"{where}; keep one",
+                    entry.value_mark("ID"),
+                )
+                continue
+            model = NodeModel(entry.tag, element=entry)
             for port in entry.children:
                 if port.tag not in ("input_port", "output_port", "inout_port"):
                     continue
@@ -209,15 +221,17 @@ class XmlDocument:
                 self.error(f"no <BehaviorTree ID={shown(tree_id)}> in the file", self.root.mark)
             return None
         data = MarkedDict(mark=element.mark)
-        data["tree"] = tree_id
-        data.key_marks["tree"] = element.name_mark("ID")
-        data.value_marks["tree"] = element.value_mark("ID")
+        # a tree named like a node is written NAME_tree, its armtree name in _tree
+        name_attr = "_tree" if "_tree" in element.attrs else "ID"
+        data["tree"] = element.attrs.get("_tree", tree_id)
+        data.key_marks["tree"] = element.name_mark(name_attr)
+        data.value_marks["tree"] = element.value_mark(name_attr)
         for key, text in TREE_KEYS.items():
             attr = f"_{key}"
             if attr in element.attrs:
                 value = element.attrs[attr]
                 mark = element.value_mark(attr)
-                data[key] = value if text else from_port(value, attr, False, mark)
+                data[key] = value if text else from_port(value, attr, None, mark)
                 data.key_marks[key] = element.name_mark(attr)
                 data.value_marks[key] = mark
         params = self._params(tree_id)
@@ -246,7 +260,7 @@ class XmlDocument:
             entry = MarkedDict(mark=port.element.mark)
             if port.default is not None:
                 mark = port.element.value_mark("default")
-                entry["default"] = from_port(port.default, port.name, is_text_type(port.type), mark)
+                entry["default"] = from_port(port.default, port.name, port.type, mark)
                 entry.key_marks["default"] = port.element.name_mark("default")
                 entry.value_marks["default"] = mark
             if port.doc:
@@ -319,12 +333,15 @@ class XmlDocument:
         return node
 
     def _ports(self, element: Element, model: NodeModel | None, spec: MarkedDict) -> None:
+        if model is not None:
+            types = {name: port.type for name, port in model.ports.items()}
+        else:
+            types = registered_port_types(element.tag)
         for attr, text in element.attrs.items():
             if not _is_port(attr):
                 continue
-            port = model.ports.get(attr) if model is not None else None
             mark = element.value_mark(attr)
-            spec[attr] = from_port(text, attr, port is not None and is_text_type(port.type), mark)
+            spec[attr] = from_port(text, attr, types.get(attr), mark)
             spec.key_marks[attr] = element.name_mark(attr)
             spec.value_marks[attr] = mark
 
@@ -381,9 +398,7 @@ class XmlDocument:
             if _is_port(attr):
                 port = model.ports.get(attr) if model is not None else None
                 mark = element.value_mark(attr)
-                given[attr] = from_port(
-                    text, attr, port is not None and is_text_type(port.type), mark
-                )
+                given[attr] = from_port(text, attr, port.type if port is not None else None, mark)
                 given.key_marks[attr] = element.name_mark(attr)
                 given.value_marks[attr] = mark
         if given:
@@ -399,6 +414,17 @@ class XmlDocument:
         node = MarkedDict({"subtree": spec}, mark=element.mark)
         node.key_marks["subtree"] = node.value_marks["subtree"] = element.mark
         return node
+
+
+def registered_port_types(node_id: str) -> dict[str, str | None]:
+    """The port types of the registered behaviour ``node_id`` (armtree's own and installed
+    plugins'), for a file whose ``<TreeNodesModel>`` does not describe it; ``{}`` for a
+    name nothing registers (the loader names it)."""
+    registry = get_plugin_manager().registry
+    if not registry.has("behaviour", node_id):
+        return {}
+    params = registry.get("behaviour", node_id).params
+    return {param.name: PORT_TYPES.get(param.type) for param in params}
 
 
 def _is_port(attr: str) -> bool:

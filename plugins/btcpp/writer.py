@@ -2,8 +2,8 @@
 
 The tree is validated first (the loader's checks, against its rig), then written from
 its files as written, so a subtree's parameters stay parameters: each file is one
-``<BehaviorTree ID>`` (its ``tree:`` name), the tree that includes it a ``<SubTree
-ID>`` whose ports are its ``with:``. armtree's composites and decorators become BT.CPP's
+``<BehaviorTree ID>`` (its ``tree:`` name, see :func:`tree_id`), the tree that
+includes it a ``<SubTree ID>`` whose ports are its ``with:``. armtree's composites and decorators become BT.CPP's
 own where the semantics match (:mod:`.mapping`), every other node keeps its armtree
 name as a custom node; its parameters are its ports (:mod:`.values`). The
 ``<TreeNodesModel>`` describes every custom node the file uses (:func:`model_element`)
@@ -26,9 +26,9 @@ from armtree.config.yamlio import load_yaml_file
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Component, Registry
 
-from .mapping import CONDITIONS, MODEL_KINDS, exported
+from .mapping import BTCPP_NODE_IDS, CONDITIONS, MODEL_KINDS, exported
 from .reader import TREE_KEYS, read_tree
-from .values import PORT_TYPES, is_text_type, to_port
+from .values import PORT_TYPES, port_text, to_port
 
 #: How a parameter's ``io`` is written in a model.
 PORT_ELEMENTS = {"in": "input_port", "out": "output_port", "inout": "inout_port"}
@@ -49,7 +49,9 @@ def export_tree(
     tree = load_tree(path_or_name, rig=rig, overrides=overrides, manager=manager)
     writer = TreeWriter(tree.manager.registry)
     assert tree.source is not None
-    writer.add_file(Path(tree.source))
+    main = writer.add_file(Path(tree.source))
+    # BT.CPP's createTreeFromText and Groot2 open this tree; armtree reads it too
+    writer.root.set("main_tree_to_execute", main)
     return writer.xml()
 
 
@@ -76,11 +78,34 @@ def model_element(ntype: str, component: Component) -> ET.Element:
         if port_type:
             port.set("type", port_type)
         if not param.required and param.default is not None:
-            port.set("default", to_port(param.default, is_text_type(port_type)))
+            port.set("default", port_text(param.default, port_type))
         port.text = _port_doc(param)
     if component.summary:
         ET.SubElement(element, "description").text = component.summary
     return element
+
+
+def taken_ids(registry: Registry) -> set[str]:
+    """The IDs a ``<BehaviorTree>`` may not have: every node's a BT.CPP program may have
+    registered (armtree's palette, BT.CPP's own nodes)."""
+    return set(registry.names("behaviour")) | BTCPP_NODE_IDS
+
+
+def tree_id(name: str, taken: Iterable[str]) -> str:
+    """The ``<BehaviorTree ID>`` of the armtree tree ``name``: the name itself, or, when
+    a node or another tree has it, ``NAME_tree`` (then ``NAME_tree_2`` ...). BT.CPP
+    refuses a tree that has a registered node's name (``track.yaml`` is the tree
+    ``track`` with the skill ``track`` in it); the writer carries the name in
+    ``_tree`` and the reader reads it back as the tree's name."""
+    taken = set(taken)
+    if name not in taken:
+        return name
+    base = candidate = f"{name}_tree"
+    n = 1
+    while candidate in taken:
+        n += 1
+        candidate = f"{base}_{n}"
+    return candidate
 
 
 def _port_doc(param: Param) -> str:
@@ -93,6 +118,7 @@ class TreeWriter:
 
     def __init__(self, registry: Registry) -> None:
         self.registry = registry
+        self.taken = taken_ids(registry)
         self.root = ET.Element("root", BTCPP_format="4")
         #: Each file written and its tree's ID.
         self.ids: dict[Path, str] = {}
@@ -107,21 +133,20 @@ class TreeWriter:
             return self.ids[path]
         data = _tree_data(path)
         name = data.get("tree") if isinstance(data.get("tree"), str) else path.stem
-        tree_id, n = name, 1
-        while tree_id in self.ids.values():
-            n += 1
-            tree_id = f"{name}_{n}"
-        self.ids[path] = tree_id
-        element = ET.SubElement(self.root, "BehaviorTree", ID=tree_id)
+        own = tree_id(name, self.taken | set(self.ids.values()))
+        self.ids[path] = own
+        element = ET.SubElement(self.root, "BehaviorTree", ID=own)
+        if own != name:
+            element.set("_tree", name)
         for key, text in TREE_KEYS.items():
             if data.get(key) is not None:
                 element.set(
                     f"_{key}", str(data[key]).strip() if text else to_port(data[key], False)
                 )
         if isinstance(data.get("params"), dict) and data["params"]:
-            self.params[tree_id] = data["params"]
+            self.params[own] = data["params"]
         element.append(self.node(data["root"], path))
-        return tree_id
+        return own
 
     def node(self, value: dict[str, Any], file: Path) -> ET.Element:
         """One node (a one-key mapping as the tree file has it) as an element."""
@@ -139,7 +164,7 @@ class TreeWriter:
             tag = ntype
             self.used[ntype] = component
             types = {p.name: PORT_TYPES.get(p.type) for p in component.params}
-            ports = {k: to_port(v, is_text_type(types.get(k))) for k, v in options.items()}
+            ports = {k: port_text(v, types.get(k)) for k, v in options.items()}
         element = ET.Element(tag)
         if name is not None:
             element.set("name", str(name))
