@@ -400,3 +400,16 @@ def test_a_missing_parameter_is_reported_once_not_where_it_is_used(tmp_path):
     tree = armtree.load_tree(path, overrides=["tag=duck", "duck_delay=2"], manager=core_manager())
     assert tree.root.name == "Find duck"
     assert tree.root.children[1].params["seconds"] == armtree.Binding("duck_delay")
+
+
+@pytest.mark.parametrize("text", ["", "# nothing yet\n"])
+def test_an_empty_included_tree_is_an_error_at_the_include(tmp_path, text):
+    (tmp_path / "empty.yaml").write_text(text)
+    main = tmp_path / "main.yaml"
+    main.write_text("tree: main\nroot: {subtree: {file: empty.yaml}}\n")
+    with pytest.raises(armtree.ConfigError) as info:
+        armtree.load_tree(main)
+    assert info.value.format() == (
+        f"{main}:2:24: subtree file {tmp_path / 'empty.yaml'} is empty; it needs a root node "
+        "(tree: NAME, root: ...)"
+    )

@@ -108,6 +108,7 @@ class TreeFiles:
         self._errors = errors
         self._read = read
         self._parsed: dict[Path, Any] = {}
+        self._failed: set[Path] = set()
 
     def parse(self, path: Path) -> Any:
         """The file's data; None (its error recorded once) when it does not parse."""
@@ -120,7 +121,12 @@ class TreeFiles:
             except ConfigError as exc:
                 self._errors.extend(exc.errors)
                 self._parsed[path] = None
+                self._failed.add(path)
         return self._parsed[path]
+
+    def failed(self, path: Path) -> bool:
+        """True when ``path`` was read and did not parse (its error is recorded)."""
+        return path in self._failed
 
     def order(self) -> list[Path]:
         """The files read so far, first read first."""

@@ -95,6 +95,12 @@ class SubtreeIncludes:
             return None
         data = self.files.parse(path)
         if data is None:
+            if not self.files.failed(path):
+                error(
+                    f"subtree file {path} is empty; it needs a root node (tree: NAME, root: ...)",
+                    file_mark,
+                    ctx,
+                )
             return None
         namespace = ctx.namespace
         if "namespace" in spec:
