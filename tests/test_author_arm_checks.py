@@ -32,6 +32,12 @@ MISTAKES = {
         "ik_all(position(home)): solutions reaching [0.0, 353.553, 150.0] mm, not "
         "[353.553, 0.0, 150.0]; expected fk(ik(p)) == p",
     ),
+    "a mirrored IK": (  # right at home (y = 0), wrong everywhere else
+        "t1 = np.arctan2(y, x) - np.arctan2(",
+        "t1 = np.arctan2(-y, x) - np.arctan2(",
+        "def ik_all",
+        "ik_all(position(q)): solutions reaching",
+    ),
     "a workspace for other links": (
         "return scara_shape(self, self.l1, self.l2)",
         "return scara_shape(self, self.l1, self.l2 - 100)",
@@ -73,7 +79,7 @@ def test_check_and_run_tree_refuse_an_arm_plugins_mistake_at_its_line(scaffolded
         ran = run_tree(package, "trees/cheapo_demo.yaml", "--quiet", *options, env=env)
         assert ran.returncode == 2 and ran.stderr.splitlines()[0] == first
         assert "result:" not in ran.stdout  # nothing ran
-        if mistake == "an IK sign error":  # the same check as plugins --check's
+        if "IK" in mistake:  # the same check as plugins --check's
             listed = armtree(package, "plugins", "--check", "--kind", "arm", *options, env=env)
             assert listed.returncode == 2 and said in listed.stdout
     finally:

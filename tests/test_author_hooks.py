@@ -89,6 +89,8 @@ BROKEN = {
     "misspelt": HELLO
     + "@armtree.hookimpl\ndef armtree_behaviour():\n    return {'hello': Hello}\n",
     "unimportable": HELLO + "import armtree_missing_dependency\n",
+    "raising": HELLO
+    + "@armtree.hookimpl\ndef armtree_behaviours():\n    return {'hello': Hello, **{}['x']}\n",
     "misfit": HELLO.replace("def update(self):", "def update(self, blackboard):")
     + "@armtree.hookimpl\ndef armtree_behaviours():\n    return {'hello': Hello}\n",
 }
@@ -119,6 +121,12 @@ def test_a_broken_installed_plugin_blocks_only_the_trees_that_use_it(tmp_path, k
         assert "an installed plugin that may provide it did not load ('greeter': " in error
     if kind == "misspelt":
         assert "armtree_behaviour() is not an armtree hook; did you mean" in error
+    if kind == "raising":  # the hook's own line, the exception's type and text
+        line = line_of(folder / "site" / "armtree_greeter.py", "return {'hello'")
+        assert (
+            f"{folder / 'site' / 'armtree_greeter.py'}:{line}: plugin 'greeter': "
+            "armtree_behaviours() raised KeyError: 'x'"
+        ) in error
     if kind == "unimportable":
         assert "ModuleNotFoundError" in error and "armtree_missing_dependency" in error
 
@@ -129,3 +137,27 @@ def test_plugins_check_counts_a_broken_installed_plugin_as_a_problem(tmp_path):
     assert done.returncode == 2, done.stdout
     assert "armtree_behaviour() is not an armtree hook; did you mean" in done.stdout
     assert done.stdout.splitlines()[-1] == "1 problem(s) found"
+
+
+def test_a_chosen_plugin_whose_hook_raises_is_an_error_at_its_line(tmp_path):
+    source = HELLO + "@armtree.hookimpl\ndef armtree_behaviours():\n    return {}['x']\n"
+    folder = write(tmp_path, {"my_skills.py": source, "t.yaml": TREE})
+    done = run_tree(folder, "t.yaml", "--quiet")
+    assert done.returncode == 2, done.stdout + done.stderr
+    line = line_of(folder / "my_skills.py", "return {}['x']")
+    assert done.stderr.splitlines()[0].startswith(
+        f"{folder / 'my_skills.py'}:{line}: plugin 'my_skills': armtree_behaviours() raised "
+        "KeyError: 'x'. Fix the plugin, or skip it with -p no:my_skills"
+    ), done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_hook_under_another_name_with_specname_is_a_hook(tmp_path):
+    source = HELLO + (
+        "@armtree.hookimpl(specname='armtree_behaviours')\n"
+        "def my_behaviours():\n    return {'hello': Hello}\n"
+    )
+    folder = write(tmp_path, {"my_skills.py": source, "t.yaml": TREE})
+    done = run_tree(folder, "t.yaml", "--quiet")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "result: SUCCESS" in done.stdout

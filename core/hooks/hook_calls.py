@@ -10,10 +10,16 @@ rest still hear of the event.
 from __future__ import annotations
 
 import functools
+import inspect
+import os
+import sysconfig
+import traceback as tb_module
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pluggy
+import py_trees
 
 #: ``on_error(hook name, plugin name, exception)``.
 ErrorHandler = Callable[[str, str, BaseException], None]
@@ -147,3 +153,41 @@ def _ran_before(impls: list[Any], culprit: Any) -> list[Any]:
     the list of implementations from its end)."""
     index = impls.index(culprit)
     return [impl.plugin for impl in impls[index + 1 :] if not _is_wrapper(impl)]
+
+
+def raised_at(exc: BaseException, factory: Any) -> tuple[str | None, int | None]:
+    """Where in a plugin's code ``exc`` was raised: the innermost frame in ``factory``'s
+    file, else the innermost outside armtree's core and Python's own library, else where
+    ``factory`` is defined."""
+    own = _source_file(factory)
+    frames = tb_module.extract_tb(exc.__traceback__)
+    mine = [f for f in frames if own is not None and f.filename == own]
+    if not mine:
+        mine = [f for f in frames if not f.filename.startswith(_NOT_PLUGINS)]
+    if mine:
+        return mine[-1].filename, mine[-1].lineno
+    if own is None:
+        return None, None
+    try:
+        return own, inspect.getsourcelines(factory)[1]
+    except (OSError, TypeError):
+        return own, None
+
+
+def _source_file(factory: Any) -> str | None:
+    try:
+        return inspect.getsourcefile(inspect.unwrap(factory))
+    except TypeError:
+        return None
+
+
+#: Folders whose frames are not a plugin's code: armtree's core, py_trees, Python's library.
+_NOT_PLUGINS = tuple(
+    str(folder) + os.sep
+    for folder in (
+        Path(__file__).resolve().parents[1],  # the armtree package (core/)
+        Path(py_trees.__file__).resolve().parent,
+        Path(pluggy.__file__).resolve().parent,
+        sysconfig.get_paths()["stdlib"],
+    )
+)

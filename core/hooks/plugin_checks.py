@@ -184,6 +184,9 @@ def hook_name_problems(plugin: Any, name: str, hooks: Any) -> list[ConfigError]:
         if not inspect.isfunction(function) or not _defined_by(plugin, function):
             continue
         marked = hasattr(function, HOOKIMPL_ATTRIBUTE)
+        specname = (getattr(function, HOOKIMPL_ATTRIBUTE, None) or {}).get("specname")
+        if specname in hooks:
+            continue  # pluggy's way to implement a hook under another name
         # Unmarked and unprefixed, only a name that nearly is a hook's: "armtre_behaviours".
         near = attribute.startswith("arm") and did_you_mean(
             attribute, hooks, cutoff=NEAR_HOOK, list_up_to=0
@@ -650,25 +653,70 @@ def model_problems(model: Any, tol: float = 1e-3) -> list[tuple[str, str, str]]:
     if position is None or position.shape != (3,) or not np.all(np.isfinite(position)):
         return out
     out.extend(_workspace_problems(model, home, tol))
-    solutions = _call(out, "ik_all(position(home))", lambda: np.asarray(model.ik_all(position)))
+    miss = _round_trip_miss(out, model, home, position, tol)
+    if miss == "no solution":
+        out.append(("ik_all(position(home))", "no solution", "the home pose among the solutions"))
+    elif miss is not None:
+        out.append(("ik_all(position(home))", miss, "fk(ik(p)) == p"))
+    elif not out:
+        out.extend(_sampled_round_trip(model, home, tol))
+    return out
+
+
+def _round_trip_miss(
+    out: list[tuple[str, str, str]],
+    model: Any,
+    q: np.ndarray,
+    position: np.ndarray,
+    tol: float,
+    member: str = "ik_all(position(home))",
+) -> str | None:
+    """What ``ik_all(position)`` gets wrong for the tool position of joints ``q``, or None.
+
+    Joints the position does not fix (a wrist's yaw) may come back anything, so the
+    tools the solutions reach are compared, not the joints.
+    """
+    solutions = _call(out, member, lambda: np.asarray(model.ik_all(position), dtype=float))
     if solutions is None:
-        return out
-    solutions = solutions.reshape(-1, n)
+        return None
+    solutions = solutions.reshape(-1, len(q))
     solutions = solutions[np.all(np.isfinite(solutions), axis=-1)]
     if not len(solutions):
-        out.append(("ik_all(position(home))", "no solution", "the home pose among the solutions"))
-    else:
-        # Joints the position does not fix (a wrist's yaw) may come back anything: compare tools.
-        reached = np.asarray(model.position(solutions), dtype=float)
-        if np.min(np.linalg.norm(reached - position, axis=-1)) > tol:
-            out.append(
-                (
-                    "ik_all(position(home))",
-                    f"solutions reaching {np.round(reached[0], 3).tolist()} mm, not {np.round(position, 3).tolist()}",
-                    "fk(ik(p)) == p",
-                )
-            )
-    return out
+        return "no solution"
+    reached = np.asarray(model.position(solutions), dtype=float)
+    if np.min(np.linalg.norm(reached - position, axis=-1)) > tol:
+        return (
+            f"solutions reaching {np.round(reached[0], 3).tolist()} mm, "
+            f"not {np.round(position, 3).tolist()}"
+        )
+    return None
+
+
+#: Configurations within the limits whose tool positions the inverse kinematics must reach.
+IK_SAMPLES = 24
+
+
+def _sampled_round_trip(model: Any, home: np.ndarray, tol: float) -> list[tuple[str, str, str]]:
+    """The IK round trip away from home, where a mirrored axis or a swapped elbow shows.
+
+    Home often lies on a symmetry (``y = 0``) that hides a sign error. A solver that
+    finds no solution for a pose is not faulted (many keep the tool pointing down, so
+    most random poses are not theirs to reach); one that answers with a wrong pose is.
+    """
+    rng = np.random.default_rng(1)  # the same configurations every time
+    lo, hi = model.lower, model.upper
+    samples = lo + (hi - lo) * rng.random((IK_SAMPLES, len(home)))
+    samples = samples[np.asarray(model.within_limits(samples), dtype=bool)]
+    out: list[tuple[str, str, str]] = []
+    for q in samples:
+        position = np.asarray(model.position(q), dtype=float)
+        miss = _round_trip_miss(out, model, q, position, tol, "ik_all(position(q))")
+        if out:
+            return out
+        if miss is not None and miss != "no solution":
+            joints = np.round(q, 2).tolist()
+            return [("ik_all(position(q))", f"{miss} (joints {joints})", "fk(ik(p)) == p")]
+    return []
 
 
 #: Configurations within the limits whose tool positions must lie in the described workspace.

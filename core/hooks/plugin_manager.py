@@ -23,7 +23,7 @@ from armtree.config.constructor_params import declared_params
 from armtree.errors import ConfigError, Mark, did_you_mean
 
 from . import hookspecs
-from .hook_calls import attributing, plugin_of, type_name
+from .hook_calls import attributing, call_isolated, plugin_of, raised_at, type_name
 from .plugin_checks import hook_name_problems, interface_problems, version_problem
 
 ENTRY_POINT_GROUP = "armtree"
@@ -331,8 +331,9 @@ class PluginManager:
         found: dict[str, dict[str, Component]] = {kind: {} for kind in kinds}
         for kind in kinds:
             hook_name = KINDS[kind]
+            results = self._registrations(hook_name)
             # pluggy calls the last registered first: reversed, the first registered wins.
-            for result in reversed(getattr(self.pm.hook, hook_name)()):
+            for result in reversed(results or []):
                 plugin_name = plugin_of(result)
                 if not isinstance(result, dict):
                     raise ConfigError(
@@ -352,6 +353,40 @@ class PluginManager:
                         kind, name, factory, plugin_name, self._distributions.get(plugin_name)
                     )
         return found
+
+    def _registrations(self, hook_name: str) -> list[Any]:
+        """What every plugin's registration hook ``hook_name`` returns, called through pluggy.
+
+        A hook that raises is the plugin's error at the line it raised: an installed
+        plugin is left out with a warning (it blocks only the trees that use it); one
+        the user named for this run (``--plugin``, ``plugins:``) is an error.
+        """
+        raised: list[tuple[str, ConfigError]] = []
+
+        def on_error(hook: str, plugin: str, exc: BaseException) -> None:
+            impls = [
+                i for i in getattr(self.pm.hook, hook).get_hookimpls() if i.plugin_name == plugin
+            ]
+            file, line = raised_at(exc, impls[0].function if impls else None)
+            message = (
+                f"plugin {plugin!r}: {hook}() raised {type(exc).__name__}: {exc}. Fix the "
+                f"plugin, or skip it with -p no:{plugin}"
+            )
+            raised.append((plugin, ConfigError(message, file=file, line=line)))
+
+        results = call_isolated(self.pm, hook_name, on_error, call_again=True) or []
+        chosen = []
+        for plugin, error in raised:
+            if plugin in self.installed:
+                self.pm.unregister(name=plugin)
+                self.installed.discard(plugin)
+                self._left_out(plugin, error)
+            else:
+                chosen.append(error)
+        if chosen:
+            first = chosen[0]
+            raise ConfigError(first.message, file=first.file, line=first.line, errors=chosen)
+        return results
 
 
 class Registry:

@@ -6,13 +6,9 @@ then the py_trees behaviour constructed and its :class:`NodeInfo` recorded."""
 
 from __future__ import annotations
 
-import inspect
-import os
-import sysconfig
 import traceback as tb_module
 from collections import Counter
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import py_trees
@@ -20,6 +16,7 @@ import py_trees
 from armtree.api.factories import COMPOSITE, DECORATOR, LEAF, construct, node_kind
 from armtree.config.yamlio import MarkedDict, MarkedList
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
+from armtree.hooks.hook_calls import raised_at
 from armtree.hooks.plugin_manager import Registry
 
 from .load_context import LoadContext, LoadErrors
@@ -51,43 +48,6 @@ def constructor_failure(component: Any, exc: BaseException) -> str:
         f"the constructor of {what} (plugin {component.plugin!r}) raised "
         f"{type(exc).__name__}{where}: {exc}"
     )
-
-
-def raised_at(exc: BaseException, factory: Any) -> tuple[str | None, int | None]:
-    """Where in a plugin's code ``exc`` was raised: the innermost frame in ``factory``'s
-    file, else the innermost outside armtree's core and Python's own library, else where
-    ``factory`` is defined."""
-    own = _source_file(factory)
-    frames = tb_module.extract_tb(exc.__traceback__)
-    mine = [f for f in frames if own is not None and f.filename == own]
-    if not mine:
-        mine = [f for f in frames if not f.filename.startswith(_NOT_PLUGINS)]
-    if mine:
-        return mine[-1].filename, mine[-1].lineno
-    if own is None:
-        return None, None
-    try:
-        return own, inspect.getsourcelines(factory)[1]
-    except (OSError, TypeError):
-        return own, None
-
-
-def _source_file(factory: Any) -> str | None:
-    try:
-        return inspect.getsourcefile(factory)
-    except TypeError:
-        return None
-
-
-#: Folders whose frames are not a plugin's code: armtree's core, py_trees, Python's library.
-_NOT_PLUGINS = tuple(
-    str(folder) + os.sep
-    for folder in (
-        Path(__file__).resolve().parents[1],  # the armtree package
-        Path(py_trees.__file__).resolve().parent,
-        sysconfig.get_paths()["stdlib"],
-    )
-)
 
 
 @dataclass(kw_only=True)
