@@ -100,3 +100,29 @@ def test_a_workspace_that_disagrees_with_the_arm_is_found():
     problems = model_problems(Misdescribed())
     assert [member for member, _, _ in problems] == ["workspace_shape()"]
     assert "within the limits) outside it" in problems[0][1]
+
+
+def test_an_arm_factory_that_raises_is_named_at_its_line_before_anything_moves(scaffolded):
+    package, _ = scaffolded
+    plugin = package / "src" / "armtree_cheapo" / "plugin.py"
+    original = plugin.read_text()
+    written = '    """The Cheapo SCARA arm with a suction cup; ``port: sim`` runs its firmware emulator."""\n'
+    assert written in original
+    plugin.write_text(original.replace(written, written + '    raise KeyError("calibration")\n'))
+    try:
+        options = ("--plugin", "armtree_cheapo.plugin", "--quiet")
+        env = {"PYTHONPATH": str(package / "src")}
+        ran = run_tree(package, "trees/cheapo_demo.yaml", *options, env=env)
+        assert ran.returncode == 2, ran.stdout + ran.stderr
+        line = line_of(plugin, 'raise KeyError("calibration")')
+        first = ran.stderr.splitlines()[0]
+        assert first.startswith(f"{plugin}:{line}: arm 'cheapo' (named at "), first
+        assert "sim_cheapo.yaml:5:" in first
+        assert (
+            "its factory (plugin 'armtree_cheapo.plugin') raised KeyError: 'calibration'" in first
+        )
+        assert "Traceback" not in ran.stderr and "result:" not in ran.stdout
+        debug = run_tree(package, "trees/cheapo_demo.yaml", *options, "--debug", env=env)
+        assert debug.returncode == 2 and "Traceback (most recent call last)" in debug.stderr
+    finally:
+        plugin.write_text(original)

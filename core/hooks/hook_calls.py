@@ -21,6 +21,8 @@ from typing import Any
 import pluggy
 import py_trees
 
+from armtree.errors import ConfigError
+
 #: ``on_error(hook name, plugin name, exception)``.
 ErrorHandler = Callable[[str, str, BaseException], None]
 
@@ -191,3 +193,17 @@ _NOT_PLUGINS = tuple(
         sysconfig.get_paths()["stdlib"],
     )
 )
+
+
+def plugin_failure(what: str, component: Any, exc: BaseException) -> ConfigError:
+    """The error for a plugin's code raising ``exc`` while doing ``what`` ("arm 'x': its
+    factory"): the exception's type and text, the plugin, the file and line it was
+    raised at, and the traceback ``--debug`` shows."""
+    file, line = raised_at(exc, component.factory)
+    return ConfigError(
+        f"{what} (plugin {component.plugin!r}) raised {type(exc).__name__}: {exc}. Fix the "
+        f"plugin, or skip it with -p no:{component.plugin}",
+        file=file,
+        line=line,
+        traceback="".join(tb_module.format_exception(exc)),
+    )

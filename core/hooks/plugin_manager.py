@@ -12,6 +12,7 @@ import importlib.util
 import inspect
 import os
 import sys
+import traceback
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -372,7 +373,8 @@ class PluginManager:
                 f"plugin {plugin!r}: {hook}() raised {type(exc).__name__}: {exc}. Fix the "
                 f"plugin, or skip it with -p no:{plugin}"
             )
-            raised.append((plugin, ConfigError(message, file=file, line=line)))
+            text = "".join(traceback.format_exception(exc))
+            raised.append((plugin, ConfigError(message, file=file, line=line, traceback=text)))
 
         results = call_isolated(self.pm, hook_name, on_error, call_again=True) or []
         chosen = []

@@ -25,6 +25,7 @@ from armtree.api.rig import ArmTool, Rig, RigContext, TagSpec
 from armtree.api.views import ProfileView
 from armtree.config.profile_access import component_config, profile_section, profile_source
 from armtree.errors import ConfigError, HardwareFault
+from armtree.hooks.hook_calls import plugin_failure
 from armtree.hooks.plugin_manager import get_plugin_manager
 from armtree.loader.profile import arm_grips, tag_spec
 
@@ -116,13 +117,16 @@ def build_rig(
             config = component_config(profile, key)
             if not config:
                 continue
-            factory = _factory(registry, key, config, file)
-            setattr(rig, key, factory(dict(config), context))
+            component = _component(registry, key, config, file)
+            made = _made(component, profile, key, dict(config), context)
+            setattr(rig, key, made)
         planner_config = component_config(profile, "planner")
         if planner_config:
-            factory = _factory(registry, "planner", planner_config, file)
+            component = _component(registry, "planner", planner_config, file)
             model = rig.arm.model if rig.arm is not None else None
-            rig.planner = factory(dict(planner_config), context, model, make_scene(profile))
+            scene = make_scene(profile)
+            args = (dict(planner_config), context, model, scene)
+            rig.planner = _made(component, profile, "planner", *args)
         # the ids skills and calibrations act on are those of the markers the tracker reads
         # (a tracker that does not subclass Tracker names no family)
         family = getattr(rig.tracker, "marker_family", None)
@@ -143,7 +147,28 @@ def build_rig(
     return rig
 
 
-def _factory(registry: Any, kind: str, config: Any, file: str | None) -> Any:
+def _component(registry: Any, kind: str, config: Any, file: str | None) -> Any:
     if not isinstance(config, Mapping) or "type" not in config:
         raise ConfigError(f"{kind}: a mapping with a 'type' is required", file=file)
-    return registry.get(kind, config["type"]).factory
+    return registry.get(kind, config["type"])
+
+
+def _made(component: Any, profile: ProfileView, key: str, *args: Any) -> Any:
+    """``component.factory(*args)``; a plugin's exception other than a hardware fault or a refusal
+    of its configuration is the plugin's error, at the line it raised, before anything moves."""
+    try:
+        return component.factory(*args)
+    except (ConfigError, HardwareFault, KeyboardInterrupt):
+        raise
+    except OSError as exc:
+        if exc.filename is not None:
+            raise  # a path the profile gave, reported as such
+        raise plugin_failure(_what(component, profile, key), component, exc) from exc
+    except Exception as exc:  # noqa: BLE001 - a plugin's bug, named as such
+        raise plugin_failure(_what(component, profile, key), component, exc) from exc
+
+
+def _what(component: Any, profile: ProfileView, key: str) -> str:
+    mark = profile.mark(f"{key}.type") if hasattr(profile, "mark") else None
+    named = f" (named at {mark})" if mark else ""
+    return f"{component.kind} {component.name!r}{named}: its factory"
