@@ -21,7 +21,7 @@ MISTAKES = {
     "home outside the limits": (
         "self.home = np.array([150.0, -45.0, 90.0])",
         "self.home = np.array([150.0, -45.0, 170.0])",
-        "def __init__",
+        "self.home = ",
         "home: [150.0, -45.0, 170.0] outside the limits or constraints; expected a pose the "
         "arm can take",
     ),

@@ -3,6 +3,7 @@ the class, and the plugin's file and line; --debug adds the traceback (issue 29)
 
 from __future__ import annotations
 
+import pytest
 from plugin_author import armtree, line_of, run_tree, write
 
 SKILLS = """
@@ -115,3 +116,45 @@ def test_a_behaviour_without_update_is_refused_when_the_plugin_loads(tmp_path):
         f"{folder / 'my_skills.py'}:{line}: plugin 'my_skills': behaviour 'idle': class: Idle "
         "leaves update() undefined; expected a behaviour that defines update()"
     ), done.stderr
+
+
+RAISES_IN = """
+    import py_trees
+    from py_trees.common import Status
+
+    import armtree
+
+
+    class Hello(py_trees.behaviour.Behaviour):
+        \"\"\"Raises in PHASE.\"\"\"
+
+        def setup(self, **kwargs):
+            self.table = {}
+            SETUP
+
+        def update(self):
+            UPDATE
+            return Status.SUCCESS
+
+
+    @armtree.hookimpl
+    def armtree_behaviours():
+        return {"hello": Hello}
+"""
+
+
+@pytest.mark.parametrize(("phase", "said"), [("setup", "setup"), ("update", "tick")])
+def test_an_exception_in_setup_or_update_names_the_plugins_line(tmp_path, phase, said):
+    raising = "self.table['calibration']"
+    source = RAISES_IN.replace("PHASE", phase)
+    source = source.replace("SETUP", raising if phase == "setup" else "pass")
+    source = source.replace("UPDATE", raising if phase == "update" else "pass")
+    tree = "plugins: [my_skills.py]\nroot:\n  sequence:\n    - hello: {}\n"
+    folder = write(tmp_path, {"my_skills.py": source, "t.yaml": tree})
+    done = run_tree(folder, "t.yaml", "--quiet")
+    assert done.returncode == 1, done.stdout + done.stderr
+    line = line_of(folder / "my_skills.py", raising)
+    assert (
+        f"why: KeyError in {said} of sequence/hello ({folder / 't.yaml'}:4) at "
+        f"{folder / 'my_skills.py'}:{line}: 'calibration'"
+    ) in done.stdout, done.stdout

@@ -66,6 +66,12 @@ def test_a_tree_that_makes_no_progress_is_reported_as_a_stall_and_ends_at_the_de
     (stall,) = [r for r in records if r.get("event") == "stall"]
     assert stall["t"] == pytest.approx(DEFAULT_STALL_S) and stall["running"] == ["Root/waiter"]
     assert records[-1]["seconds"] == pytest.approx(DEFAULT_SIM_TIMEOUT_S)
+    # With no view at all, the stall is still said, once, on stderr.
+    quiet = run_tree(folder, "t.yaml", "--quiet", timeout=120)
+    assert quiet.returncode == 1
+    assert [line for line in quiet.stderr.splitlines() if "stall" in line] == [
+        f"warning: {stall_line}"
+    ]
 
 
 def test_timeout_inf_lifts_the_default_and_max_ticks_still_ends_the_run(tmp_path):

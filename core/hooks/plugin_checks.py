@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import inspect
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -279,6 +280,8 @@ class _Reporter:
 
     def add(self, obj: Any, member: str, found: str, expected: str) -> None:
         file, line = _source(obj)
+        if line is not None and not member.split("[")[0].endswith(")"):
+            line = _assignment_line(obj, member.split("[")[0].strip()) or line
         self.problems.append(
             Problem(self.plugin, self.subject, member, found, expected, file, line)
         )
@@ -776,6 +779,19 @@ def _source(obj: Any) -> tuple[str | None, int | None]:
     except (TypeError, OSError):
         return None, None
     return file, line
+
+
+def _assignment_line(function: Any, attribute: str) -> int | None:
+    """The line of ``function`` (a constructor) that sets ``self.<attribute>``, if one does."""
+    try:
+        lines, first = inspect.getsourcelines(inspect.unwrap(function))
+    except (OSError, TypeError):
+        return None
+    pattern = re.compile(rf"\bself\.{re.escape(attribute)}\s*(:[^=]*)?=[^=]")
+    for offset, text in enumerate(lines):
+        if pattern.search(text):
+            return first + offset
+    return None
 
 
 def _name(function: Any) -> str:

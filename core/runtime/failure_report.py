@@ -15,6 +15,7 @@ from py_trees.common import Status
 from armtree.api.clock import Clock
 from armtree.api.rig import Rig
 from armtree.errors import HardwareFault
+from armtree.hooks.hook_calls import raised_at
 
 from .halting import Halter
 from .interrupts import EXIT_INTERRUPTED, Interrupts
@@ -121,7 +122,7 @@ class FailureReport:
             self.traceback = None
             message = f"bad status at {where}: {exc}"
         else:
-            message = f"{type(exc).__name__} in {phase} of {where}: {exc}"
+            message = f"{type(exc).__name__} in {phase} of {where}{_raised_in(node, exc)}: {exc}"
         self.log.event(
             tick,
             self.clock.now(),
@@ -189,6 +190,14 @@ def component_fault(rig: Rig | None) -> HardwareFault | None:
         if isinstance(fault, HardwareFault):
             return fault
     return None
+
+
+def _raised_in(node: Any, exc: BaseException) -> str:
+    """`` at FILE:LINE`` of the behaviour's code the exception came from, or ``""``."""
+    if node is None or isinstance(exc, HardwareFault):
+        return ""
+    file, line = raised_at(exc, type(node))
+    return f" at {file}:{line}" if file and line else ""
 
 
 def _raising_behaviour(exc: BaseException) -> py_trees.behaviour.Behaviour | None:

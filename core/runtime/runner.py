@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import sys
 import time
 import traceback as tb_module
 from pathlib import Path
@@ -478,11 +479,16 @@ class Run:
         running = self.index.running_leaves()
         quiet = now - self.stall.quiet_since
         where = f" while {', '.join(running)} ran" if running else ""
+        message = (
+            f"stall: no progress for {quiet:g} s (no status change, motion, blackboard write "
+            f"or feedback change){where}"
+        )
+        if not self._view_changes:  # --quiet shows nothing else: a spinning run must not be silent
+            print(f"warning: t={now:.2f}s {message}", file=sys.stderr, flush=True)
         self.report.event(
             self.tick_count,
             "stall",
-            f"stall: no progress for {quiet:g} s (no status change, motion, blackboard write "
-            f"or feedback change){where}",
+            message,
             seconds=round(quiet, 3),
             since=round(self.stall.quiet_since, 3),
             running=running,
