@@ -24,6 +24,8 @@ passed was of a wrong id (docs/benchmarks.md, "Small markers").
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.special import ndtr
 
@@ -133,4 +135,16 @@ class BlurFitReader:
         return ids, turns
 
 
-__all__ = ["BLUR_CELLS", "MIN_FIT", "MIN_GAP", "BlurFitReader"]
+def blur_fit_reader(words: np.ndarray) -> BlurFitReader:
+    """The reader of ``words`` (as :class:`BlurFitReader` takes them), built once a process:
+    its table of blurred words (22 MB for AprilTag 36h11) is the same for every tracker."""
+    words = np.ascontiguousarray(words, dtype=np.uint8)
+    return _reader(words.tobytes(), words.shape)
+
+
+@functools.lru_cache(maxsize=4)
+def _reader(words: bytes, shape: tuple[int, int]) -> BlurFitReader:
+    return BlurFitReader(np.frombuffer(words, dtype=np.uint8).reshape(shape))
+
+
+__all__ = ["BLUR_CELLS", "MIN_FIT", "MIN_GAP", "BlurFitReader", "blur_fit_reader"]

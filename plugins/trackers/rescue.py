@@ -21,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .blur_decode import BlurFitReader
+from .blur_decode import BlurFitReader, blur_fit_reader
 from .kernels import clockwise_quads, sample_cells
 from .refine import refine_corners
 
@@ -99,7 +99,7 @@ class Rescuer:
         unread = np.flatnonzero(~ok & (contrast >= MIN_CONTRAST))
         if len(unread):
             if self._blurred is None:
-                self._blurred = BlurFitReader(self.words)
+                self._blurred = blur_fit_reader(self.words)
             fit_id, fit_turn = self._blurred.read(gray, refined[unread])
             fitted = fit_id >= 0
             read_id[unread[fitted]], read_turn[unread[fitted]] = fit_id[fitted], fit_turn[fitted]
