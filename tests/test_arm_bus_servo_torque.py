@@ -50,6 +50,12 @@ def closed_limp(sim: Sim) -> None:
     assert on(sim) == []
 
 
+def limp_then_closed(sim: Sim) -> None:
+    """Every torque is off at the fault, and stays off when the driver is closed."""
+    assert on(sim) == []
+    closed_limp(sim)
+
+
 @pytest.mark.parametrize("name", ARMS)
 def test_a_driver_error_turns_every_torque_off(name):
     with Sim(name) as sim:
@@ -62,8 +68,7 @@ def test_a_driver_error_turns_every_torque_off(name):
         until_fault(sim)
         assert "driver error (RuntimeError: a protocol bug)" in sim.arm.fault.message
         assert handle.status is MotionStatus.FAILED
-        assert on(sim) == []
-        closed_limp(sim)
+        limp_then_closed(sim)
 
 
 @pytest.mark.parametrize("name", ARMS)
@@ -78,8 +83,7 @@ def test_implausible_joint_readings_turn_every_torque_off(name):
         assert "implausible joint readings" in sim.arm.fault.message
         assert "shoulder_pan" in sim.arm.fault.message
         assert sim.interrupts and sim.interrupts[0][1] is sim.arm.fault
-        assert on(sim) == []
-        closed_limp(sim)
+        limp_then_closed(sim)
 
 
 @pytest.mark.parametrize("name", ARMS)
@@ -91,8 +95,7 @@ def test_a_servo_silent_past_the_retry_budget_leaves_the_others_limp(name):
         assert "servo 2 (shoulder_lift) did not answer" in sim.arm.fault.message
         assert sim.arm.lost_status > sim.arm.retries
         assert handle.status is MotionStatus.FAILED
-        assert on(sim) == []
-        closed_limp(sim)
+        limp_then_closed(sim)
 
 
 @pytest.mark.parametrize("name", ARMS)
@@ -106,8 +109,7 @@ def test_a_tripped_servo_fails_the_motion_names_the_servo_and_drops_every_torque
         (reason, fault), *_ = sim.interrupts
         assert reason == f"servo 3 (elbow_flex): {trip}"
         assert f"servo 3 (elbow_flex) reports {trip}: the arm is stopped" in fault.message
-        assert on(sim) == []
-        closed_limp(sim)
+        limp_then_closed(sim)
 
 
 @pytest.mark.parametrize("name", ARMS)
