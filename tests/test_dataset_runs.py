@@ -348,3 +348,29 @@ def test_a_tree_names_its_task_and_a_task_that_is_not_text_is_refused(work):
     with pytest.raises(ConfigError) as bad:
         load_tree("bad.yaml")
     assert "task: expected a string" in str(bad.value) and bad.value.errors[0].line == 2
+
+
+def test_an_encoder_that_fails_drops_the_episode_once_and_the_run_goes_on(
+    work, capsys, monkeypatch
+):
+    make_dataset(work / "ds", 10)
+    before = snapshot(work / "ds")
+    calls = []
+
+    def broken(self, now):
+        calls.append(now)
+        raise RuntimeError("the encoder gave up")
+
+    monkeypatch.setattr(EpisodeRecorder, "tick", broken)
+    args = ["load_ducky.yaml", "--quiet", "--seed", "1", "--record", "rec", "--dataset", "ds"]
+    assert run_tree_main(args) == 0  # the task itself succeeds, unrecorded
+    err = capsys.readouterr().err
+    said = [line for line in err.splitlines() if line.startswith("dataset: ")]
+    assert len(said) == 1 and "episode dropped: recording failed at t=" in said[0]
+    assert "(RuntimeError: the encoder gave up)" in said[0]
+    assert len(calls) == 1  # never asked again
+    records = [json.loads(line) for line in (work / "rec" / "run.jsonl").read_text().splitlines()]
+    assert [r["event"] for r in records if r.get("event") in ("dataset_failed", "hook_error")] == [
+        "dataset_failed"
+    ]
+    assert snapshot(work / "ds") == before

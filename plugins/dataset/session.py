@@ -159,9 +159,19 @@ class RunDataset:
             print(f"dataset: {self.note}", file=sys.stderr, flush=True)
 
     def tick(self, run: Run) -> None:
-        """Take the frames due by this tick."""
-        if self.recorder is not None:
+        """Take the frames due by this tick. A recording that fails (the video encoder,
+        a full disk) is dropped at once and said once: the run goes on unrecorded."""
+        if self.recorder is None:
+            return
+        try:
             self.recorder.tick(run.tick_time)
+        except Exception as exc:  # noqa: BLE001 - the run matters more than its recording
+            recorder, self.recorder = self.recorder, None
+            recorder.discard()
+            why = _os_error(exc) if isinstance(exc, OSError) else f"{type(exc).__name__}: {exc}"
+            self.note = f"episode dropped: recording failed at t={run.tick_time:.2f} s ({why})"
+            run.report_event("dataset_failed", self.note, error=why)
+            print(f"dataset: {self.note}", file=sys.stderr, flush=True)
 
     def finish(self, run: Run, result: Any) -> None:
         """Keep the episode or drop it; append it (run-tree) or stage it (a sweep's run)."""
