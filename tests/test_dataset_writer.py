@@ -312,3 +312,23 @@ def test_image_stats_are_those_of_every_pixel_per_channel():
     again = stats.of_images([images[0], images[0], images[1]])
     for name in ("min", "max", "mean", "std", "count"):
         np.testing.assert_allclose(twice[name], again[name], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("said", "value", "named"),
+    [
+        ("video.codec", "av1", "codec"),
+        ("video.width", 1280, "width"),
+        ("video.pix_fmt", "rgb24", "pix_fmt"),
+    ],
+)
+def test_check_refuses_a_video_that_is_not_what_info_says(tmp_path, writer, said, value, named):
+    writer.append([make_episode(tmp_path, 0, 4)])
+    assert check(writer.root).problems == []
+    info = json.loads((writer.root / layout.INFO_PATH).read_text())
+    (key,) = layout.video_keys(info)
+    actual = info["features"][key]["info"][said]
+    info["features"][key]["info"][said] = value
+    (writer.root / layout.INFO_PATH).write_text(json.dumps(info))
+    problems = check(writer.root).problems
+    assert any(f": {named} {actual}, but info.json says {value}" in p for p in problems), problems

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from . import deps, layout, store
+from .video import probe
 
 #: LeRobot's default ``tolerance_s`` when it loads a dataset.
 TOLERANCE_S = 1e-4
@@ -195,6 +196,7 @@ def _check_videos(report: Report, root: Path, info: dict[str, Any], rows: list[d
                 report.add(f"{name}: missing")
                 continue
             report.videos += 1
+            _check_stream(report, name, path, info["features"][key].get("info") or {})
             times = _packet_times(path)
             expected = sum(e["length"] for e in episodes)
             if len(times) != expected:
@@ -215,6 +217,19 @@ def _check_videos(report: Report, root: Path, info: dict[str, Any], rows: list[d
                 report.add(
                     f"{name}: frame {off[0]} is shown at {times[off[0]]:.4f} s, not {due[off[0]]:.4f} s"
                 )
+
+
+#: What a video's stream must agree on with its feature's ``info`` (as LeRobot reads it).
+STREAM_FIELDS = ("codec", "width", "height", "pix_fmt")
+
+
+def _check_stream(report: Report, name: str, path: Path, said: dict[str, Any]) -> None:
+    """The stream's codec, size and pixel format against what info.json says of them."""
+    found = probe(path)
+    for part in STREAM_FIELDS:
+        due = said.get(f"video.{part}")
+        if due is not None and found[part] != due:
+            report.add(f"{name}: {part} {found[part]}, but info.json says {due}")
 
 
 def _packet_times(path: Path) -> list[float]:
