@@ -186,6 +186,8 @@ def test_a_sweep_of_three_seeds_writes_parquet_metadata_and_video_that_agree(wor
         ("sim_vicra", ["z", "theta1", "theta2", "wrist"]),
         ("sim_magician", None),
         ("sim_dh", None),
+        ("sim_so101", ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]),
+        ("sim_koch", ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]),
     ],
 )
 def test_every_sim_rig_records_episodes_check_accepts(work, capsys, rig, joints):
