@@ -1,12 +1,15 @@
 """Hostile-input figures (issue 17): how often armtree answers bad input cleanly.
 
-Six families, each a few hundred cases generated from the shipped trees and
+Seven families, each a few hundred cases generated from the shipped trees and
 profiles with a fixed seed, plus the fixed corpus of tests/hostile_corpus.py:
 
 * ``trees-check``: mutated trees through ``armtree check``;
 * ``trees-run``: trees that pass check, with edge values, through ``run-tree``;
 * ``profiles-check``: hostile ``--set`` values for every component parameter;
 * ``profiles-run``: valid edge values (each range's ends, each choice) through a run;
+* ``edges``: issue 32's corpus (tests/hostile_corpus.py ``EDGES``): output paths of every
+  command that writes, numbers on the command line, images too large, inputs that
+  are a FIFO, a folder or a device;
 * ``serial``: five arm variants under seventeen link faults, driver against emulator;
 * ``interrupts``: SIGINT / SIGTERM into real ``run-tree`` processes at random
   moments, stuck ticks included.
@@ -44,10 +47,10 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from hostile_corpus import PROFILES, STUCK_PLUGIN, TREES  # noqa: E402
+from hostile_corpus import EDGES, PROFILES, STUCK_PLUGIN, TREES, write_case  # noqa: E402
 
 RAW = re.compile(r"Traceback|^error: [A-Za-z]+(Error|Exception)\b|^\w+Error: ", re.M)
-POSITION = re.compile(r"^(?:[^\s:]+:\d+:\d+: |--\S*|[^\s:]+: the file is larger)")
+POSITION = re.compile(r"^(?:[^\s:]+:\d+:\d+: |--?\S*|[^\s:]+: the file is larger)")
 SHIPPED_TREES = ("load_ducky", "search", "clean_up", "pick_and_place", "touch_tag", "track", "sort")
 SIM_RIGS = ("sim_dobot", "sim_vicra", "sim_magician", "sim_dh")
 
@@ -72,7 +75,7 @@ class Result:
 WORKER = r"""
 import contextlib, io, json, os, resource, sys, time, traceback
 resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
-from armtree import cli
+from armtree.cli import commandline as cli
 print("ready", flush=True)
 for line in sys.stdin:
     req = json.loads(line)
@@ -298,13 +301,15 @@ def corpus_results(family: str, cases: Iterable[Any], work: Path, worker: Worker
     for k, case in enumerate(cases):
         folder = work / f"corpus-{family}-{k}"
         folder.mkdir()
-        for fname, content in case.files.items():
-            (folder / fname).write_bytes(
-                content if isinstance(content, bytes) else content.encode()
-            )
-        res = worker.run(["check", *case.argv], folder, 60)
+        write_case(case, folder)
+        res = worker.run([*case.command, *case.argv], folder, 60)
         out.append(command_result(family, f"corpus: {case.name}", res, (case.code,), 60))
     return out
+
+
+def family_edges(work: Path, pool: list[Worker], n: int, rng: random.Random) -> list[Result]:
+    """Issue 32's corpus: output paths, numbers, images and inputs that are no file."""
+    return corpus_results("edges", EDGES, work, pool[0])
 
 
 def component_params() -> list[tuple[str, str, Any]]:
@@ -744,6 +749,7 @@ FAMILIES: dict[str, tuple[Callable[..., list[Result]], int, int]] = {
     "profiles-check": (family_profiles_check, 320, 60),
     "trees-run": (family_trees_run, 64, 8),
     "profiles-run": (family_profiles_run, 136, 12),
+    "edges": (family_edges, 0, 0),
     "serial": (family_serial, 85, 85),
     "interrupts": (family_interrupts, 56, 16),
 }

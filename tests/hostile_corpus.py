@@ -10,12 +10,18 @@ figures.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 
 
 @dataclass(frozen=True)
 class Case:
-    """One hostile input for ``armtree check`` and what it must give."""
+    """One hostile input for ``armtree check`` (or ``command``) and what it must give.
+
+    ``special`` makes paths that are no regular file: ``"folder"``, ``"fifo"``, or
+    ``"link:TARGET"`` (a symbolic link to TARGET), written by :func:`write_case`.
+    """
 
     name: str
     argv: tuple[str, ...]
@@ -23,6 +29,26 @@ class Case:
     message: str = ""
     where: str = ""
     files: dict[str, str | bytes] = field(default_factory=dict)
+    command: tuple[str, ...] = ("check",)
+    special: dict[str, str] = field(default_factory=dict)
+
+
+def write_case(case: Case, folder: Path) -> None:
+    """The files and special paths of ``case`` made in ``folder``."""
+    for name, content in case.files.items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    for name, kind in case.special.items():
+        path = folder / name
+        if kind == "folder":
+            path.mkdir(parents=True, exist_ok=True)
+        elif kind == "fifo":
+            os.mkfifo(path)
+        elif kind.startswith("link:"):
+            path.symlink_to(kind[5:])
+        else:
+            raise ValueError(f"unknown special path {kind!r}")
 
 
 def laughs(prefix: str = "l", levels: int = 10) -> str:
@@ -407,4 +433,141 @@ PROFILES += [
     for rig, value, message in SETS
 ]
 
-CASES: list[Case] = TREES + PROFILES
+TREE = {"t.yaml": "rig: sim_dobot\nroot: {success: {}}\n"}
+RUN = ("run", "--quiet")
+
+#: Output paths (issue 32): every command that writes refuses a bad path, exit 2 naming it.
+OUTPUTS: list[Case] = [
+    Case(
+        "--record onto a file",
+        ("t.yaml", "--record", "afile"),
+        message="a file, not a folder",
+        where="--record afile",
+        files={**TREE, "afile": "x"},
+        command=RUN,
+    ),
+    Case(
+        "--record under a file",
+        ("t.yaml", "--record", "afile/sub"),
+        message="afile is a file, not a folder",
+        where="--record afile/sub",
+        files={**TREE, "afile": "x"},
+        command=RUN,
+    ),
+    Case(
+        "--record /dev/null",
+        ("t.yaml", "--record", "/dev/null"),
+        message="a device, not a folder",
+        where="--record /dev/null",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record under /proc",
+        ("t.yaml", "--record", "/proc/armtree-run"),
+        message="cannot write there",
+        where="--record /proc/armtree-run",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record ''",
+        ("t.yaml", "--record", ""),
+        message="an empty folder name",
+        where="--record ''",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record onto an earlier run",
+        ("t.yaml", "--record", "old"),
+        message="already holds a run (run.jsonl)",
+        where="--record old",
+        files={**TREE, "old/run.jsonl": "{}\n"},
+        command=RUN,
+    ),
+    Case(
+        "--record onto an earlier run with --overwrite",
+        ("t.yaml", "--record", "old", "--overwrite"),
+        code=0,
+        files={**TREE, "old/run.jsonl": "{}\n"},
+        command=RUN,
+    ),
+    Case(
+        "--annotate onto a file",
+        ("img.png", "--annotate", "afile"),
+        message="a file, not a folder",
+        where="--annotate afile",
+        files={"afile": "x"},
+        special={"img.png": "link:/dev/null"},
+        command=("detect",),
+    ),
+    Case(
+        "--annotate under /proc",
+        ("img.png", "--annotate", "/proc/armtree-annotated"),
+        message="cannot write there",
+        where="--annotate /proc/armtree-annotated",
+        special={"img.png": "link:/dev/null"},
+        command=("detect",),
+    ),
+    Case(
+        "markers -o onto a folder",
+        ("--family", "aruco", "--id", "1", "-o", "out.png"),
+        message="a folder, not a file",
+        where="-o out.png",
+        special={"out.png": "folder"},
+        command=("markers",),
+    ),
+    Case(
+        "markers -o under a file",
+        ("--family", "aruco", "--id", "1", "-o", "afile/m.png"),
+        message="afile is a file, not a folder",
+        where="-o afile/m.png",
+        files={"afile": "x"},
+        command=("markers",),
+    ),
+    Case(
+        "markers -o /dev/null",
+        ("--family", "aruco", "--id", "1", "-o", "/dev/null"),
+        message="a device, not a file",
+        where="-o /dev/null",
+        command=("markers",),
+    ),
+    Case(
+        "markers -o in a missing folder",
+        ("--family", "aruco", "--id", "1", "-o", "nowhere/m.png"),
+        message="no folder nowhere",
+        where="-o nowhere/m.png",
+        command=("markers",),
+    ),
+    Case(
+        "show -o onto a folder",
+        ("t.yaml", "-o", "out.txt"),
+        message="a folder, not a file",
+        where="-o out.txt",
+        files=TREE,
+        special={"out.txt": "folder"},
+        command=("show",),
+    ),
+    Case(
+        "show --format png -o under a file",
+        ("t.yaml", "--format", "png", "-o", "afile/t.png"),
+        message="afile is a file, not a folder",
+        where="-o afile/t.png",
+        files={**TREE, "afile": "x"},
+        command=("show",),
+    ),
+    Case(
+        "show -o ''",
+        ("t.yaml", "-o", ""),
+        message="an empty file name",
+        where="-o ''",
+        files=TREE,
+        command=("show",),
+    ),
+]
+
+#: Issue 32's cases, one family of benchmarks/bench_hostile.py.
+EDGES: list[Case] = OUTPUTS
+
+CASES: list[Case] = TREES + PROFILES + EDGES

@@ -1,4 +1,4 @@
-"""The fixed corpus of issue 17's hostile inputs: each gives its exit code and position."""
+"""The fixed corpus of issues 17 and 32's hostile inputs: each gives its exit code and position."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 import pytest
-from hostile_corpus import CASES, Case
+from hostile_corpus import CASES, Case, write_case
 
 from armtree.cli import commandline as cli
 
@@ -20,13 +20,8 @@ RAW = re.compile(
 
 
 def check(case: Case, folder: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    for name, content in case.files.items():
-        path = folder / name
-        if isinstance(content, bytes):
-            path.write_bytes(content)
-        else:
-            path.write_text(content)
-    code = cli.main(["check", *case.argv])
+    write_case(case, folder)
+    code = cli.main([*case.command, *case.argv])
     return code, capsys.readouterr().err
 
 
@@ -44,5 +39,5 @@ def test_hostile_input_gives_its_exit_code_and_position(
             first = first.replace(folder + "/", "")
         assert first.startswith(case.where), first
         assert case.message in err, err
-        if not first.startswith("--") and not case.where.endswith(": "):
+        if not first.startswith("-") and not case.where.endswith(": "):
             assert re.match(r"^[^:\s]+:\d+:\d+: ", first), first

@@ -20,6 +20,7 @@ import numpy as np
 
 from armtree.api.clock import WallClock
 from armtree.api.imaging import Intrinsics, intrinsics_from_config
+from armtree.api.output_paths import output_file, output_folder
 from armtree.api.rig import Detection, Frame, RigContext
 from armtree.errors import ConfigError
 from armtree.loader.profile import Profile
@@ -108,9 +109,7 @@ class DetectCommand:
         intr = intrinsics_from_args(args) or profile_intrinsics(profile)
         if args.rate:
             return self._rate(args, tracker, intr)
-        out_dir = Path(args.annotate) if args.annotate else None
-        if out_dir is not None:
-            out_dir.mkdir(parents=True, exist_ok=True)
+        out_dir = None if args.annotate is None else output_folder(args.annotate, "--annotate")
         for n, src in enumerate(sources(args.images)):
             frame = self._frame(src, n, intr)
             dets = _detect(tracker, frame, src.path)
@@ -339,7 +338,7 @@ class MarkersCommand:
         family = marker_family(args.family, args.dictionary)
         if (args.id is None) == (args.sheet is None):
             raise ConfigError("give --id N for one marker or --sheet IDS for a sheet")
-        out = Path(args.output)
+        out = output_file(args.output, "-o")
         suffix = out.suffix.lower()
         if suffix not in (".png", ".pdf"):
             raise ConfigError(f"-o {args.output}: write a .png (or a .pdf sheet)")
