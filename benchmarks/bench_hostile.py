@@ -162,7 +162,11 @@ def judge_command(res: dict[str, Any] | None, allowed: Iterable[int]) -> tuple[b
         return False, "raw exception or traceback"
     if code not in allowed:
         return False, f"exit {code}"
-    if code == 2 and not POSITION.match(err.strip().splitlines()[0] if err.strip() else ""):
+    lines = err.strip().splitlines() or [""]
+    first = lines[0]
+    if first.startswith("usage:"):  # argparse: the usage, then "PROG: error: argument --X: ..."
+        first = lines[-1].partition(": error: argument ")[2]
+    if code == 2 and not POSITION.match(first):
         return False, "no FILE:LINE:COL"
     return True, ""
 

@@ -11,6 +11,8 @@ figures.
 from __future__ import annotations
 
 import os
+import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -567,7 +569,221 @@ OUTPUTS: list[Case] = [
     ),
 ]
 
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG whose header claims ``width`` x ``height`` px, with no pixels behind it."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        )
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", ihdr)
+        + chunk(b"IDAT", zlib.compress(b""))
+        + chunk(b"IEND", b"")
+    )
+
+
+WAIT = "rig: sim_dobot\nroot:\n  sequence:\n    - move_to: {to: home}\n    - wait: {seconds: %s}\n"
+EXPECT = (
+    "rig: sim_dobot\nexpect:\n  - {object: ducky, at: ducky_pickup, within_mm: %s}\n"
+    "root: {success: {}}\n"
+)
+
+#: Numbers (issue 32): NaN, infinities and negatives refused at load or on the command line.
+NUMBERS: list[Case] = [
+    Case(
+        "wait -5 s",
+        ("t.yaml",),
+        message="expected a number >= 0 s",
+        where="t.yaml:5:23",
+        files={"t.yaml": WAIT % "-5"},
+    ),
+    Case(
+        "wait .nan s",
+        ("t.yaml",),
+        message="finite",
+        where="t.yaml:5:23",
+        files={"t.yaml": WAIT % ".nan"},
+    ),
+    Case(
+        "within_mm .nan",
+        ("t.yaml",),
+        message="within_mm: expected a finite tolerance",
+        where="t.yaml:3:",
+        files={"t.yaml": EXPECT % ".nan"},
+    ),
+    Case(
+        "within_mm .inf",
+        ("t.yaml",),
+        message="within_mm: expected a finite tolerance",
+        where="t.yaml:3:",
+        files={"t.yaml": EXPECT % ".inf"},
+    ),
+    Case(
+        "sweep --run-timeout nan",
+        ("t.yaml", "--seeds", "1-2", "--run-timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--run-timeout nan",
+        files=TREE,
+        command=("sweep",),
+    ),
+    Case(
+        "sweep --timeout nan",
+        ("t.yaml", "--seeds", "1-2", "--timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--timeout nan",
+        files=TREE,
+        command=("sweep",),
+    ),
+    Case(
+        "run-tree --timeout nan",
+        ("t.yaml", "--timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--timeout nan",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "run-tree --seed -1",
+        ("t.yaml", "--seed", "-1"),
+        message="give an integer >= 0",
+        where="argument --seed",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "replay --port 99999",
+        ("rec", "--port", "99999"),
+        message="give 1-65535",
+        where="argument --port",
+        files={"rec/run.jsonl": "{}\n"},
+        command=("replay",),
+    ),
+    Case(
+        "markers --dpi 1000000 --size-mm 1000",
+        ("--family", "aruco", "--id", "1", "--dpi", "1000000", "--size-mm", "1000", "-o", "m.png"),
+        message="over the limit of 50 MP",
+        where="--dpi 1e+06 --size-mm 1000",
+        command=("markers",),
+    ),
+    Case(
+        "markers --sheet at 2000 dpi",
+        ("--family", "aruco", "--sheet", "1-4", "--dpi", "2000", "-o", "m.pdf"),
+        message="an A4 page would be",
+        where="--dpi 2000",
+        command=("markers",),
+    ),
+    Case(
+        "markers --dpi inf",
+        ("--family", "aruco", "--id", "1", "--dpi", "inf", "-o", "m.png"),
+        message="finite",
+        where="--dpi inf",
+        command=("markers",),
+    ),
+    Case(
+        "detect --size-mm inf",
+        ("img.png", "--size-mm", "inf"),
+        message="finite",
+        where="--size-mm inf",
+        files={"img.png": _png_header(8, 8)},
+        command=("detect",),
+    ),
+]
+
+#: Images and inputs that are no file (issue 32): refused by what they are, before decoding.
+INPUTS: list[Case] = [
+    Case(
+        "a PNG header of 100000 x 100000 px",
+        ("huge.png",),
+        message="over the limit of 50 MP",
+        where="huge.png: ",
+        files={"huge.png": _png_header(100_000, 100_000)},
+        command=("detect",),
+    ),
+    Case(
+        "a PNG header of 8000 x 7000 px",
+        ("big.png",),
+        message="8000 x 7000 px (56 MP)",
+        where="big.png: ",
+        files={"big.png": _png_header(8000, 7000)},
+        command=("detect",),
+    ),
+    Case(
+        "an image that is a FIFO",
+        ("img.png",),
+        message="a FIFO (named pipe), not an image",
+        where="img.png: ",
+        special={"img.png": "fifo"},
+        command=("detect",),
+    ),
+    Case(
+        "an image that is a folder",
+        ("img.png",),
+        message="a folder, not an image",
+        where="img.png: ",
+        special={"img.png": "folder"},
+        command=("detect",),
+    ),
+    Case(
+        "an image linked to /dev/zero",
+        ("img.png",),
+        message="a device, not an image",
+        where="img.png: ",
+        special={"img.png": "link:/dev/zero"},
+        command=("detect",),
+    ),
+    Case(
+        "a video linked to /dev/zero",
+        ("v.mp4",),
+        message="a device, not a video",
+        where="v.mp4: ",
+        special={"v.mp4": "link:/dev/zero"},
+        command=("detect",),
+    ),
+    Case(
+        "a tree that is a FIFO",
+        ("t.yaml",),
+        message="t.yaml is a FIFO",
+        where="t.yaml: ",
+        special={"t.yaml": "fifo"},
+    ),
+    Case(
+        "a tree that is a folder",
+        ("t.yaml",),
+        message="t.yaml is a folder, not a file",
+        where="t.yaml: ",
+        special={"t.yaml": "folder"},
+    ),
+    Case(
+        "a tree linked to /dev/zero",
+        ("t.yaml",),
+        message="t.yaml is a device, not a file",
+        where="t.yaml: ",
+        special={"t.yaml": "link:/dev/zero"},
+    ),
+    Case(
+        "an include that is a FIFO",
+        ("t.yaml",),
+        message="inner.yaml is a FIFO",
+        where="t.yaml:1:",
+        files={"t.yaml": "root: {subtree: {file: inner.yaml}}\n"},
+        special={"inner.yaml": "fifo"},
+    ),
+    Case(
+        "a profile linked to /dev/zero",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="p.yaml is a device, not a file",
+        where="--rig p.yaml",
+        files={"t.yaml": "root: {success: {}}\n"},
+        special={"p.yaml": "link:/dev/zero"},
+    ),
+]
+
 #: Issue 32's cases, one family of benchmarks/bench_hostile.py.
-EDGES: list[Case] = OUTPUTS
+EDGES: list[Case] = OUTPUTS + NUMBERS + INPUTS
 
 CASES: list[Case] = TREES + PROFILES + EDGES

@@ -7,42 +7,18 @@ what is wrong and what to do, before a run starts or an image is drawn: an empty
 name, a file or device where a folder is wanted, a folder under a file, one that
 cannot be written, one holding an earlier result (refused unless ``overwrite``).
 
-:func:`path_kind` names what a path is (a folder, a FIFO, a device...), for the
-messages here and for inputs that exist but are not regular files.
+:func:`path_kind` (armtree.config.resolve) names what a path is in these messages.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
-import stat
 from collections.abc import Sequence
 from pathlib import Path
 
+from armtree.config.resolve import path_kind
 from armtree.errors import ConfigError
-
-
-def path_kind(path: Path | str) -> str:
-    """What ``path`` is, in words: "a file", "a folder", "a FIFO", "a device", "a socket",
-    "a link to nothing", "nothing" (links are followed; a link to a device is a device)."""
-    path = Path(path)
-    try:
-        mode = path.stat().st_mode
-    except (FileNotFoundError, NotADirectoryError):
-        return "a link to nothing" if path.is_symlink() else "nothing"
-    except OSError as exc:
-        return f"unreadable ({exc.strerror or exc})"
-    if stat.S_ISREG(mode):
-        return "a file"
-    if stat.S_ISDIR(mode):
-        return "a folder"
-    if stat.S_ISFIFO(mode):
-        return "a FIFO (named pipe)"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "a device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
 
 
 def _under_a_file(path: Path) -> Path | None:

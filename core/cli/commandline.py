@@ -11,9 +11,12 @@ traceback reaches the user unless ``--debug`` is given.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import traceback
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from armtree.errors import ConfigError, HardwareFault
@@ -264,13 +267,25 @@ def _run_loaded(args: argparse.Namespace, manager: Any) -> int:
         manager = plugin_manager_for(getattr(args, "plugin", None), getattr(args, "block", None))
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
     lock = None
+    created = False
     if args.record is not None:  # after the tree validates: a typo leaves no folder behind
+        created = not os.path.lexists(args.record)
         lock = claim_record_folder(args.record, getattr(args, "overwrite", False))
     try:
         return _run_claimed(args, manager, tree)
     finally:
         if lock is not None:
             lock.release()
+            if created:  # refused before it recorded (a port in use): leave no empty folder
+                _remove_if_unused(Path(args.record))
+
+
+def _remove_if_unused(folder: Path) -> None:
+    """Remove ``folder`` when it holds nothing but the run lock."""
+    with contextlib.suppress(OSError):
+        if [p.name for p in folder.iterdir()] == [RUN_LOCK]:
+            (folder / RUN_LOCK).unlink()
+            folder.rmdir()
 
 
 def _run_claimed(args: argparse.Namespace, manager: Any, tree: Any) -> int:

@@ -168,8 +168,10 @@ class At(Predicate):
         problem = _unknown(world, entry.value, "place or body", places=True)
         out = [("at", problem)] if problem else []
         tol = entry.options.get("within_mm")
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or tol <= 0:
-            out.append(("within_mm", f"expected a tolerance in mm > 0, got {tol!r}"))
+        if not _finite(tol) or tol <= 0:  # a NaN or infinite tolerance would pass anything
+            out.append(
+                ("within_mm", f"within_mm: expected a finite tolerance in mm > 0, got {tol!r}")
+            )
         return out
 
     def describe(self, entry: Expectation) -> str:
