@@ -11,7 +11,7 @@ profiles with a fixed seed, plus the fixed corpus of tests/hostile_corpus.py:
   command that writes, numbers on the command line, images too large, inputs that
   are a FIFO, a folder or a device;
 * ``serial``: five arm variants under seventeen link faults, driver against emulator;
-* ``interrupts``: SIGINT / SIGTERM into real ``run-tree`` processes at random
+* ``interrupts``: SIGINT / SIGTERM / SIGHUP / SIGQUIT into real ``run-tree`` processes at random
   moments, stuck ticks included.
 
 A case is *clean* when the exit code is the right one, an input error names its
@@ -52,6 +52,7 @@ from hostile_corpus import EDGES, PROFILES, STUCK_PLUGIN, TREES, write_case  # n
 RAW = re.compile(r"Traceback|^error: [A-Za-z]+(Error|Exception)\b|^\w+Error: ", re.M)
 POSITION = re.compile(r"^(?:[^\s:]+:\d+:\d+: |--?\S*|[^\s:]+: the file is larger)")
 SHIPPED_TREES = ("load_ducky", "search", "clean_up", "pick_and_place", "touch_tag", "track", "sort")
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
 SIM_RIGS = ("sim_dobot", "sim_vicra", "sim_magician", "sim_dh")
 
 
@@ -670,7 +671,8 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
     ]
     for k in range(n):
         kind = kinds[k % len(kinds)]
-        sig = signal.SIGINT if k % 2 == 0 else signal.SIGTERM
+        # SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\) stop a run as SIGTERM does
+        sig = STOP_SIGNALS[(k + k // len(kinds)) % len(STOP_SIGNALS)]
         folder = work / f"int{k}"
         folder.mkdir()
         (folder / "stuck.py").write_text(STUCK_PLUGIN)

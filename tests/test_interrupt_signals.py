@@ -114,7 +114,14 @@ def spin(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("sig", "clock"), [(signal.SIGINT, "--realtime"), (signal.SIGTERM, "--seed=1")]
+    ("sig", "clock"),
+    [
+        (signal.SIGINT, "--realtime"),
+        (signal.SIGTERM, "--seed=1"),
+        # a closed terminal and Ctrl-\ stop a run as SIGTERM does (issue 32)
+        (signal.SIGHUP, "--realtime"),
+        (signal.SIGQUIT, "--seed=2"),
+    ],
 )
 def test_a_signal_halts_a_real_run_and_exits_130_with_the_log_flushed(spin, sig, clock):
     proc = Proc(["spin.yaml", "--record", "rec", clock], spin)
