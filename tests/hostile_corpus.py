@@ -783,7 +783,33 @@ INPUTS: list[Case] = [
     ),
 ]
 
+#: Devices (issue 32): a negative camera index segfaulted OpenCV's capture thread.
+DEVICES: list[Case] = [
+    Case(
+        f"camera.device={value}",
+        ("t.yaml", "--rig", "dobot_v1", "--set", "arm.port=sim", "--set", f"camera.device={value}"),
+        message=message,
+        where="--set camera.device",
+        files={"t.yaml": "root: {success: {}}\n"},
+        command=command,
+    )
+    for value, message, command in (
+        ("-1", "camera.device: expected a number >= 0, got -1", ("check",)),
+        ("-1", "camera.device: expected a number >= 0, got -1", RUN),
+        (".nan", "camera.device: expected a number >= 0", ("check",)),
+    )
+] + [
+    Case(
+        f"--set camera.{key}={value}",
+        ("t.yaml", "--rig", "dobot_v1", "--set", "arm.port=sim", "--set", f"camera.{key}={value}"),
+        message=f"camera.{key}",
+        where=f"--set camera.{key}",
+        files={"t.yaml": "root: {success: {}}\n"},
+    )
+    for key, value in (("width", "-640"), ("fps", "0"), ("stall_timeout_s", "-1"))
+]
+
 #: Issue 32's cases, one family of benchmarks/bench_hostile.py.
-EDGES: list[Case] = OUTPUTS + NUMBERS + INPUTS
+EDGES: list[Case] = OUTPUTS + NUMBERS + INPUTS + DEVICES
 
 CASES: list[Case] = TREES + PROFILES + EDGES
