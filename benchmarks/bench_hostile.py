@@ -11,7 +11,7 @@ profiles with a fixed seed, plus the fixed corpus of tests/hostile_corpus.py:
   command that writes, numbers on the command line, images too large, inputs that
   are a FIFO, a folder or a device;
 * ``serial``: five arm variants under seventeen link faults, driver against emulator;
-* ``interrupts``: SIGINT / SIGTERM / SIGHUP / SIGQUIT into real ``run-tree`` processes at random
+* ``interrupts``: SIGINT / SIGTERM / SIGHUP / SIGQUIT (and SIGSTOP / SIGCONT first) into real ``run-tree`` processes at random
   moments, stuck ticks included.
 
 A case is *clean* when the exit code is the right one, an input error names its
@@ -664,6 +664,7 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         "loading",
         "running",
         "running-realtime",
+        "paused-realtime",
         "stuck-spin",
         "stuck-sleep",
         "double",
@@ -686,9 +687,9 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         elif kind == "loading":
             args += ["load_ducky.yaml"]
             delay = rng.uniform(1.0, 3.0)
-        elif kind in ("running", "running-realtime", "double"):
+        elif kind in ("running", "running-realtime", "paused-realtime", "double"):
             args += ["load_ducky.yaml", "--record", "rec", "--seed", str(k)]
-            if kind == "running-realtime":
+            if kind in ("running-realtime", "paused-realtime"):
                 args.append("--realtime")
             wait_for = lambda f=folder: (f / "rec" / "run.jsonl").exists()  # noqa: E731
             delay = rng.uniform(0.2, 4.0)
@@ -714,6 +715,12 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         while not wait_for() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
         time.sleep(delay)
+        if kind == "paused-realtime" and proc.poll() is None:
+            # Ctrl-Z and fg: a pause of the process is no link fault (issue 32)
+            proc.send_signal(signal.SIGSTOP)
+            time.sleep(rng.uniform(1.0, 3.0))
+            proc.send_signal(signal.SIGCONT)
+            time.sleep(1.0)
         sent = time.monotonic()
         if kind != "watchdog" and proc.poll() is None:
             proc.send_signal(sig)
@@ -739,6 +746,8 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
             why = f"exit {code}"
         if RAW.search(err):
             why = "traceback"
+        if kind == "paused-realtime" and "link lost" in err:
+            why = "a pause read as a lost link"
         log = folder / "rec" / "run.jsonl"
         if not why and log.exists() and kind not in ("startup", "loading"):
             last = log.read_text().strip().splitlines()[-1]
@@ -757,7 +766,7 @@ FAMILIES: dict[str, tuple[Callable[..., list[Result]], int, int]] = {
     "profiles-run": (family_profiles_run, 136, 12),
     "edges": (family_edges, 0, 0),
     "serial": (family_serial, 85, 85),
-    "interrupts": (family_interrupts, 56, 16),
+    "interrupts": (family_interrupts, 63, 18),
 }
 
 
