@@ -139,4 +139,4 @@ def _read_only_fs(folder: Path) -> bool:
         return False
 
 
-__all__ = ["clear_held", "output_file", "output_folder", "path_kind"]
+__all__ = ["clear_held", "output_file", "output_folder"]
