@@ -1,14 +1,17 @@
 """Hostile-input figures (issue 17): how often armtree answers bad input cleanly.
 
-Six families, each a few hundred cases generated from the shipped trees and
+Seven families, each a few hundred cases generated from the shipped trees and
 profiles with a fixed seed, plus the fixed corpus of tests/hostile_corpus.py:
 
 * ``trees-check``: mutated trees through ``armtree check``;
 * ``trees-run``: trees that pass check, with edge values, through ``run-tree``;
 * ``profiles-check``: hostile ``--set`` values for every component parameter;
 * ``profiles-run``: valid edge values (each range's ends, each choice) through a run;
+* ``edges``: issue 32's corpus (tests/hostile_corpus.py ``EDGES``): output paths of every
+  command that writes, numbers on the command line, images too large, inputs that
+  are a FIFO, a folder or a device;
 * ``serial``: five arm variants under seventeen link faults, driver against emulator;
-* ``interrupts``: SIGINT / SIGTERM into real ``run-tree`` processes at random
+* ``interrupts``: SIGINT / SIGTERM / SIGHUP / SIGQUIT (and SIGSTOP / SIGCONT first) into real ``run-tree`` processes at random
   moments, stuck ticks included.
 
 A case is *clean* when the exit code is the right one, an input error names its
@@ -44,11 +47,14 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from hostile_corpus import PROFILES, STUCK_PLUGIN, TREES  # noqa: E402
+from hostile_corpus import EDGES, PROFILES, STUCK_PLUGIN, TREES, write_case  # noqa: E402
 
 RAW = re.compile(r"Traceback|^error: [A-Za-z]+(Error|Exception)\b|^\w+Error: ", re.M)
-POSITION = re.compile(r"^(?:[^\s:]+:\d+:\d+: |--\S*|[^\s:]+: the file is larger)")
+#: Where an input error points: FILE:LINE:COL, an option, or a whole file (a file name with
+#: its suffix: the file is too large, a FIFO, an image over the pixel limit).
+POSITION = re.compile(r"^(?:[^\s:]+:\d+:\d+: |--?\S*|[^\s:]+\.[A-Za-z0-9]+: )")
 SHIPPED_TREES = ("load_ducky", "search", "clean_up", "pick_and_place", "touch_tag", "track", "sort")
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
 SIM_RIGS = ("sim_dobot", "sim_vicra", "sim_magician", "sim_dh")
 
 
@@ -72,7 +78,7 @@ class Result:
 WORKER = r"""
 import contextlib, io, json, os, resource, sys, time, traceback
 resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
-from armtree import cli
+from armtree.cli import commandline as cli
 print("ready", flush=True)
 for line in sys.stdin:
     req = json.loads(line)
@@ -159,7 +165,11 @@ def judge_command(res: dict[str, Any] | None, allowed: Iterable[int]) -> tuple[b
         return False, "raw exception or traceback"
     if code not in allowed:
         return False, f"exit {code}"
-    if code == 2 and not POSITION.match(err.strip().splitlines()[0] if err.strip() else ""):
+    lines = err.strip().splitlines() or [""]
+    first = lines[0]
+    if first.startswith("usage:"):  # argparse: the usage, then "PROG: error: argument --X: ..."
+        first = lines[-1].partition(": error: argument ")[2]
+    if code == 2 and not POSITION.match(first):
         return False, "no FILE:LINE:COL"
     return True, ""
 
@@ -298,13 +308,15 @@ def corpus_results(family: str, cases: Iterable[Any], work: Path, worker: Worker
     for k, case in enumerate(cases):
         folder = work / f"corpus-{family}-{k}"
         folder.mkdir()
-        for fname, content in case.files.items():
-            (folder / fname).write_bytes(
-                content if isinstance(content, bytes) else content.encode()
-            )
-        res = worker.run(["check", *case.argv], folder, 60)
+        write_case(case, folder)
+        res = worker.run([*case.command, *case.argv], folder, 60)
         out.append(command_result(family, f"corpus: {case.name}", res, (case.code,), 60))
     return out
+
+
+def family_edges(work: Path, pool: list[Worker], n: int, rng: random.Random) -> list[Result]:
+    """Issue 32's corpus: output paths, numbers, images and inputs that are no file."""
+    return corpus_results("edges", EDGES, work, pool[0])
 
 
 def component_params() -> list[tuple[str, str, Any]]:
@@ -654,6 +666,7 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         "loading",
         "running",
         "running-realtime",
+        "paused-realtime",
         "stuck-spin",
         "stuck-sleep",
         "double",
@@ -661,7 +674,8 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
     ]
     for k in range(n):
         kind = kinds[k % len(kinds)]
-        sig = signal.SIGINT if k % 2 == 0 else signal.SIGTERM
+        # SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\) stop a run as SIGTERM does
+        sig = STOP_SIGNALS[(k + k // len(kinds)) % len(STOP_SIGNALS)]
         folder = work / f"int{k}"
         folder.mkdir()
         (folder / "stuck.py").write_text(STUCK_PLUGIN)
@@ -675,9 +689,9 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         elif kind == "loading":
             args += ["load_ducky.yaml"]
             delay = rng.uniform(1.0, 3.0)
-        elif kind in ("running", "running-realtime", "double"):
+        elif kind in ("running", "running-realtime", "paused-realtime", "double"):
             args += ["load_ducky.yaml", "--record", "rec", "--seed", str(k)]
-            if kind == "running-realtime":
+            if kind in ("running-realtime", "paused-realtime"):
                 args.append("--realtime")
             wait_for = lambda f=folder: (f / "rec" / "run.jsonl").exists()  # noqa: E731
             delay = rng.uniform(0.2, 4.0)
@@ -703,7 +717,15 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         while not wait_for() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
         time.sleep(delay)
+        if kind == "paused-realtime" and proc.poll() is None:
+            # Ctrl-Z and fg: a pause of the process is no link fault (issue 32)
+            proc.send_signal(signal.SIGSTOP)
+            time.sleep(rng.uniform(1.0, 3.0))
+            proc.send_signal(signal.SIGCONT)
+            time.sleep(1.0)
         sent = time.monotonic()
+        # A run that ended before the signal went out is no interrupt case: judged by its code.
+        ended_first = kind != "watchdog" and proc.poll() is not None
         if kind != "watchdog" and proc.poll() is None:
             proc.send_signal(sig)
             if kind == "double":
@@ -724,10 +746,14 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
         why = ""
         if code == -sig and kind == "startup":
             why = ""  # killed by the signal before Python handed over: nothing started
+        elif ended_first and code == 0:
+            why = ""
         elif code != expect and not (kind == "startup" and code == 0 and stop_s > 5):
             why = f"exit {code}"
         if RAW.search(err):
             why = "traceback"
+        if kind == "paused-realtime" and "link lost" in err:
+            why = "a pause read as a lost link"
         log = folder / "rec" / "run.jsonl"
         if not why and log.exists() and kind not in ("startup", "loading"):
             last = log.read_text().strip().splitlines()[-1]
@@ -744,8 +770,9 @@ FAMILIES: dict[str, tuple[Callable[..., list[Result]], int, int]] = {
     "profiles-check": (family_profiles_check, 320, 60),
     "trees-run": (family_trees_run, 64, 8),
     "profiles-run": (family_profiles_run, 136, 12),
+    "edges": (family_edges, 0, 0),
     "serial": (family_serial, 85, 85),
-    "interrupts": (family_interrupts, 56, 16),
+    "interrupts": (family_interrupts, 63, 18),
 }
 
 

@@ -10,12 +10,20 @@ figures.
 
 from __future__ import annotations
 
+import os
+import struct
+import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 
 @dataclass(frozen=True)
 class Case:
-    """One hostile input for ``armtree check`` and what it must give."""
+    """One hostile input for ``armtree check`` (or ``command``) and what it must give.
+
+    ``special`` makes paths that are no regular file: ``"folder"``, ``"fifo"``, or
+    ``"link:TARGET"`` (a symbolic link to TARGET), written by :func:`write_case`.
+    """
 
     name: str
     argv: tuple[str, ...]
@@ -23,6 +31,26 @@ class Case:
     message: str = ""
     where: str = ""
     files: dict[str, str | bytes] = field(default_factory=dict)
+    command: tuple[str, ...] = ("check",)
+    special: dict[str, str] = field(default_factory=dict)
+
+
+def write_case(case: Case, folder: Path) -> None:
+    """The files and special paths of ``case`` made in ``folder``."""
+    for name, content in case.files.items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    for name, kind in case.special.items():
+        path = folder / name
+        if kind == "folder":
+            path.mkdir(parents=True, exist_ok=True)
+        elif kind == "fifo":
+            os.mkfifo(path)
+        elif kind.startswith("link:"):
+            path.symlink_to(kind[5:])
+        else:
+            raise ValueError(f"unknown special path {kind!r}")
 
 
 def laughs(prefix: str = "l", levels: int = 10) -> str:
@@ -407,4 +435,381 @@ PROFILES += [
     for rig, value, message in SETS
 ]
 
-CASES: list[Case] = TREES + PROFILES
+TREE = {"t.yaml": "rig: sim_dobot\nroot: {success: {}}\n"}
+RUN = ("run", "--quiet")
+
+#: Output paths (issue 32): every command that writes refuses a bad path, exit 2 naming it.
+OUTPUTS: list[Case] = [
+    Case(
+        "--record onto a file",
+        ("t.yaml", "--record", "afile"),
+        message="a file, not a folder",
+        where="--record afile",
+        files={**TREE, "afile": "x"},
+        command=RUN,
+    ),
+    Case(
+        "--record under a file",
+        ("t.yaml", "--record", "afile/sub"),
+        message="afile is a file, not a folder",
+        where="--record afile/sub",
+        files={**TREE, "afile": "x"},
+        command=RUN,
+    ),
+    Case(
+        "--record /dev/null",
+        ("t.yaml", "--record", "/dev/null"),
+        message="a device, not a folder",
+        where="--record /dev/null",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record under /proc",
+        ("t.yaml", "--record", "/proc/armtree-run"),
+        message="cannot write there",
+        where="--record /proc/armtree-run",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record ''",
+        ("t.yaml", "--record", ""),
+        message="an empty folder name",
+        where="--record ''",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "--record onto an earlier run",
+        ("t.yaml", "--record", "old"),
+        message="already holds a run (run.jsonl)",
+        where="--record old",
+        files={**TREE, "old/run.jsonl": "{}\n"},
+        command=RUN,
+    ),
+    Case(
+        "--record onto an earlier run with --overwrite",
+        ("t.yaml", "--record", "old", "--overwrite"),
+        code=0,
+        files={**TREE, "old/run.jsonl": "{}\n"},
+        command=RUN,
+    ),
+    Case(
+        "--annotate onto a file",
+        ("img.png", "--annotate", "afile"),
+        message="a file, not a folder",
+        where="--annotate afile",
+        files={"afile": "x"},
+        special={"img.png": "link:/dev/null"},
+        command=("detect",),
+    ),
+    Case(
+        "--annotate under /proc",
+        ("img.png", "--annotate", "/proc/armtree-annotated"),
+        message="cannot write there",
+        where="--annotate /proc/armtree-annotated",
+        special={"img.png": "link:/dev/null"},
+        command=("detect",),
+    ),
+    Case(
+        "markers -o onto a folder",
+        ("--family", "aruco", "--id", "1", "-o", "out.png"),
+        message="a folder, not a file",
+        where="-o out.png",
+        special={"out.png": "folder"},
+        command=("markers",),
+    ),
+    Case(
+        "markers -o under a file",
+        ("--family", "aruco", "--id", "1", "-o", "afile/m.png"),
+        message="afile is a file, not a folder",
+        where="-o afile/m.png",
+        files={"afile": "x"},
+        command=("markers",),
+    ),
+    Case(
+        "markers -o /dev/null",
+        ("--family", "aruco", "--id", "1", "-o", "/dev/null"),
+        message="a device, not a file",
+        where="-o /dev/null",
+        command=("markers",),
+    ),
+    Case(
+        "markers -o in a missing folder",
+        ("--family", "aruco", "--id", "1", "-o", "nowhere/m.png"),
+        message="no folder nowhere",
+        where="-o nowhere/m.png",
+        command=("markers",),
+    ),
+    Case(
+        "show -o onto a folder",
+        ("t.yaml", "-o", "out.txt"),
+        message="a folder, not a file",
+        where="-o out.txt",
+        files=TREE,
+        special={"out.txt": "folder"},
+        command=("show",),
+    ),
+    Case(
+        "show --format png -o under a file",
+        ("t.yaml", "--format", "png", "-o", "afile/t.png"),
+        message="afile is a file, not a folder",
+        where="-o afile/t.png",
+        files={**TREE, "afile": "x"},
+        command=("show",),
+    ),
+    Case(
+        "show -o ''",
+        ("t.yaml", "-o", ""),
+        message="an empty file name",
+        where="-o ''",
+        files=TREE,
+        command=("show",),
+    ),
+]
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG whose header claims ``width`` x ``height`` px, with no pixels behind it."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        )
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", ihdr)
+        + chunk(b"IDAT", zlib.compress(b""))
+        + chunk(b"IEND", b"")
+    )
+
+
+WAIT = "rig: sim_dobot\nroot:\n  sequence:\n    - move_to: {to: home}\n    - wait: {seconds: %s}\n"
+EXPECT = (
+    "rig: sim_dobot\nexpect:\n  - {object: ducky, at: ducky_pickup, within_mm: %s}\n"
+    "root: {success: {}}\n"
+)
+
+#: Numbers (issue 32): NaN, infinities and negatives refused at load or on the command line.
+NUMBERS: list[Case] = [
+    Case(
+        "wait -5 s",
+        ("t.yaml",),
+        message="expected a number >= 0 s",
+        where="t.yaml:5:23",
+        files={"t.yaml": WAIT % "-5"},
+    ),
+    Case(
+        "wait .nan s",
+        ("t.yaml",),
+        message="finite",
+        where="t.yaml:5:23",
+        files={"t.yaml": WAIT % ".nan"},
+    ),
+    Case(
+        "within_mm .nan",
+        ("t.yaml",),
+        message="within_mm: expected a finite tolerance",
+        where="t.yaml:3:",
+        files={"t.yaml": EXPECT % ".nan"},
+    ),
+    Case(
+        "within_mm .inf",
+        ("t.yaml",),
+        message="within_mm: expected a finite tolerance",
+        where="t.yaml:3:",
+        files={"t.yaml": EXPECT % ".inf"},
+    ),
+    Case(
+        "sweep --run-timeout nan",
+        ("t.yaml", "--seeds", "1-2", "--run-timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--run-timeout nan",
+        files=TREE,
+        command=("sweep",),
+    ),
+    Case(
+        "sweep --timeout nan",
+        ("t.yaml", "--seeds", "1-2", "--timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--timeout nan",
+        files=TREE,
+        command=("sweep",),
+    ),
+    Case(
+        "run-tree --timeout nan",
+        ("t.yaml", "--timeout", "nan"),
+        message="give a positive number of seconds",
+        where="--timeout nan",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "run-tree --seed -1",
+        ("t.yaml", "--seed", "-1"),
+        message="give an integer >= 0",
+        where="argument --seed",
+        files=TREE,
+        command=RUN,
+    ),
+    Case(
+        "replay --port 99999",
+        ("rec", "--port", "99999"),
+        message="give 1-65535",
+        where="argument --port",
+        files={"rec/run.jsonl": "{}\n"},
+        command=("replay",),
+    ),
+    Case(
+        "markers --dpi 1000000 --size-mm 1000",
+        ("--family", "aruco", "--id", "1", "--dpi", "1000000", "--size-mm", "1000", "-o", "m.png"),
+        message="over the limit of 50 MP",
+        where="--dpi 1e+06 --size-mm 1000",
+        command=("markers",),
+    ),
+    Case(
+        "markers --sheet at 2000 dpi",
+        ("--family", "aruco", "--sheet", "1-4", "--dpi", "2000", "-o", "m.pdf"),
+        message="an A4 page would be",
+        where="--dpi 2000",
+        command=("markers",),
+    ),
+    Case(
+        "markers --dpi inf",
+        ("--family", "aruco", "--id", "1", "--dpi", "inf", "-o", "m.png"),
+        message="finite",
+        where="--dpi inf",
+        command=("markers",),
+    ),
+    Case(
+        "detect --size-mm inf",
+        ("img.png", "--size-mm", "inf"),
+        message="finite",
+        where="--size-mm inf",
+        files={"img.png": _png_header(8, 8)},
+        command=("detect",),
+    ),
+]
+
+#: Images and inputs that are no file (issue 32): refused by what they are, before decoding.
+INPUTS: list[Case] = [
+    Case(
+        "a PNG header of 100000 x 100000 px",
+        ("huge.png",),
+        message="over the limit of 50 MP",
+        where="huge.png: ",
+        files={"huge.png": _png_header(100_000, 100_000)},
+        command=("detect",),
+    ),
+    Case(
+        "a PNG header of 8000 x 7000 px",
+        ("big.png",),
+        message="8000 x 7000 px (56 MP)",
+        where="big.png: ",
+        files={"big.png": _png_header(8000, 7000)},
+        command=("detect",),
+    ),
+    Case(
+        "an image that is a FIFO",
+        ("img.png",),
+        message="a FIFO (named pipe), not an image",
+        where="img.png: ",
+        special={"img.png": "fifo"},
+        command=("detect",),
+    ),
+    Case(
+        "an image that is a folder",
+        ("img.png",),
+        message="a folder, not an image",
+        where="img.png: ",
+        special={"img.png": "folder"},
+        command=("detect",),
+    ),
+    Case(
+        "an image linked to /dev/zero",
+        ("img.png",),
+        message="a device, not an image",
+        where="img.png: ",
+        special={"img.png": "link:/dev/zero"},
+        command=("detect",),
+    ),
+    Case(
+        "a video linked to /dev/zero",
+        ("v.mp4",),
+        message="a device, not a video",
+        where="v.mp4: ",
+        special={"v.mp4": "link:/dev/zero"},
+        command=("detect",),
+    ),
+    Case(
+        "a tree that is a FIFO",
+        ("t.yaml",),
+        message="t.yaml is a FIFO",
+        where="t.yaml: ",
+        special={"t.yaml": "fifo"},
+    ),
+    Case(
+        "a tree that is a folder",
+        ("t.yaml",),
+        message="t.yaml is a folder, not a file",
+        where="t.yaml: ",
+        special={"t.yaml": "folder"},
+    ),
+    Case(
+        "a tree linked to /dev/zero",
+        ("t.yaml",),
+        message="t.yaml is a device, not a file",
+        where="t.yaml: ",
+        special={"t.yaml": "link:/dev/zero"},
+    ),
+    Case(
+        "an include that is a FIFO",
+        ("t.yaml",),
+        message="inner.yaml is a FIFO",
+        where="t.yaml:1:",
+        files={"t.yaml": "root: {subtree: {file: inner.yaml}}\n"},
+        special={"inner.yaml": "fifo"},
+    ),
+    Case(
+        "a profile linked to /dev/zero",
+        ("t.yaml", "--rig", "p.yaml"),
+        message="p.yaml is a device, not a file",
+        where="--rig p.yaml",
+        files={"t.yaml": "root: {success: {}}\n"},
+        special={"p.yaml": "link:/dev/zero"},
+    ),
+]
+
+#: Devices (issue 32): a negative camera index segfaulted OpenCV's capture thread.
+DEVICES: list[Case] = [
+    Case(
+        f"camera.device={value}",
+        ("t.yaml", "--rig", "dobot_v1", "--set", "arm.port=sim", "--set", f"camera.device={value}"),
+        message=message,
+        where="--set camera.device",
+        files={"t.yaml": "root: {success: {}}\n"},
+        command=command,
+    )
+    for value, message, command in (
+        ("-1", "camera.device: expected a number >= 0, got -1", ("check",)),
+        ("-1", "camera.device: expected a number >= 0, got -1", RUN),
+        (".nan", "camera.device: expected a number >= 0", ("check",)),
+    )
+] + [
+    Case(
+        f"--set camera.{key}={value}",
+        ("t.yaml", "--rig", "dobot_v1", "--set", "arm.port=sim", "--set", f"camera.{key}={value}"),
+        message=f"camera.{key}",
+        where=f"--set camera.{key}",
+        files={"t.yaml": "root: {success: {}}\n"},
+    )
+    for key, value in (("width", "-640"), ("fps", "0"), ("stall_timeout_s", "-1"))
+]
+
+#: Issue 32's cases, one family of benchmarks/bench_hostile.py.
+EDGES: list[Case] = OUTPUTS + NUMBERS + INPUTS + DEVICES
+
+CASES: list[Case] = TREES + PROFILES + EDGES

@@ -17,6 +17,7 @@ from armtree.api.clock import VirtualClock, WallClock
 from armtree.errors import HardwareFault
 from armtree.plugins.arms.common.plausibility import (
     LIMIT_MARGIN,
+    RESYNC_S,
     STABLE_FRAMES,
     StatusGuard,
 )
@@ -48,6 +49,30 @@ def test_the_guard_refuses_non_finite_out_of_limits_and_too_fast_readings() -> N
     assert "jumped" in guard.check(home + [40.0, 0.0, 0.0], 0.05)  # 800 deg/s
     assert guard.check(home + [4.0, 0.0, 0.0], 0.05) is None  # 80 deg/s: the base can
     assert (guard.believed, guard.corrupt) == (2, 3)
+
+
+def test_after_a_pause_the_guard_reads_the_arm_again_instead_of_losing_the_link() -> None:
+    # Issue 32: SIGSTOP for 3 s under --realtime; frames sent before the pause arrive with
+    # frames from after it, and every one was refused as a jump "in 0 s".
+    guard = StatusGuard(MODEL, frame_bytes=42)
+    home = np.asarray(MODEL.home, dtype=float)
+    moved = home + [30.0, 0.0, 0.0]  # where the arm went on to while the process was stopped
+    for i in range(STABLE_FRAMES):
+        guard.check(home, 0.05 * i)
+    # Read after the pause, so stamped with its end: a stale frame, then a fresh one.
+    assert guard.check(home, 3.2) is None
+    assert "jumped" in guard.check(moved, 3.2)  # without the resync: refused, "in 0 s"
+    guard.resync(3.2)
+    assert not guard.stable
+    assert guard.check(home, 3.2) is None  # a stale frame from before the pause
+    assert guard.check(moved, 3.2) is None  # the arm where it is now
+    for i in range(STABLE_FRAMES):
+        assert guard.check(moved, 3.21 + 0.01 * i) is None
+    assert guard.stable and guard.verdict() is None
+    # Once the resync is over, jumps are judged again against the new reference.
+    after = 3.2 + RESYNC_S
+    assert guard.check(moved, after) is None
+    assert "jumped" in guard.check(home, after + 0.01)
 
 
 def test_the_guard_loses_a_link_whose_frames_are_mostly_corrupt() -> None:

@@ -114,7 +114,14 @@ def spin(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("sig", "clock"), [(signal.SIGINT, "--realtime"), (signal.SIGTERM, "--seed=1")]
+    ("sig", "clock"),
+    [
+        (signal.SIGINT, "--realtime"),
+        (signal.SIGTERM, "--seed=1"),
+        # a closed terminal and Ctrl-\ stop a run as SIGTERM does (issue 32)
+        (signal.SIGHUP, "--realtime"),
+        (signal.SIGQUIT, "--seed=2"),
+    ],
 )
 def test_a_signal_halts_a_real_run_and_exits_130_with_the_log_flushed(spin, sig, clock):
     proc = Proc(["spin.yaml", "--record", "rec", clock], spin)
@@ -186,3 +193,46 @@ def test_a_forced_exit_gives_the_terminal_back(spin):
     finally:
         os.close(slave)
         os.close(master)
+
+
+LOOP = """\
+rig: sim_dobot
+root:
+  repeat:
+    num_success: 1000
+    child:
+      sequence:
+        - move_to: {to: garbage_bin}
+        - move_to: {to: home}
+"""
+
+
+def test_a_paused_realtime_run_is_no_link_fault(tmp_path):
+    """Issue 32: SIGSTOP and SIGCONT (Ctrl-Z and fg) mid-motion under --realtime; the
+    driver notices the pause and reads the arm again, so the run goes on to its timeout."""
+    (tmp_path / "loop.yaml").write_text(LOOP)
+    # Not Proc: it blocks the arm plugins, and this run needs the simulated arm.
+    proc = subprocess.Popen(
+        [str(RUN_TREE), "loop.yaml", "--realtime", "--timeout", "5", "--record", "rec"],
+        cwd=tmp_path,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 30
+    while not (tmp_path / "rec" / "run.jsonl").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.5)  # moving by now
+    proc.send_signal(signal.SIGSTOP)
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGCONT)
+    try:
+        code = proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    err = proc.stderr.read()
+    assert "link lost" not in err and "hardware fault" not in err, err
+    result = read_log(tmp_path / "rec" / "run.jsonl")[-1]
+    assert result["kind"] == "result" and "timeout" in result.get("message", ""), result
+    assert code == 1, err

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from armtree.cli.commandline import main
-from armtree.plugins.monitor.recorded import Recording
+from armtree.plugins.monitor.recorded import MAX_LOG_BYTES, Recording
 from armtree.plugins.monitor.replay import ReplayFeed
 from armtree.runtime.runlog import read_log
 
@@ -48,6 +48,35 @@ def test_a_directory_that_is_no_run_is_exit_2_with_what_to_give(tmp_path, capsys
     assert main(["replay", str(target)]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def _sparse_log(folder, first: bytes, size: int):
+    """``folder/run.jsonl``: ``first``, then zeros up to ``size`` bytes (a sparse file)."""
+    with (folder / "run.jsonl").open("wb") as fh:
+        fh.write(first)
+        fh.truncate(size)
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("first", "size", "message"),
+    [
+        # Issue 32: a 1 GB log peaked at 1.35 GB before it was refused.
+        (b'{"kind": "start", "tick_hz": 20}\n', MAX_LOG_BYTES + 1, "a replay reads"),
+        # Under the limit, a log that is no run's is refused at its first record.
+        (b'{"kind": "other"}\n', MAX_LOG_BYTES // 2, "does not start with armtree's start"),
+    ],
+    ids=["too-large", "foreign-large"],
+)
+def test_a_huge_run_log_is_refused_without_reading_it(tmp_path, capsys, first, size, message):
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert main(["replay", str(_sparse_log(tmp_path, first, size))]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    grown_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    assert grown_kb < 100_000, grown_kb  # far less than the file: it was not read
 
 
 def test_the_state_at_any_tick_is_what_run_jsonl_says(recorded_run):

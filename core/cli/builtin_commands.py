@@ -20,6 +20,7 @@ from typing import Any
 
 import py_trees
 
+from armtree.api.output_paths import output_file
 from armtree.errors import ConfigError
 from armtree.hooks.hookspecs import hookimpl
 from armtree.hooks.plugin_checks import Problem, deep_problems, installed_version
@@ -133,13 +134,13 @@ class Show:
         if args.format == "png":
             # Named from the command line, in the working folder: never from the tree's
             # own `tree:` text, which could be a path anywhere.
-            out = Path(args.output or f"{Path(args.tree).stem or 'tree'}.png")
+            out = output_file(args.output or f"{Path(args.tree).stem or 'tree'}.png", "-o")
             render_png(tree, out)
             print(f"wrote {out}")
             return 0
         text = ascii_text(tree) if args.format == "ascii" else dot_text(tree)
-        if args.output:
-            Path(args.output).write_text(text)
+        if args.output is not None:
+            output_file(args.output, "-o").write_text(text)
             print(f"wrote {args.output}")
         else:
             sys.stdout.write(text)

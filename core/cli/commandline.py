@@ -11,9 +11,12 @@ traceback reaches the user unless ``--debug`` is given.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import traceback
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from armtree.errors import ConfigError, HardwareFault
@@ -23,6 +26,19 @@ EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
 EXIT_HARDWARE = 3
+
+#: What marks a --record folder as holding a run: the run log, and what armtree's own
+#: plugins record next to it (monitor, sim); --overwrite removes them.
+RUN_FILES = (
+    "run.jsonl",
+    "run.mcap",
+    "score.json",
+    "camera.mp4",
+    "overhead.mp4",
+    "overhead.png",
+)
+#: The lock a run holds on its --record folder while it writes there.
+RUN_LOCK = ".armtree-run.lock"
 
 #: Commands the CLI provides itself; a plugin may not register these names.
 OWN_COMMANDS = ("run", "bench")
@@ -194,6 +210,11 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
         "--record", metavar="DIR", help="write the run log to DIR (default runs/<tree>-<time>/)"
     )
     parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a run already recorded in the --record folder",
+    )
+    parser.add_argument(
         "--timeout",
         type=float,
         metavar="SECONDS",
@@ -207,20 +228,71 @@ def add_run_arguments(parser: argparse.ArgumentParser, manager: Any = None) -> N
 
 def run_from_args(args: argparse.Namespace, manager: Any = None) -> int:
     """Load, validate and run the tree the options name; return the exit code."""
-    from armtree.loader.tree_loader import load_tree
-    from armtree.runtime.display import print_summary
-    from armtree.runtime.run_start import default_timeout
-    from armtree.runtime.runner import run
-
     if args.timeout is not None and not args.timeout > 0:
         raise ConfigError(
             f"--timeout {args.timeout:g}: give a positive number of seconds (inf: no limit)"
         )
     if args.max_ticks is not None and args.max_ticks <= 0:
         raise ConfigError(f"--max-ticks {args.max_ticks}: give a positive number of ticks")
+    return _run_loaded(args, manager)
+
+
+def claim_record_folder(value: str, overwrite: bool) -> Any:
+    """The lock of the ``--record`` folder ``value``, checked (exit 2 naming it when it is
+    no folder one may write, when another run is writing there, or when it holds a run
+    and ``overwrite`` is not given; with it, that run's files are removed)."""
+    from armtree.api.folder_lock import FolderLock
+    from armtree.api.output_paths import clear_held, output_folder
+
+    where = f"--record {value}"
+    out = output_folder(value, "--record")
+    lock = FolderLock(
+        out,
+        where,
+        RUN_LOCK,
+        "two runs would mix their records: wait for it to end, or give another folder",
+    )
+    try:
+        clear_held(out, RUN_FILES, overwrite, where, "run")
+    except BaseException:
+        lock.release()
+        raise
+    return lock
+
+
+def _run_loaded(args: argparse.Namespace, manager: Any) -> int:
+    from armtree.loader.tree_loader import load_tree
+
     if manager is None:
         manager = plugin_manager_for(getattr(args, "plugin", None), getattr(args, "block", None))
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
+    lock = None
+    created = False
+    if args.record is not None:  # after the tree validates: a typo leaves no folder behind
+        created = not os.path.lexists(args.record)
+        lock = claim_record_folder(args.record, getattr(args, "overwrite", False))
+    try:
+        return _run_claimed(args, manager, tree)
+    finally:
+        if lock is not None:
+            lock.release()
+            if created:  # refused before it recorded (a port in use): leave no empty folder
+                _remove_if_unused(Path(args.record))
+
+
+def _remove_if_unused(folder: Path) -> None:
+    """Remove ``folder`` when it holds nothing but the run lock."""
+    with contextlib.suppress(OSError):
+        if [p.name for p in folder.iterdir()] == [RUN_LOCK]:
+            (folder / RUN_LOCK).unlink()
+            folder.rmdir()
+
+
+def _run_claimed(args: argparse.Namespace, manager: Any, tree: Any) -> int:
+    from armtree.runtime.display import print_summary
+    from armtree.runtime.run_start import default_timeout
+    from armtree.runtime.runner import run
+
     timeout = args.timeout
     if timeout is None:
         timeout = default_timeout(tree.profile, args.realtime, manager)

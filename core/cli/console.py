@@ -1,4 +1,4 @@
-"""The console scripts' entry points: Ctrl-C and SIGTERM handled from the first moment.
+"""The console scripts' entry points: Ctrl-C, SIGTERM, SIGHUP and SIGQUIT handled from the first moment.
 
 ``run-tree`` and ``armtree`` start here. Importing this module takes the signals
 over before anything heavy is imported, so an interrupt while the program is still
@@ -17,6 +17,8 @@ import os
 import sys
 
 EXIT_INTERRUPTED = 130
+#: armtree.runtime.interrupts.STOP_SIGNALS, without importing it (nor enum) this early.
+_STOP_SIGNALS = (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP, _signal.SIGQUIT)
 
 
 def _exit_starting(signum: int, frame: object) -> None:
@@ -28,7 +30,7 @@ def _exit_starting(signum: int, frame: object) -> None:
 
 
 def _take_signals(handler: object) -> None:
-    for sig in (_signal.SIGINT, _signal.SIGTERM):
+    for sig in _STOP_SIGNALS:
         try:
             _signal.signal(sig, handler)  # type: ignore[arg-type]
         except (ValueError, OSError):  # noqa: SIM105 - contextlib costs an import here
@@ -52,7 +54,7 @@ def _raise_interrupt(signum: int, frame: object) -> None:
 def _ignore_signals() -> None:
     # Python's shutdown puts its own handlers back to the default, under which a late
     # signal kills the process by the signal instead of leaving with the command's code.
-    for sig in (_signal.SIGINT, _signal.SIGTERM):
+    for sig in _STOP_SIGNALS:
         try:
             _signal.signal(sig, _signal.SIG_IGN)
         except (ValueError, OSError):  # noqa: SIM105 - as in _take_signals

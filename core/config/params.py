@@ -210,7 +210,9 @@ def check_value(param: Param, value: Any) -> Any:
 
 def _check_bounds(param: Param, value: Any) -> None:
     unit = f" {param.unit}" if param.unit else ""
-    if param.type in ("int", "float"):
+    # an ``any`` that holds a number (a camera index or a path) is bounded as a number
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if param.type in ("int", "float") or (param.type == "any" and number):
         if not _in_range(param, value):
             raise ValueError(f"expected a number {param.range_text()}{unit}, got {shown(value)}")
         return

@@ -11,6 +11,7 @@ The ``.yaml`` suffix may be left out.
 from __future__ import annotations
 
 import importlib.resources
+import stat
 from pathlib import Path
 
 #: What a kind of file is called in messages, and the package shipping it.
@@ -64,6 +65,44 @@ def resolve(
     except (OSError, ValueError):
         return None
     return None
+
+
+def path_kind(path: Path | str) -> str:
+    """What ``path`` is, in words: "a file", "a folder", "a FIFO", "a device", "a socket",
+    "a link to nothing", "nothing" (links are followed; a link to a device is a device)."""
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return "a link to nothing" if path.is_symlink() else "nothing"
+    except OSError as exc:
+        return f"unreadable ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return "a file"
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def not_a_file(
+    name: str | Path, kind: str, base: Path | None = None, base_first: bool = False
+) -> str:
+    """Why ``name`` was not found when a candidate exists but is no regular file, as
+    " (NAME is a FIFO, not a file)"; "" otherwise. For the not-found messages."""
+    try:
+        for path in candidates(name, kind, base, base_first):
+            what = path_kind(path)
+            if what not in ("nothing", "a file"):
+                return f" ({path} is {what}, not a file)"
+    except (OSError, ValueError):
+        return ""
+    return ""
 
 
 def available(kind: str) -> list[str]:

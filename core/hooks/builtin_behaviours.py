@@ -130,7 +130,7 @@ class Timeout(_ClockMixin, pd.Decorator):
 class Wait(_ClockMixin, Behaviour):
     """RUNNING until ``seconds`` have passed on the run's clock since it started, then SUCCESS."""
 
-    PARAMS = (Param("seconds", "float", unit="s", doc="how long to wait"),)
+    PARAMS = (Param("seconds", "float", unit="s", doc="how long to wait", minimum=0.0),)
     _param_name = "seconds"
 
     def __init__(self, name: str, **params: Any) -> None:
@@ -154,7 +154,7 @@ class Wait(_ClockMixin, Behaviour):
 class Timer(Wait):
     """py_trees' Timer on the run's clock: RUNNING for ``duration`` seconds, then SUCCESS."""
 
-    PARAMS = (Param("duration", "float", 5.0, unit="s", doc="how long to run"),)
+    PARAMS = (Param("duration", "float", 5.0, unit="s", doc="how long to run", minimum=0.0),)
     _param_name = "duration"
 
 

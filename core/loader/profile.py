@@ -45,7 +45,7 @@ from armtree.config.profile_access import component_config
 from armtree.config.profile_include import apply_includes
 from armtree.config.profile_sections import COMPONENT_SECTIONS, PROFILE_KEYS
 from armtree.config.profile_spec import check_sections
-from armtree.config.resolve import available, resolve
+from armtree.config.resolve import available, not_a_file, resolve
 from armtree.config.spec import Context
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, load_yaml_file, plain
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
@@ -301,6 +301,7 @@ def load_profile(
         raise error_at(
             f"no hardware profile {shown(str(path_or_name))} in the working directory"
             f"{' or next to the tree' if base else ''} or among the shipped profiles"
+            f"{not_a_file(path_or_name, 'profile', base)}"
             f"{did_you_mean(Path(str(path_or_name)).stem, shipped)}",
             where,
             str(path_or_name),

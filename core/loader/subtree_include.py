@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from armtree.config.resolve import available, resolve
+from armtree.config.resolve import available, not_a_file, resolve
 from armtree.config.yamlio import MarkedDict
 from armtree.errors import Mark, did_you_mean, shown
 
@@ -155,7 +155,9 @@ class SubtreeIncludes:
         if path is None:
             self.errors.error(
                 f"subtree file {shown(file)} not found next to {ctx.file.name}, in the working "
-                f"directory or among the shipped trees{did_you_mean(Path(file).stem, available('tree'))}",
+                f"directory or among the shipped trees"
+                f"{not_a_file(name, 'tree', ctx.file.parent, base_first=True)}"
+                f"{did_you_mean(Path(file).stem, available('tree'))}",
                 mark,
                 ctx,
             )

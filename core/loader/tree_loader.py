@@ -69,7 +69,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from armtree.config.resolve import available, resolve
+from armtree.config.resolve import available, not_a_file, resolve
 from armtree.config.yamlio import MarkedDict
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
@@ -111,7 +111,8 @@ def load_tree(
     if path is None:
         raise ConfigError(
             f"no tree {shown(str(path_or_name))} in the working directory or among the shipped "
-            f"trees{did_you_mean(Path(str(path_or_name)).stem, available('tree'))}",
+            f"trees{not_a_file(path_or_name, 'tree')}"
+            f"{did_you_mean(Path(str(path_or_name)).stem, available('tree'))}",
             file=str(path_or_name),
         )
     # A load allocates many small objects and frees none; pausing the cyclic garbage

@@ -1,4 +1,4 @@
-"""Interrupt sources of a run: SIGINT, SIGTERM, the stop key and component events.
+"""Interrupt sources of a run: SIGINT, SIGTERM, SIGHUP, SIGQUIT, the stop key and component events.
 
 All of them end in :meth:`Interrupts.request`, which only records the reason and
 wakes the tick loop; the runtime halts the tree at the start of its next tick
@@ -24,6 +24,9 @@ from armtree.errors import HardwareFault
 
 #: Exit code of an interrupted run (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
+#: The signals that stop a run safely: Ctrl-C, a kill, a closed terminal (SIGHUP, a
+#: common way runs end) and Ctrl-\ (SIGQUIT), each with a result record in the run log.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
 
 
 class Interrupts:
@@ -75,7 +78,7 @@ class Interrupts:
 
     @contextlib.contextmanager
     def signals(self, enabled: bool = True) -> Iterator[bool]:
-        """Route SIGINT and SIGTERM here while the block runs (main thread only).
+        """Route the :data:`STOP_SIGNALS` here while the block runs (main thread only).
 
         Yields whether the handlers were installed; the previous handlers are
         restored on exit.
@@ -84,7 +87,7 @@ class Interrupts:
             yield False
             return
         previous = {}
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in STOP_SIGNALS:
             previous[sig] = signal.getsignal(sig)
             signal.signal(sig, self._on_signal)
         try:

@@ -234,11 +234,26 @@ def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:
 
 opencv_factory.simulated = lambda config: False  # always a device
 opencv_factory.PARAMS = (
-    Param("device", "any", 0, doc="camera index or device path / stream URL"),
-    Param("width", "int", 640, unit="px", doc="requested image width"),
-    Param("height", "int", 480, unit="px", doc="requested image height"),
-    Param("fps", "float", 30.0, unit="Hz", doc="requested frame rate"),
-    Param("open_timeout_s", "float", 5.0, unit="s", doc="how long opening may take"),
-    Param("stall_timeout_s", "float", 2.0, unit="s", doc="no frame for this long is a fault"),
+    # a negative index crashed OpenCV's capture thread (a segfault): refused at load
+    Param("device", "any", 0, doc="camera index (>= 0) or device path / stream URL", minimum=0),
+    Param("width", "int", 640, unit="px", doc="requested image width", minimum=1),
+    Param("height", "int", 480, unit="px", doc="requested image height", minimum=1),
+    Param("fps", "float", 30.0, unit="Hz", doc="requested frame rate", exclusive_minimum=0),
+    Param(
+        "open_timeout_s",
+        "float",
+        5.0,
+        unit="s",
+        doc="how long opening may take",
+        exclusive_minimum=0,
+    ),
+    Param(
+        "stall_timeout_s",
+        "float",
+        2.0,
+        unit="s",
+        doc="no frame for this long is a fault",
+        exclusive_minimum=0,
+    ),
     *INTRINSICS_PARAMS,
 )

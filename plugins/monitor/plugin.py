@@ -9,26 +9,12 @@ from typing import Any
 import armtree
 from armtree.runtime.runner import Run
 
+from .ports import port_number
 from .session import KEY, MonitorSession
 from .watch import TreeWatcher
 
 #: The page's port when ``--monitor`` is given without one.
 DEFAULT_PORT = 8765
-
-
-def port_number(text: str) -> int:
-    """An argparse type: a TCP port, 0 (any free one) to 65535."""
-    try:
-        port = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"{text!r} is not a port number; write the tree first: run-tree TREE --monitor [PORT]"
-        ) from None
-    if not 0 <= port <= 65535:
-        raise argparse.ArgumentTypeError(
-            f"{port} is not a port: give 1-65535, or 0 for any free one"
-        )
-    return port
 
 
 @armtree.hookimpl

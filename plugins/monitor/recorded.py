@@ -53,27 +53,46 @@ class Frames:
         return len(self.times)
 
 
+#: The largest run log a replay reads (bytes): its records are held in memory, several
+#: times the file's size; a longer run is replayed from a shorter recording.
+MAX_LOG_BYTES = 512 * 1024 * 1024
+
+
 def read_jsonl(path: Path) -> tuple[list[dict[str, Any]], bool]:
-    """The records of a run log, and whether its last line was cut off."""
+    """The records of a run log, and whether its last line was cut off.
+
+    Read line by line: a log over :data:`MAX_LOG_BYTES` is refused by its size, and one
+    that does not start with a start record is given back at its first record (the caller
+    refuses it) without reading the rest."""
+    size = path.stat().st_size
+    if size > MAX_LOG_BYTES:
+        raise ConfigError(
+            f"the run log is {size / 1e6:,.0f} MB, over the {MAX_LOG_BYTES / 1e6:,.0f} MB a "
+            "replay reads; replay a shorter run",
+            file=str(path),
+        )
     records: list[dict[str, Any]] = []
-    cut = False
+    bad: int | None = None  # a line that is no JSON: an error, unless it is the last
     with path.open("rb") as fh:
-        lines = fh.read().split(b"\n")
-    for n, line in enumerate(lines):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except ValueError:
-            if n >= len(lines) - 2:
-                cut = True
-                break
-            raise ConfigError(
-                "not a JSON line; is this a run log written by armtree?", file=str(path), line=n + 1
-            ) from None
-        if isinstance(record, dict):
-            records.append(record)
-    return records, cut
+        for n, line in enumerate(fh):
+            if not line.strip():
+                continue
+            if bad is not None:
+                raise ConfigError(
+                    "not a JSON line; is this a run log written by armtree?",
+                    file=str(path),
+                    line=bad + 1,
+                )
+            try:
+                record = json.loads(line)
+            except ValueError:
+                bad = n
+                continue
+            if isinstance(record, dict):
+                records.append(record)
+                if len(records) == 1 and record.get("kind") != "start":
+                    return records, False
+    return records, bad is not None
 
 
 def read_mcap(path: Path) -> tuple[dict[str, Frames], bool]:

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
+from .ports import replay_port
+
 if TYPE_CHECKING:  # the web server loads when a replay is served, not with the plugin
     from .recorded import Recording
     from .server import Client
@@ -95,7 +97,7 @@ class ReplayCommand:
         )
         parser.add_argument(
             "--port",
-            type=int,
+            type=replay_port,
             default=8766,
             help="port of the page (default 8766; 0: any free port)",
         )

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ import numpy as np
 
 from armtree.api.clock import WallClock
 from armtree.api.imaging import Intrinsics, intrinsics_from_config
+from armtree.api.output_paths import output_file, output_folder
 from armtree.api.rig import Detection, Frame, RigContext
 from armtree.errors import ConfigError
 from armtree.loader.profile import Profile
@@ -28,8 +30,22 @@ from .annotate import annotate
 from .detection_rate import marker_detection_rate
 from .dictionaries import APRILTAG_FAMILIES, get_dictionary
 from .families import MarkerFamily, apriltag_dictionary, family_named
-from .inputs import Source, add_intrinsics_options, intrinsics_from_args, is_video, sources
-from .markers import printable_marker, write_png, write_sheet
+from .inputs import (
+    Source,
+    add_intrinsics_options,
+    check_pixels,
+    intrinsics_from_args,
+    is_video,
+    sources,
+)
+from .markers import (
+    A4_MM,
+    MM_PER_INCH,
+    cells_per_side,
+    printable_marker,
+    write_png,
+    write_sheet,
+)
 
 
 def registry_of(args: argparse.Namespace) -> Any:
@@ -108,9 +124,7 @@ class DetectCommand:
         intr = intrinsics_from_args(args) or profile_intrinsics(profile)
         if args.rate:
             return self._rate(args, tracker, intr)
-        out_dir = Path(args.annotate) if args.annotate else None
-        if out_dir is not None:
-            out_dir.mkdir(parents=True, exist_ok=True)
+        out_dir = None if args.annotate is None else output_folder(args.annotate, "--annotate")
         for n, src in enumerate(sources(args.images)):
             frame = self._frame(src, n, intr)
             dets = _detect(tracker, frame, src.path)
@@ -168,8 +182,10 @@ class DetectCommand:
                     f"--dictionary applies to the aruco and apriltag trackers, not {args.tracker!r}"
                 )
         if args.size_mm is not None:
-            if not args.size_mm > 0:
-                raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
+            if not 0 < args.size_mm < math.inf:
+                raise ConfigError(
+                    f"--size-mm {args.size_mm:g}: a marker size must be a positive, finite number of mm"
+                )
             config["size_mm"] = args.size_mm
         prep = dict(config.get("preprocess") or {})
         if args.threshold is not None:
@@ -185,8 +201,8 @@ class DetectCommand:
 
     def _fps(self, args: argparse.Namespace) -> float:
         if args.fps is not None:
-            if not args.fps > 0:
-                raise ConfigError(f"--fps {args.fps:g}: must be positive")
+            if not 0 < args.fps < math.inf:
+                raise ConfigError(f"--fps {args.fps:g}: give a positive, finite frame rate")
             return float(args.fps)
         videos = [p for p in args.images if is_video(p)]
         if videos:
@@ -301,6 +317,22 @@ def check_marker_id(family: MarkerFamily, marker_id: int) -> None:
         raise ConfigError(f"--id {marker_id}: {problem}")
 
 
+def _check_marker_pixels(
+    args: argparse.Namespace, generator: str, dictionary: str, single: bool
+) -> None:
+    """ConfigError naming --dpi and --size-mm when the image would be over the pixel limit
+    (checked before any is allocated: --dpi 1000000 would ask for petabytes)."""
+    if single:
+        cells = cells_per_side(generator, dictionary)
+        side = args.size_mm * args.dpi / MM_PER_INCH * (1 + 2 / cells)
+        width = height = side
+        what = "the marker"
+    else:
+        width, height = (mm * args.dpi / MM_PER_INCH for mm in A4_MM)
+        what = "an A4 page"
+    check_pixels(width, height, f"--dpi {args.dpi:g} --size-mm {args.size_mm:g}", what)
+
+
 class MarkersCommand:
     """``armtree markers``: printable marker PNGs, or A4 sheets (PNG or PDF)."""
 
@@ -332,14 +364,16 @@ class MarkersCommand:
 
     def run(self, args: argparse.Namespace) -> int:
         """Write the marker(s); 0, or ConfigError for bad options."""
-        if not args.size_mm > 0:
-            raise ConfigError(f"--size-mm {args.size_mm:g}: a marker size must be positive")
-        if not args.dpi > 0:
-            raise ConfigError(f"--dpi {args.dpi:g}: must be positive")
+        if not 0 < args.size_mm < math.inf:
+            raise ConfigError(
+                f"--size-mm {args.size_mm:g}: a marker size must be a positive, finite number of mm"
+            )
+        if not 0 < args.dpi < math.inf:
+            raise ConfigError(f"--dpi {args.dpi:g}: give a positive, finite resolution")
         family = marker_family(args.family, args.dictionary)
         if (args.id is None) == (args.sheet is None):
             raise ConfigError("give --id N for one marker or --sheet IDS for a sheet")
-        out = Path(args.output)
+        out = output_file(args.output, "-o")
         suffix = out.suffix.lower()
         if suffix not in (".png", ".pdf"):
             raise ConfigError(f"-o {args.output}: write a .png (or a .pdf sheet)")
@@ -348,6 +382,7 @@ class MarkersCommand:
         for marker_id in ids:
             check_marker_id(family, marker_id)
         dictionary = family.dictionary or "4x4_50"
+        _check_marker_pixels(args, family.generator, dictionary, single=args.sheet is None)
         if args.sheet is None and suffix == ".png":
             printed = printable_marker(
                 family.generator, args.id, args.size_mm, args.dpi, dictionary

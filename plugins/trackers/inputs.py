@@ -16,20 +16,65 @@ import cv2
 import numpy as np
 
 from armtree.api.imaging import Intrinsics, distortion_from, load_calibration
+from armtree.config.resolve import path_kind
 from armtree.errors import ConfigError
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".webm", ".mpg", ".mpeg", ".m4v", ".wmv")
 
 
+#: The most pixels an image may have (50 MP: a 8660 x 5773 photo; 20000 x 20000 would
+#: take gigabytes to decode). Read from the file's header before decoding.
+MAX_IMAGE_PIXELS = 50_000_000
+
+
+def header_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) from an image file's header, decoding no pixels; None when Pillow
+    does not know the format (OpenCV may still read it). A header past Pillow's own bomb
+    limit (far over :data:`MAX_IMAGE_PIXELS`) is a ConfigError naming the file."""
+    import warnings
+
+    from PIL import Image
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        try:
+            with Image.open(path) as image:
+                return image.size
+        except Image.DecompressionBombError:
+            raise ConfigError(
+                f"this image is over {2 * (Image.MAX_IMAGE_PIXELS or 0) / 1e6:.0f} MP by its "
+                f"header, over the limit of {MAX_IMAGE_PIXELS // 1_000_000} MP; give a "
+                "smaller one",
+                file=str(path),
+            ) from None
+        except Exception:  # noqa: BLE001 - not an image Pillow knows: OpenCV decides
+            return None
+
+
+def check_pixels(width: float, height: float, where: str, what: str = "the image") -> None:
+    """ConfigError at ``where`` when ``width`` x ``height`` is over :data:`MAX_IMAGE_PIXELS`."""
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ConfigError(
+            f"{what} would be {width:.0f} x {height:.0f} px ({width * height / 1e6:.3g} MP), "
+            f"over the limit of {MAX_IMAGE_PIXELS // 1_000_000} MP; give a smaller one",
+            file=where,
+        )
+
+
 def read_image(path: str | Path) -> np.ndarray:
-    """An image file as BGR uint8; ConfigError naming it when it is missing, empty or not an image."""
+    """An image file as BGR uint8; ConfigError naming it when it is missing, empty, no regular
+    file (a folder, a FIFO, a device), over :data:`MAX_IMAGE_PIXELS` or not an image."""
     path = Path(path)
-    if path.is_dir():
-        raise ConfigError("is a folder, not an image", file=str(path))
-    if not path.is_file():
+    kind = path_kind(path)
+    if kind == "nothing":
         raise ConfigError("no such image file", file=str(path))
+    if kind != "a file":
+        raise ConfigError(f"{kind}, not an image file", file=str(path))
     if path.stat().st_size == 0:
         raise ConfigError("empty file, not an image", file=str(path))
+    size = header_size(path)
+    if size is not None:
+        check_pixels(*size, str(path), "this image")
     image = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if image is None or image.size == 0:
         raise ConfigError(
@@ -47,8 +92,10 @@ def is_video(path: str | Path) -> bool:
 def video_frames(path: str | Path) -> Iterator[np.ndarray]:
     """The frames of a video file; ConfigError naming it when it cannot be opened or has none."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError("no such video file", file=str(path))
+    kind = path_kind(path)
+    if kind != "a file":
+        what = "no such video file" if kind == "nothing" else f"{kind}, not a video file"
+        raise ConfigError(what, file=str(path))
     cap = cv2.VideoCapture(str(path))
     try:
         if not cap.isOpened():

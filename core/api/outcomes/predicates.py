@@ -168,8 +168,11 @@ class At(Predicate):
         problem = _unknown(world, entry.value, "place or body", places=True)
         out = [("at", problem)] if problem else []
         tol = entry.options.get("within_mm")
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or tol <= 0:
-            out.append(("within_mm", f"expected a tolerance in mm > 0, got {tol!r}"))
+        # a NaN or infinite tolerance would pass anything
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < math.inf:
+            out.append(
+                ("within_mm", f"within_mm: expected a finite tolerance in mm > 0, got {tol!r}")
+            )
         return out
 
     def describe(self, entry: Expectation) -> str:

@@ -20,7 +20,6 @@ import argparse
 import contextlib
 import os
 import shlex
-import shutil
 import signal
 import sys
 import time
@@ -33,6 +32,7 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from armtree.api.output_paths import output_folder
 from armtree.api.sweep import Sweep
 from armtree.cli.commandline import add_tree_arguments
 from armtree.errors import ConfigError
@@ -103,27 +103,7 @@ def _reference(value: str | None) -> str | None:
 def _out_dir(value: str | None, tree_name: str, overwrite: bool) -> Path:
     if value is None:
         return Path("sweeps") / f"{tree_name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    out = Path(value)
-    if out.exists() and not out.is_dir():
-        raise ConfigError("a file, not a folder", file=f"--out {value}")
-    held = [name for name in SWEEP_FILES if (out / name).exists()]
-    if held and not overwrite:
-        raise ConfigError(
-            f"already holds a sweep ({', '.join(held)}); give another folder, "
-            "or --overwrite to replace it",
-            file=f"--out {value}",
-        )
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        for name in held:
-            target = out / name
-            shutil.rmtree(target) if target.is_dir() else target.unlink()
-    except OSError as exc:
-        raise ConfigError(
-            f"cannot write there ({exc.strerror or exc}); give a folder you can write to",
-            file=f"--out {value}",
-        ) from None
-    return out
+    return output_folder(value, "--out", SWEEP_FILES, overwrite, what="sweep")
 
 
 @contextlib.contextmanager
@@ -201,12 +181,15 @@ def run_sweep(args: argparse.Namespace, console: Console, argv: Sequence[str]) -
     seeds = parse_seeds(args.seeds)
     if args.workers is not None and args.workers < 1:
         raise ConfigError("give at least 1", file=f"--workers {args.workers}")
-    if args.run_timeout is not None and args.run_timeout <= 0:
+    if args.run_timeout is not None and not 0 < args.run_timeout < float("inf"):
         raise ConfigError(
-            "give a positive number of seconds", file=f"--run-timeout {args.run_timeout:g}"
+            "give a positive number of seconds (a finite one: the wall time a run may take)",
+            file=f"--run-timeout {args.run_timeout:g}",
         )
-    if args.timeout is not None and args.timeout <= 0:
-        raise ConfigError("give a positive number of seconds", file=f"--timeout {args.timeout:g}")
+    if args.timeout is not None and not args.timeout > 0:
+        raise ConfigError(
+            "give a positive number of seconds (inf: no limit)", file=f"--timeout {args.timeout:g}"
+        )
     if args.scheduler is not None:
         check_address(args.scheduler)
     manager = getattr(args, "manager", None) or get_plugin_manager(

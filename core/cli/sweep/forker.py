@@ -117,7 +117,14 @@ def _child(task: RunTask, loaded: tuple[Any, Any] | None = None) -> None:
     code = 1
     try:
         signal.set_wakeup_fd(-1)
-        for sig in (signal.SIGCHLD, signal.SIGINT, signal.SIGTERM, signal.SIGPIPE):
+        for sig in (
+            signal.SIGCHLD,
+            signal.SIGPIPE,
+            signal.SIGINT,
+            signal.SIGTERM,
+            signal.SIGHUP,
+            signal.SIGQUIT,
+        ):
             signal.signal(sig, signal.SIG_DFL)
         run_dir = Path(task.run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)

@@ -37,6 +37,9 @@ SPEED_SLACK = 2.0
 JUMP_SLACK = 2.0
 #: Plausible readings in a row a connection needs before the arm's state is known.
 STABLE_FRAMES = 3
+#: Seconds after a pause of the process in which readings re-base rather than jump: what
+#: was sent before and during the pause arrives first.
+RESYNC_S = 0.25
 #: Recent frames the corrupt fraction is judged over.
 WINDOW = 40
 #: Fraction of corrupt frames in the window above which the link is lost.
@@ -69,6 +72,7 @@ class StatusGuard:
         self._last_t = -math.inf
         self._streak = 0
         self._skipped = 0
+        self._resync_until = -math.inf
 
     def reset(self) -> None:
         """Forget everything (a new connection)."""
@@ -95,6 +99,17 @@ class StatusGuard:
             self._streak = 0
             self._recent.append(False)
         return reason
+
+    def resync(self, now: float) -> None:
+        """The process was paused while the arm went on (see the serial driver): the
+        readings of the next :data:`RESYNC_S` seconds are judged without the jump check
+        (each the new reference, the newest being where the arm is), the corrupt window
+        is forgotten, and :attr:`stable` needs its streak again."""
+        self.rebase()
+        self._resync_until = now + RESYNC_S
+        self._recent.clear()
+        self._streak = 0
+        self._skipped = 0
 
     def rebase(self) -> None:
         """Forget the last believed reading (homing redefined the coordinates); keep counts."""
@@ -149,7 +164,7 @@ class StatusGuard:
                     f"[{self.lower[k] + LIMIT_MARGIN:g}, {self.upper[k] - LIMIT_MARGIN:g}] "
                     f"by more than {LIMIT_MARGIN:g}"
                 )
-        if self._last is not None:
+        if self._last is not None and now >= self._resync_until:
             dt = max(0.0, now - self._last_t) if math.isfinite(self._last_t) else math.inf
             for k, (v, last, top) in enumerate(
                 zip(values, self._last.tolist(), self._top, strict=True)

@@ -112,6 +112,9 @@ FLUSH_TRIES = 5
 #: Wall seconds :meth:`SerialArmDriver.write_anyway` may wait for the port and for its bytes
 #: to leave: a stop on the way out is tried, never waited on.
 WRITE_ANYWAY_S = 0.2
+#: A gap this long between two turns of the I/O thread (wall seconds; a turn takes about
+#: the port's 10 ms read timeout) means the process was suspended or the machine slept.
+PAUSE_S = 0.5
 
 try:
     import termios
@@ -193,6 +196,9 @@ class SerialArmDriver(ArmDriver):
         self._handles: list[MotionHandle] = []
         self._last_sent: object = None
         self._stop_requested = threading.Event()
+        #: (run time, wall seconds) of each pause of the process the I/O thread noticed.
+        self.pauses: list[tuple[float, float]] = []
+        self._last_turn = _awake_time()
 
     # ------------------------------------------------------------------ subclass hooks
 
@@ -523,6 +529,21 @@ class SerialArmDriver(ArmDriver):
             f"(is the arm powered, the firmware right and the baud rate {self.baud}?)"
         )
 
+    def _resume_after_pause(self, gap: float) -> None:
+        """The I/O thread did not run for ``gap`` wall seconds: the process was suspended
+        (SIGSTOP, Ctrl-Z) or the machine slept, while the arm went on. What waits in the
+        port's buffer was sent before and during the pause, so the arm's state is read
+        again: the plausibility guard takes the next readings as its new reference (no
+        jump is held against them) and needs its stable streak again, and the silence is
+        not held against the link. Replies waiting there are still handled. The pause is
+        kept in :attr:`pauses`."""
+        guard = getattr(self, "guard", None)
+        if guard is not None:
+            guard.resync(self._now)
+        if math.isfinite(self._last_alive):
+            self._last_alive = self._now
+        self.pauses.append((self._now, gap))
+
     def _wake(self) -> None:
         ser = self._ser
         if ser is not None:
@@ -555,6 +576,10 @@ class SerialArmDriver(ArmDriver):
                     self.lose_link(f"link lost: {exc}")
                 return
             self._now = self._current_time()
+            awake = _awake_time()
+            gap, self._last_turn = awake - self._last_turn, awake
+            if gap > PAUSE_S and self.barrier is None and not self.clock.virtual:
+                self._resume_after_pause(gap)
             if self._stop_requested.is_set():
                 self._stop_requested.clear()
                 with contextlib.suppress(Exception):
@@ -582,6 +607,13 @@ class SerialArmDriver(ArmDriver):
                 return
             if self.barrier is not None:
                 self.barrier.handled(len(data), self._now)
+
+
+def _awake_time() -> float:
+    """Seconds on a clock that runs on while the process is stopped and while the machine
+    sleeps (Linux's CLOCK_BOOTTIME; elsewhere the monotonic clock)."""
+    boottime = getattr(time, "CLOCK_BOOTTIME", None)
+    return time.clock_gettime(boottime) if boottime is not None else time.monotonic()
 
 
 def _same(a: object, b: object) -> bool:
