@@ -161,3 +161,13 @@ def test_a_hook_under_another_name_with_specname_is_a_hook(tmp_path):
     done = run_tree(folder, "t.yaml", "--quiet")
     assert done.returncode == 0, done.stdout + done.stderr
     assert "result: SUCCESS" in done.stdout
+
+
+def test_a_plugin_that_exits_while_imported_is_a_plugin_error_not_a_silent_success(tmp_path):
+    folder = write(tmp_path, {"my_skills.py": "import sys\nsys.exit(0)\n", "t.yaml": TREE})
+    done = armtree(folder, "check", "t.yaml")
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert done.stderr.splitlines()[0] == (
+        f"{folder / 't.yaml'}:1:11: plugin '{folder / 'my_skills.py'}' failed to import: it called "
+        "sys.exit(0) while being imported. Give an importable module name or a path to a .py file"
+    )

@@ -181,12 +181,12 @@ class PluginManager:
                 continue
             try:
                 plugin = ep.load()
-            except Exception as exc:  # noqa: BLE001 - any import failure is reported the same way
+            except (Exception, SystemExit) as exc:  # noqa: BLE001 - any import failure alike
                 self._left_out(
                     ep.name,
                     ConfigError(
                         f"plugin {ep.name!r} (entry point {ep.value!r} of distribution "
-                        f"{dist or 'unknown'}) failed to import: {type(exc).__name__}: {exc}. "
+                        f"{dist or 'unknown'}) failed to import: {_import_failure(exc)}. "
                         f"Fix or reinstall {dist or 'the distribution'}, or skip it with "
                         f"-p no:{ep.name}",
                         file=f"entry point {ep.name}",
@@ -218,9 +218,9 @@ class PluginManager:
                 loader_spec.loader.exec_module(module)
             else:
                 module = importlib.import_module(spec)
-        except Exception as exc:  # noqa: BLE001
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit() at import too
             raise ConfigError(
-                f"plugin {spec!r} failed to import: {type(exc).__name__}: {exc}. "
+                f"plugin {spec!r} failed to import: {_import_failure(exc)}. "
                 "Give an importable module name or a path to a .py file",
                 file=where.file if where else None,
                 line=where.line if where else None,
@@ -389,6 +389,13 @@ class PluginManager:
             first = chosen[0]
             raise ConfigError(first.message, file=first.file, line=first.line, errors=chosen)
         return results
+
+
+def _import_failure(exc: BaseException) -> str:
+    """What went wrong importing a plugin: the exception, or its exit by ``sys.exit()``."""
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({exc.code!r}) while being imported"
+    return f"{type(exc).__name__}: {exc}"
 
 
 class Registry:
