@@ -233,6 +233,10 @@ def test_a_paused_realtime_run_is_no_link_fault(tmp_path):
         proc.kill()
     err = proc.stderr.read()
     assert "link lost" not in err and "hardware fault" not in err, err
-    result = read_log(tmp_path / "rec" / "run.jsonl")[-1]
+    records = read_log(tmp_path / "rec" / "run.jsonl")
+    result = records[-1]
     assert result["kind"] == "result" and "timeout" in result.get("message", ""), result
     assert code == 1, err
+    pauses = [r for r in records if r.get("event") == "process_paused"]
+    assert len(pauses) == 1, [r for r in records if r.get("kind") == "event"]
+    assert 1.5 < pauses[0]["wall_s"] < 10.0, pauses[0]

@@ -72,3 +72,42 @@ def test_a_second_run_into_a_folder_being_recorded_is_refused(
     assert not (tmp_path / "rec" / "run.jsonl").exists()
     assert cli.main(["run", "t.yaml", "--quiet", "--record", "rec"]) == 0
     assert (tmp_path / "rec" / "run.jsonl").exists()
+
+
+def _file_size_limit(limit: int):
+    """For a child: writes past ``limit`` bytes fail with EFBIG, as on a full disk."""
+    import resource
+    import signal
+
+    def limit_size() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the error, not the default kill
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return limit_size
+
+
+@pytest.mark.parametrize("limit", [0, 1000, 4096, 30_000])
+def test_a_record_that_fills_the_disk_names_the_folder_and_stops_cleanly(
+    tmp_path: Path, limit: int
+) -> None:
+    """Issue 32: a disk that fills up while a run is recorded (a file-size limit stands in
+    for it) gives exit 2 naming --record and what to do, not the bare OSError."""
+    import subprocess
+    import sys
+
+    (tmp_path / "t.yaml").write_text("rig: sim_dobot\nroot: {wait: {seconds: 2}}\n")
+    proc = subprocess.run(
+        [str(Path(sys.executable).with_name("run-tree")), "t.yaml", "--quiet", "--record", "rec"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=_file_size_limit(limit),
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert lines and all(line.startswith("--record rec: ") for line in lines), proc.stderr
+    assert all("; the record is incomplete; free some space" in line for line in lines), lines
+    reasons = "File too large" if limit < 30_000 else "overhead.mp4: cut short"
+    assert reasons in lines[0], lines
+    assert "Error" not in proc.stderr and "Traceback" not in proc.stderr

@@ -116,6 +116,20 @@ def test_a_stalled_motion_times_out_and_stops_the_arm():
     assert ticks * 0.05 < 30.0
 
 
+def test_time_the_process_was_suspended_is_not_held_against_a_motion():
+    """Issue 32: a motion whose allowance ran out while the process was stopped (Ctrl-Z)
+    is not a stalled arm; once the suspension is used up the stall is reported again."""
+    rig = make_rig(ticks=10**6)
+    suspended = {"s": 1e9}
+    rig.arm.suspended_s = lambda since: suspended["s"]
+    node = MoveTo("go", to="home", offset=[0, 0, 20])
+    status, ticks = run(node, rig, max_ticks=1000)
+    assert status is Status.RUNNING and rig.arm.stops == 0, node.feedback_message
+    suspended["s"] = 0.0
+    status, _ = run(node, rig, max_ticks=5)
+    assert status is Status.FAILURE and "did not finish in time" in node.feedback_message
+
+
 def test_home_on_the_reference_uses_the_arms_own_homing_and_repeats_it_until_homed():
     rig = make_rig()
     homings = []

@@ -220,6 +220,12 @@ class ArmDriver(ABC):
         """The fault that stopped the link, if any."""
         return None
 
+    def suspended_s(self, since: float) -> float:
+        """Wall seconds the process was suspended (SIGSTOP, Ctrl-Z, a laptop asleep) after
+        clock time ``since`` (s), as far as this driver noticed: a motion's allowance does
+        not run while nobody watched it. 0.0 for a driver that does not watch for pauses."""
+        return 0.0
+
 
 # ---------------------------------------------------------------------------
 # The tool

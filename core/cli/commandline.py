@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import sys
 import traceback
@@ -133,6 +134,10 @@ def plugin_manager_for(plugins: Sequence[str] | None, block: Sequence[str] | Non
     return factory(list(plugins or ()), blocked_names(block))
 
 
+#: The errors of a disk that filled up (or a file-size limit) while writing.
+DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
+
 def guarded(action: Callable[[], int], debug: bool) -> int:
     """Run ``action`` and turn every error into its message and exit code."""
     try:
@@ -160,10 +165,12 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
         # A path the user gave that cannot be read or written (-o, --record, --out).
         if debug:
             traceback.print_exc()
-        print(
-            f"{exc.filename}: {exc.strerror or exc}; give a path that exists and you may use",
-            file=sys.stderr,
+        advice = (
+            "the record is incomplete; free some space or write to another disk"
+            if exc.errno in DISK_FULL
+            else "give a path that exists and you may use"
         )
+        print(f"{exc.filename}: {exc.strerror or exc}; {advice}", file=sys.stderr)
         return EXIT_USAGE
     except Exception as exc:  # noqa: BLE001 - the user gets a line, --debug the traceback
         return _unexpected(exc, debug)
@@ -268,11 +275,16 @@ def _run_loaded(args: argparse.Namespace, manager: Any) -> int:
     tree = load_tree(args.tree, rig=args.rig, overrides=args.overrides, manager=manager)
     lock = None
     created = False
-    if args.record is not None:  # after the tree validates: a typo leaves no folder behind
-        created = not os.path.lexists(args.record)
-        lock = claim_record_folder(args.record, getattr(args, "overwrite", False))
     try:
+        if args.record is not None:  # after the tree validates: a typo leaves no folder behind
+            created = not os.path.lexists(args.record)
+            lock = claim_record_folder(args.record, getattr(args, "overwrite", False))
         return _run_claimed(args, manager, tree)
+    except OSError as exc:
+        if exc.filename is None and exc.errno in DISK_FULL and args.record is not None:
+            # The record's writers do not name their file: the folder is what the user gave.
+            raise OSError(exc.errno, exc.strerror, f"--record {args.record}") from exc
+        raise
     finally:
         if lock is not None:
             lock.release()
@@ -311,6 +323,16 @@ def _run_claimed(args: argparse.Namespace, manager: Any, tree: Any) -> int:
     if getattr(args, "debug", False) and result.traceback:
         print(result.traceback, file=sys.stderr, end="")
     print_summary(result)
+    if result.record_errors:
+        folder = args.record if args.record is not None else result.log_path
+        for error in result.record_errors:
+            print(
+                f"--record {folder}: {error}; the record is incomplete; free some space "
+                "or write to another disk",
+                file=sys.stderr,
+            )
+        if result.exit_code == EXIT_OK:
+            return EXIT_USAGE
     if result.status == "INTERRUPTED":
         print(result.message, file=sys.stderr)
     elif (

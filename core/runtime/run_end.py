@@ -52,7 +52,9 @@ class RunResult:
     (:class:`armtree.api.outcomes.failures.NodeFailure` each, with its reason), ``absorbed``
     the failures a retry or selector swallowed (as chains), ``events`` the
     notable events components reported (collisions, drops, missed steps,
-    faults), each ``{"tick", "t", "event", "message", ...}``.
+    faults), each ``{"tick", "t", "event", "message", ...}``. ``record_errors``
+    names the files of the run's record that could not be written (a full disk),
+    each ``"name: reason"``: the record is incomplete and the CLI says so (exit 2).
     """
 
     status: str
@@ -73,6 +75,7 @@ class RunResult:
     chain: list[Any] = field(default_factory=list)
     absorbed: list[list[Any]] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
+    record_errors: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -210,9 +213,10 @@ class RunEnding:
 
     def close(
         self, *, ended: bool, rig: Rig | None, close_rig: bool, log: RunLog, closers: list[Any]
-    ) -> None:
+    ) -> str | None:
         """Release and close what the run holds and opened, newest closer first; a run
-        that did not end (an unexpected exception) is halted and its arm stopped first."""
+        that did not end (an unexpected exception) is halted and its arm stopped first.
+        Returns why the run log could not be written to its end (a full disk), if so."""
         if not ended:
             # Left by an unexpected exception (or KeyboardInterrupt without our
             # handlers): nothing may stay RUNNING, whatever went wrong.
@@ -233,7 +237,11 @@ class RunEnding:
                     f"warning: closing {closer!r} raised {type(exc).__name__}: {exc}",
                     file=sys.stderr,
                 )
-        log.close()
+        try:
+            log.close()
+        except OSError as exc:
+            return f"{log.path.name if log.path else 'run.jsonl'}: {exc.strerror or exc}"
+        return None
 
 
 def judge_result(

@@ -225,9 +225,11 @@ class RunLog:
     def close(self) -> None:
         """Flush and close; safe to call twice."""
         if self._file is not None:
-            self._file.flush()
-            self._file.close()
-            self._file = None
+            file, self._file = self._file, None
+            try:
+                file.flush()
+            finally:
+                file.close()
 
 
 def _name(status: Any) -> str:

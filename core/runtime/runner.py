@@ -150,6 +150,9 @@ class Run:
         #: Called with no argument when the run is over, whatever happened, newest first:
         #: for what a plugin opened in ``armtree_run_opening`` (a server, a watcher).
         self.closers: list[Any] = []
+        #: Files of the record that could not be written, ``"name: reason"`` each (a full
+        #: disk): plugins writing into the record folder add theirs, up to the closers.
+        self.record_errors: list[str] = []
         #: What plugins keep for this run, each under a key of its own (``"monitor"``).
         self.plugin_state: dict[str, Any] = {}
         #: Wall seconds the last tick took: rig step, tree tick, logging, tick hooks.
@@ -368,6 +371,7 @@ class Run:
         finally:
             self.watchdog.stopped.set()
             self._cleanup()
+        result.record_errors = list(self.record_errors)
         return result
 
     def _manager(self) -> Any:
@@ -595,13 +599,15 @@ class Run:
 
     def _cleanup(self) -> None:
         self.interrupts.stopping = True
-        self.ending.close(
+        log_error = self.ending.close(
             ended=bool(self._end_status),
             rig=self.rig,
             close_rig=self._own_rig if self._close_rig is None else self._close_rig,
             log=self.log,
             closers=self.closers,
         )
+        if log_error is not None:
+            self.record_errors.append(log_error)
 
     def _force_exit(self) -> None:
         self.watchdog.force_exit(key=self._key, view=self.view, log=self.log, rig=self.rig)

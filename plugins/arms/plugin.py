@@ -147,6 +147,34 @@ def armtree_validate_profile(profile: Profile) -> list[ConfigError]:
     return swap_misfits(profile)
 
 
+def _report_pauses(run: Any) -> None:
+    """Write each pause of the process the arm's driver noticed to the run log (a
+    ``process_paused`` event, in the summary too), once."""
+    take_pauses = getattr(getattr(getattr(run, "rig", None), "arm", None), "take_pauses", None)
+    if not callable(take_pauses):
+        return
+    for at, gap in take_pauses():
+        run.report_event(
+            "process_paused",
+            f"the process was suspended for {gap:.1f} s (Ctrl-Z, SIGSTOP or the machine "
+            "asleep): the arm's state was read again and the pause not held against the link",
+            at_s=round(float(at), 3),
+            wall_s=round(float(gap), 3),
+        )
+
+
+@armtree.hookimpl
+def armtree_tick(run: Any) -> None:
+    """Report the pauses the arm's driver noticed since the last tick."""
+    _report_pauses(run)
+
+
+@armtree.hookimpl
+def armtree_run_finished(run: Any, result: Any) -> None:
+    """Report a pause noticed after the last tick."""
+    _report_pauses(run)
+
+
 @armtree.hookimpl
 def armtree_commands() -> dict[str, Any]:
     """Register ``armtree emulate``, ``armtree detect-port`` and ``armtree jog``."""

@@ -28,7 +28,6 @@ the disk rather than filling memory).
 from __future__ import annotations
 
 import base64
-import contextlib
 import json
 import queue
 import threading
@@ -275,10 +274,11 @@ class McapRecorder:
         if self._thread.is_alive():
             self._queue.put(None)
             self._thread.join()
-        with contextlib.suppress(Exception):
-            self._writer.finish()
-        with contextlib.suppress(Exception):
-            self._file.close()
+        for finish in (self._writer.finish, self._file.close):
+            try:
+                finish()
+            except Exception as exc:  # noqa: BLE001 - a recording must never break a run
+                self.error = self.error or exc
 
     def _put(self, topic: str, t: float, payload: Any) -> None:
         if self._thread.is_alive():

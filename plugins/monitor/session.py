@@ -146,6 +146,11 @@ class MonitorSession:
             self.taps.remove()
         if self.recorder is not None:
             self.recorder.close()
+            error = self.recorder.error
+            errors = getattr(self.run, "record_errors", None)
+            if error is not None and errors is not None:
+                reason = getattr(error, "strerror", None) or str(error)
+                errors.append(f"{self.recorder.path.name}: {reason}")
         for feed in self.feeds:
             feed.on_close(self)
 

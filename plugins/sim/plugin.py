@@ -279,10 +279,16 @@ def armtree_run_finished(run: Run, result: Any) -> None:
     }
     log_path = getattr(result, "log_path", None)
     score_path = None if log_path is None else log_path.parent / "score.json"
+    errors = getattr(run, "record_errors", [])
     if score_path is not None:
-        write_score(score, score_path)
+        try:
+            write_score(score, score_path)
+        except OSError as exc:
+            errors.append(f"{score_path.name}: {exc.strerror or exc}")
+            score_path = None
     if stepper._recorder is not None:
         stepper._recorder.finish(score)
+        errors.extend(e for e in stepper._recorder.errors if e not in errors)
     details = getattr(result, "details", None)
     if isinstance(details, dict):
         details["score"] = score_line(score)

@@ -189,6 +189,16 @@ def planned_path_xyz(planner: Any, model: Any) -> np.ndarray | None:
     return model.position(q)
 
 
+def _video_readable(path: Path) -> bool:
+    """Whether the video at ``path`` opens and says it has frames: OpenCV's writers do not
+    report a failed write, and an MP4 cut short has no index to open it by."""
+    capture = cv2.VideoCapture(str(path))
+    try:
+        return capture.isOpened() and capture.get(cv2.CAP_PROP_FRAME_COUNT) > 0
+    finally:
+        capture.release()
+
+
 class Recorder:
     """Writes the camera and overhead videos of one run into ``directory``."""
 
@@ -202,6 +212,8 @@ class Recorder:
         self._camera_writer: Any = None
         self._overhead_writer: Any = None
         self.paths: dict[str, Path] = {}
+        #: Files of the record that could not be written, ``"name: reason"`` each.
+        self.errors: list[str] = []
         self._next_overhead = 0.0
         #: Camera frames rendered during the run (the video holds more: see the module).
         self.frames = 0
@@ -272,19 +284,30 @@ class Recorder:
                 int(math.floor(self._now * self.camera.fps + 1e-9)) + 1, self._camera_last
             )
         image = self._draw()
-        cv2.imwrite(str(self.directory / "overhead.png"), image)
-        self.paths["overhead_png"] = self.directory / "overhead.png"
-        write_score(score, self.directory / "score.json")
-        self.paths["score"] = self.directory / "score.json"
+        try:
+            # Encoded here and written by Python: a failed write is an OSError with its
+            # reason, not a line libpng prints on stderr.
+            (self.directory / "overhead.png").write_bytes(cv2.imencode(".png", image)[1].tobytes())
+            self.paths["overhead_png"] = self.directory / "overhead.png"
+        except OSError as exc:
+            self.errors.append(f"overhead.png: {exc.strerror or exc}")
+        try:
+            write_score(score, self.directory / "score.json")
+            self.paths["score"] = self.directory / "score.json"
+        except OSError as exc:
+            self.errors.append(f"score.json: {exc.strerror or exc}")
         self.close()
 
     def close(self) -> None:
-        """Release the video writers; safe to call twice."""
-        for attr in ("_camera_writer", "_overhead_writer"):
+        """Release the video writers, and note a video that cannot be read back; safe to
+        call twice."""
+        for attr, key in (("_camera_writer", "camera"), ("_overhead_writer", "overhead")):
             writer = getattr(self, attr)
             if writer is not None:
                 writer.release()
                 setattr(self, attr, None)
+                if not _video_readable(self.paths[key]):
+                    self.errors.append(f"{self.paths[key].name}: cut short (is the disk full?)")
         if self.camera is not None and self._on_frame in self.camera.listeners:
             self.camera.listeners.remove(self._on_frame)
 

@@ -71,7 +71,8 @@ class Move(Action):
     apply. A refused target fails the step with the reason; nothing is sent. A
     motion that has not ended after :data:`TIMEOUT_FACTOR` times its expected
     duration plus :data:`TIMEOUT_SLACK` seconds (a stalled or halted arm) stops
-    the arm and fails the step.
+    the arm and fails the step; time the process was suspended
+    (``ArmDriver.suspended_s``) is not counted.
     """
 
     #: Multiple of a motion's expected duration after which it has stalled.
@@ -99,6 +100,7 @@ class Move(Action):
         self._waypoints: list[np.ndarray] = []
         self._handle: MotionHandle | None = None
         self._deadline = float("inf")
+        self._allowed_from = 0.0
 
     def describe(self) -> str:
         """What this move goes to, for messages."""
@@ -163,7 +165,8 @@ class Move(Action):
             if len(speeds)
             else 0.0
         )
-        self._deadline = self.rig.clock.now() + self.TIMEOUT_FACTOR * expected + self.TIMEOUT_SLACK
+        self._allowed_from = self.rig.clock.now()
+        self._deadline = self._allowed_from + self.TIMEOUT_FACTOR * expected + self.TIMEOUT_SLACK
 
     def poll(self) -> State:
         if self.message:
@@ -180,10 +183,15 @@ class Move(Action):
             handle = self._handle
         if handle is None:
             return State.DONE
-        if self.rig.clock.now() > self._deadline:
+        if self.rig.clock.now() > self._deadline + self._suspended():
             self.stop()
             return self.fail(f"{self.describe()} did not finish in time: the arm stalled")
         return State.RUNNING
+
+    def _suspended(self) -> float:
+        """Wall seconds the process was suspended since this motion's allowance began."""
+        suspended_s = getattr(self.rig.arm, "suspended_s", None)
+        return float(suspended_s(self._allowed_from)) if callable(suspended_s) else 0.0
 
     def stop(self) -> None:
         self._waypoints = []

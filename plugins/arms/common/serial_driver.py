@@ -198,6 +198,7 @@ class SerialArmDriver(ArmDriver):
         self._stop_requested = threading.Event()
         #: (run time, wall seconds) of each pause of the process the I/O thread noticed.
         self.pauses: list[tuple[float, float]] = []
+        self._pauses_taken = 0
         self._last_turn = _awake_time()
 
     # ------------------------------------------------------------------ subclass hooks
@@ -542,7 +543,21 @@ class SerialArmDriver(ArmDriver):
             guard.resync(self._now)
         if math.isfinite(self._last_alive):
             self._last_alive = self._now
-        self.pauses.append((self._now, gap))
+        with self._state_lock:
+            self.pauses.append((self._now, gap))
+
+    def suspended_s(self, since: float) -> float:
+        """Wall seconds of the pauses :meth:`_resume_after_pause` noticed after clock time ``since``."""
+        with self._state_lock:
+            return sum(gap for at, gap in self.pauses if at > since)
+
+    def take_pauses(self) -> list[tuple[float, float]]:
+        """The pauses (clock time noticed, wall seconds) not taken before, oldest first:
+        the run reports each once, from its own thread."""
+        with self._state_lock:
+            fresh = self.pauses[self._pauses_taken :]
+            self._pauses_taken = len(self.pauses)
+        return fresh
 
     def _wake(self) -> None:
         ser = self._ser
