@@ -19,8 +19,8 @@ C270 (fx 810 px), so ground truth is exact. Figures printed:
 3. pose error of 25 mm markers at 300 mm (mm and degrees);
 4. Showers 2016 eq. 15 marker detection rate over 200 frames at 20 fps, for a
    stationary marker and a moving one with moving shadows, with and without
-   the seed's preprocessing, for our tracker and (when installed) for hampy
-   as the seed used it (its figures: 18.91 / 9.79 markers/s raw, 19.99 /
+   Showers 2016's preprocessing, for our tracker and (when installed) for hampy
+   as Showers 2016 used it (its figures: 18.91 / 9.79 markers/s raw, 19.99 /
    14.10 preprocessed, with hampy on a real C270).
 
 Figure 1 gives three timings per call (``call_timing.py``), alternating the

@@ -90,7 +90,7 @@ def test_link_lengths_and_scales_are_recovered_with_enough_points():
         build, NOMINAL, points, free=("tool_offset_mm", "l1_mm", "l2_mm"), fit_scales=True
     )
     # The narrow joint ranges (eqs. 1-4) make d, l1 and l2 correlated: 400 points at
-    # 0.1 mm still leave standard errors near 0.6-0.8 mm, hence the seed's choice to
+    # 0.1 mm still leave standard errors near 0.6-0.8 mm, hence the source document's choice to
     # hold the link lengths fixed with fewer points.
     assert_recovered(fit, {"tool_offset_mm": 50.0, "l1_mm": 136.5, "l2_mm": 158.7})
     assert max(fit.std_errors[k] for k in ("tool_offset_mm", "l1_mm", "l2_mm")) < 1.0

@@ -115,7 +115,7 @@ ANALYTIC = 0.5 * (
 def test_seed_003_planar_robot_inner_analytic_outer():
     boundary = []
     for delta in (0.5, 0.25, 0.07):
-        # The seed's box: lower left (-l_max, 0), l_max + l0 + l_max wide, min(l_max) high.
+        # The source document's box: lower left (-l_max, 0), l_max + l0 + l_max wide, min(l_max) high.
         c = cover(_robot, [-L_MAX, 0.0], [L_MAX + L0, L_MAX], delta)
         assert c.inner_measure <= ANALYTIC <= c.inner_measure + c.boundary_measure
         size = c.boundary_hi - c.boundary_lo

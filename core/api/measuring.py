@@ -1,8 +1,8 @@
 """A measuring device outside the arm: the ground truth of calibration and accuracy experiments.
 
-The seeds measured by hand: Durovic 2017 read a laser pointer's spot on millimetre
-paper (Tables I-III) and placed its target marker by hand (experiment 2); seed
-004 put a pencil tip on graph paper (model validation) and touched markers with
+The source documents measured by hand: Durovic 2017 read a laser pointer's spot on millimetre
+paper (Tables I-III) and placed its target marker by hand (experiment 2); Showers
+2016 put a pencil tip on graph paper (model validation) and touched markers with
 the tool (touch tests, eq. 17). A :class:`MeasuringDevice` is that person with
 their paper, handed to behaviours as ``rig.reference``: on hardware it asks the
 operator at the console, in the simulation it is a simulated device of the sim
@@ -50,7 +50,7 @@ class Measurement:
 
 
 class MeasuringDevice(ABC):
-    """Measures the rig from outside, as the seeds' people did (see the module)."""
+    """Measures the rig from outside, as the source documents' people did (see the module)."""
 
     #: What the device is, for reports: "operator with millimetre paper", "simulated ...".
     description: str = ""

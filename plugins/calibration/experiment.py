@@ -1,4 +1,4 @@
-"""``armtree experiment accuracy --rig P [--out DIR]``: the seeds' accuracy experiments.
+"""``armtree experiment accuracy --rig P [--out DIR]``: the source documents' accuracy experiments.
 
 * Experiment 1 (Durovic 2017, Tables I and II): the tool visits a 10 x 10 grid; the
   camera's measurement of the tool and the commanded position are compared with
@@ -14,7 +14,7 @@
 Each part is a tree (``experiment_grid``, ``experiment_servo``, ``experiment_validation``)
 run on the profile as it is, calibration files included, so it runs unchanged on
 hardware where the operator is the measuring device. DIR gets ``report.md`` (each
-table beside the seed's figures), scatter plots and histograms (PNG) and the raw
+table beside the source document's figures), scatter plots and histograms (PNG) and the raw
 measurements (CSV).
 """
 
@@ -100,7 +100,7 @@ def corrected(
 class ExperimentCommand:
     """``armtree experiment accuracy``: Durovic 2017's Tables I-III and Showers 2016's model validation."""
 
-    help = "the seeds' accuracy experiments: Durovic 2017's Tables I-III, Showers 2016's model validation"
+    help = "the source documents' accuracy experiments: Durovic 2017's Tables I-III, Showers 2016's model validation"
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``accuracy`` experiment and its options."""
@@ -392,7 +392,7 @@ def _slips_line(slips: dict[str, Any] | None) -> str:
 
 
 def write_report(results: dict[str, Any], out: Path) -> Path:
-    """``report.md``: each table beside the seed's figures."""
+    """``report.md``: each table beside the source document's figures."""
     lines = [f"# Accuracy experiments on {results['rig']}", ""]
     if results.get("overrides"):
         lines += [f"Profile overrides: `{' '.join(results['overrides'])}`", ""]

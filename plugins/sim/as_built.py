@@ -2,8 +2,8 @@
 simulated measuring device that reads it.
 
 A real rig differs from its profile: the camera is not quite where the stand's
-drawing puts it, the pencil sits 48 mm out where the suction cup sat at 55 (seed
-004). Calibration exists to find those differences, so the simulation can have
+drawing puts it, the pencil sits 48 mm out where the suction cup sat at 55 (Showers
+2016). Calibration exists to find those differences, so the simulation can have
 them (``world.as_built``)::
 
     world:
@@ -20,8 +20,8 @@ profile's arm type (its own parameters) the real arm has instead; the world move
 the arm's true joints through that model. Skills never see any of it.
 
 ``reference``: the :class:`SimMeasuringDevice` the sim hands to ``rig.reference``:
-the simulator's truth plus a Gaussian reading error of ``noise_mm`` per axis (seed
-004's repeated graph-paper readings differed by 0.25-0.61 mm).
+the simulator's truth plus a Gaussian reading error of ``noise_mm`` per axis (Showers
+2016's repeated graph-paper readings differed by 0.25-0.61 mm).
 """
 
 from __future__ import annotations

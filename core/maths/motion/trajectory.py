@@ -36,7 +36,7 @@ def cubic_coefficients(
 ) -> np.ndarray:
     """Coefficients ``(4, n)`` ``[a0, a1, a2, a3]`` of Pozzani 2023 eq. 2 on ``[t_s, t_f]`` (absolute time).
 
-    Solves ``q(t_s) = q0, q(t_f) = q1, q'(t_s) = v0, q'(t_f) = v1`` as the seed does.
+    Solves ``q(t_s) = q0, q(t_f) = q1, q'(t_s) = v0, q'(t_f) = v1`` as Pozzani 2023 does.
     """
     m = np.array(
         [
