@@ -376,3 +376,42 @@ def test_an_encoder_that_fails_drops_the_episode_once_and_the_run_goes_on(
         "dataset_failed"
     ]
     assert snapshot(work / "ds") == before
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_ctrl_c_on_a_sweep_keeps_the_episodes_before_it_and_the_dataset_valid(tmp_path):
+    """Issue 28: SIGINT into a real ``armtree sweep --dataset`` process once an episode is
+    in: exit 130, the dataset passes check and a LeRobot reader, and its episodes are the
+    first seeds in order (the runs cut short are dropped whole, none half-written)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    armtree = Path(sys.executable).with_name("armtree")
+    proc = subprocess.Popen(
+        [str(armtree), "sweep", "load_ducky.yaml", "--seeds", "1-12", "--workers", "1"]
+        + ["--out", "out", "--dataset", "ds", "--dataset-keep", "all"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    info = tmp_path / "ds" / "meta" / "info.json"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if info.exists() and json.loads(info.read_text() or "{}").get("total_episodes", 0) >= 1:
+            break
+        time.sleep(0.2)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, out + err
+    assert "Traceback" not in err
+    assert check(tmp_path / "ds").problems == []
+    reader = LeRobotReader(tmp_path / "ds")
+    seeds = [e["armtree/seed"] for e in reader.episodes]
+    assert 1 <= len(seeds) < 12 and seeds == list(range(1, len(seeds) + 1)), seeds
+    assert reader.info["total_episodes"] == len(seeds)
+    assert reader.info["total_frames"] == len(reader)

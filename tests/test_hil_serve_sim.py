@@ -70,8 +70,11 @@ BUSY_MACHINE = [
 END_S = 60
 
 
-def start_run(bench: Bench, tree: str, rig: str, record: Path, cwd: Path) -> subprocess.Popen:
+def start_run(
+    bench: Bench, tree: str, rig: str, record: Path, cwd: Path, *extra: str
+) -> subprocess.Popen:
     args = [str(BIN / "run-tree"), tree, "--rig", rig, "--quiet", "--record", str(record)]
+    args += list(extra)
     args += ["--set", f"arm.port={bench.port}", "--set", f"camera.device={bench.url}"]
     for value in BUSY_MACHINE:
         args += ["--set", value]
@@ -165,13 +168,27 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
     ("sim", "real"), [("sim_magician", "dobot_magician.yaml"), ("sim_koch", "koch.yaml")]
 )
 def test_load_ducky_on_a_real_profile_scored_by_its_served_world(tmp_path, sim, real):
+    """... and the run on the bench becomes a dataset episode (issue 28), through the
+    hardware path: the real profile's driver, the streamed camera, the wall clock."""
     bench = Bench(sim, tmp_path, "--tree", "load_ducky.yaml")
     try:
         assert bench.hint.startswith(f"run-tree load_ducky.yaml --rig {real}")
-        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path)
+        dataset = ("--dataset", "ds", "--dataset-keep", "all")
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path, *dataset)
         out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
         assert result_record(tmp_path / "ok")["status"] == "SUCCESS"
+        check = subprocess.run(
+            [str(BIN / "armtree"), "dataset", "check", "ds"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert check.returncode == 0, check.stdout + check.stderr
+        info = json.loads((tmp_path / "ds" / "meta" / "info.json").read_text())
+        assert info["total_episodes"] == 1 and info["total_frames"] > 100, info
+        assert "observation.images.camera" in info["features"], info["features"]
         code, served = bench.interrupt()
         assert code == 130
         assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served
