@@ -710,8 +710,14 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
             delay = rng.uniform(0.0, 1.0)
         args.append("--quiet")
         t0 = time.monotonic()
+        printed = folder / "stdout.txt"
         proc = subprocess.Popen(
-            args, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+            args,
+            cwd=folder,
+            stdout=printed.open("w"),
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
         deadline = time.monotonic() + 120
         while not wait_for() and proc.poll() is None and time.monotonic() < deadline:
@@ -725,7 +731,11 @@ def family_interrupts(work: Path, pool: list[Worker], n: int, rng: random.Random
             time.sleep(1.0)
         sent = time.monotonic()
         # A run that ended before the signal went out is no interrupt case: judged by its code.
-        ended_first = kind != "watchdog" and proc.poll() is not None
+        # So is one whose summary is out: the signal lands while the process leaves,
+        # and the command keeps its code.
+        ended_first = kind != "watchdog" and (
+            proc.poll() is not None or "result:" in printed.read_text()
+        )
         if kind != "watchdog" and proc.poll() is None:
             proc.send_signal(sig)
             if kind == "double":
