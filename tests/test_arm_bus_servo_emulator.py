@@ -235,3 +235,18 @@ def test_armtree_emulate_serves_the_arm_the_vendor_sdk_pings(arm, sdk, model):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+@pytest.mark.parametrize("model", ["sts3215", "xl430-w250"])
+def test_a_knocked_servo_goes_back_to_its_goal_and_a_limp_one_stays(model):
+    """A position-controlled servo holds its goal against a knock (its encoder is absolute:
+    nothing is lost); with torque off the horn stays where the knock left it."""
+    servo = SimServo(MODELS[model], 1, 2048)
+    servo.mem[servo.model.register("torque_enable").address] = 1
+    servo.slip(40, 1.0)
+    assert servo.present(1.0) == pytest.approx(2088, abs=1e-6)
+    assert servo.moving(1.0)
+    assert servo.present(5.0) == pytest.approx(2048, abs=1e-6) and not servo.moving(5.0)
+    servo.mem[servo.model.register("torque_enable").address] = 0
+    servo.slip(-25, 6.0)
+    assert servo.present(60.0) == pytest.approx(2023, abs=1e-6)

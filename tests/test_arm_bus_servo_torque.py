@@ -76,9 +76,11 @@ def test_implausible_joint_readings_turn_every_torque_off(name):
     with Sim(name) as sim:
         connected(sim)
         assert on(sim) == [1, 2, 3, 4, 5, 6]
-        # a horn knocked far past where the arm can go, the arm at rest (a move would
-        # stream it back): the readings stop making sense
-        sim.emu.inject("missed_steps", joint=0, amount=150)
+        # the arm at rest, a servo's readings jump 150 degrees and stay there (its homing
+        # offset changed under it; a knock would not do: the servo's loop takes a knocked
+        # horn back): the readings stop making sense
+        servo = sim.emu.servo_of(0)
+        servo._put("homing_offset", servo.get("homing_offset") + 1707)
         until_fault(sim)
         assert "implausible joint readings" in sim.arm.fault.message
         assert "shoulder_pan" in sim.arm.fault.message

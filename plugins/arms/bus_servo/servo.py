@@ -152,9 +152,13 @@ class SimServo:
         return True
 
     def slip(self, counts: float, t: float) -> None:
-        """The horn turned by ``counts`` against the servo (a knock); it holds there."""
+        """The horn turned by ``counts`` against the servo (a knock). With torque on the
+        servo's position loop takes it back to its goal, as a real one does (its encoder
+        is absolute: nothing is lost); limp, it stays where it was knocked."""
         p = self.actual(t) + counts
         self._ramp = _Ramp(p, p, t, t)
+        if self.torque:
+            self._goal(t)
 
     def _duration(self, distance: float) -> float:
         fastest = distance / self.model.speed_counts_s
