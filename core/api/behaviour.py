@@ -77,7 +77,7 @@ class Behaviour(py_trees.behaviour.Behaviour):
         if isinstance(binding, Binding):
             self.bb.set(binding.key, value, overwrite=True)
 
-    def tick(self):  # type: ignore[override]
+    def tick(self):
         """py_trees' tick, claiming :attr:`RESOURCES` before ``initialise()``."""
         if self.status != py_trees.common.Status.RUNNING and self.RESOURCES and self.runtime:
             self.runtime.claim(self, self.RESOURCES)

@@ -45,7 +45,12 @@ class Measurement:
         return self
 
     def __repr__(self) -> str:
-        state = "pending" if not self.done else (self.error or np.round(self.value, 2).tolist())
+        if not self.done:
+            state = "pending"
+        elif self.error or self.value is None:
+            state = self.error or "no value"
+        else:
+            state = np.round(self.value, 2).tolist()
         return f"<Measurement {self.what}: {state}>"
 
 

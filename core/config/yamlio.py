@@ -401,6 +401,8 @@ class _Builder:
         if value is _MERGE:
             value = "<<"
         key, key_mark = parent.key, parent.key_mark
+        if key_mark is None:  # has_key is set with the key's mark
+            raise RuntimeError("a mapping's key has no mark")
         parent.key, parent.key_mark, parent.has_key = None, None, False
         if key is _MERGE:
             self.merge(parent, value, where)

@@ -95,7 +95,7 @@ class _Pluggy(pluggy.PluginManager):
             caller = getattr(self.hook, hook_name, None)
             for impl in caller.get_hookimpls() if caller is not None else ():
                 if impl.plugin is plugin and not (impl.wrapper or impl.hookwrapper):
-                    impl.function = attributing(impl.function, registered)  # type: ignore[misc]
+                    impl.function = attributing(impl.function, registered)
         return registered
 
     def parse_hookimpl_opts(self, plugin: Any, name: str) -> Any:

@@ -151,22 +151,21 @@ class RunLog:
         else:
             key = (old, new)
             try:
-                parts = ticks.get(key)
+                known = ticks.get(key)
             except TypeError:  # lists after tuples: nothing to remember them by
                 parts = self._diff_tails(paths, old, new)
-                key = None
-            if key is None:
-                pass
-            elif parts is None:
-                parts = self._diff_tails(paths, old, new)
-                if len(ticks) >= _TICK_PATTERNS:
-                    # Full: a tree that hardly repeats itself stops paying for the look-ups.
-                    self._remember = self._tick_hits >= len(ticks)
-                    ticks.clear()
-                    self._tick_hits = 0
-                ticks[key] = parts
             else:
-                self._tick_hits += 1
+                if known is None:
+                    parts = self._diff_tails(paths, old, new)
+                    if len(ticks) >= _TICK_PATTERNS:
+                        # Full: a tree that hardly repeats itself stops paying for the look-ups.
+                        self._remember = self._tick_hits >= len(ticks)
+                        ticks.clear()
+                        self._tick_hits = 0
+                    ticks[key] = parts
+                else:
+                    parts = known
+                    self._tick_hits += 1
         if why:
             parts = self._with_reasons(paths, old, new, why)
         if parts:

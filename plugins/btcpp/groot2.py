@@ -92,7 +92,7 @@ class Groot2Server:
                 self._bind_one(self._publisher, chosen + 1)
                 return chosen
             except zmq.ZMQError:
-                self._server.unbind(self._server.last_endpoint)
+                self._server.unbind(self._server.getsockopt_string(zmq.LAST_ENDPOINT))
                 if port != 0:
                     self.close()
                     raise self._busy(chosen + 1) from None

@@ -187,16 +187,17 @@ def _parse_entry(
             )
         else:
             subject = tuple(refs)
-            for ref in subject if world is not None else ():
-                if not world.knows(ref):
-                    errors.append(
-                        error_at(
-                            f"no body or tag role {ref!r} in this world"
-                            f"{did_you_mean(ref, world.names())}",
-                            entry.value_mark(subjects[0]),
-                            file,
+            if world is not None:
+                for ref in subject:
+                    if not world.knows(ref):
+                        errors.append(
+                            error_at(
+                                f"no body or tag role {ref!r} in this world"
+                                f"{did_you_mean(ref, world.names())}",
+                                entry.value_mark(subjects[0]),
+                                file,
+                            )
                         )
-                    )
     options = {**predicate.DEFAULTS, **{k: entry[k] for k in predicate.OPTIONS if k in entry}}
     expectation = Expectation(
         predicate=key,

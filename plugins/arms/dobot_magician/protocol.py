@@ -159,7 +159,7 @@ def ptp_params(mode: int, x: float, y: float, z: float, r: float) -> bytes:
 def unpack_ptp(params: bytes) -> tuple[int, tuple[float, float, float, float]]:
     """Mode and the four targets of a SetPTPCmd payload."""
     mode, *vals = struct.unpack_from("<B4f", params)
-    return mode, tuple(vals)  # type: ignore[return-value]
+    return mode, tuple(vals)
 
 
 def pose_params(x: float, y: float, z: float, r: float, joints: tuple[float, ...]) -> bytes:
