@@ -136,6 +136,8 @@ def plugin_manager_for(plugins: Sequence[str] | None, block: Sequence[str] | Non
 
 #: The errors of a disk that filled up (or a file-size limit) while writing.
 DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+#: What to do about it.
+DISK_FULL_ADVICE = "the record is incomplete; free some space or write to another disk"
 
 
 def guarded(action: Callable[[], int], debug: bool) -> int:
@@ -166,7 +168,7 @@ def guarded(action: Callable[[], int], debug: bool) -> int:
         if debug:
             traceback.print_exc()
         advice = (
-            "the record is incomplete; free some space or write to another disk"
+            DISK_FULL_ADVICE
             if exc.errno in DISK_FULL
             else "give a path that exists and you may use"
         )
@@ -324,13 +326,11 @@ def _run_claimed(args: argparse.Namespace, manager: Any, tree: Any) -> int:
         print(result.traceback, file=sys.stderr, end="")
     print_summary(result)
     if result.record_errors:
-        folder = args.record if args.record is not None else result.log_path
+        folder = args.record
+        if folder is None and result.log_path is not None:
+            folder = result.log_path.parent
         for error in result.record_errors:
-            print(
-                f"--record {folder}: {error}; the record is incomplete; free some space "
-                "or write to another disk",
-                file=sys.stderr,
-            )
+            print(f"--record {folder}: {error}; {DISK_FULL_ADVICE}", file=sys.stderr)
         if result.exit_code == EXIT_OK:
             return EXIT_USAGE
     if result.status == "INTERRUPTED":

@@ -278,7 +278,12 @@ def armtree_run_finished(run: Run, result: Any) -> None:
         "wall_seconds": getattr(result, "wall_seconds", None),
     }
     log_path = getattr(result, "log_path", None)
-    score_path = None if log_path is None else log_path.parent / "score.json"
+    recorder = stepper._recorder
+    score_path = None
+    if log_path is not None:
+        score_path = log_path.parent / "score.json"
+    elif recorder is not None:
+        score_path = recorder.directory / "score.json"
     errors = getattr(run, "record_errors", [])
     if score_path is not None:
         try:
@@ -286,9 +291,9 @@ def armtree_run_finished(run: Run, result: Any) -> None:
         except OSError as exc:
             errors.append(f"{score_path.name}: {exc.strerror or exc}")
             score_path = None
-    if stepper._recorder is not None:
-        stepper._recorder.finish(score)
-        errors.extend(e for e in stepper._recorder.errors if e not in errors)
+    if recorder is not None:
+        recorder.finish()
+        errors.extend(recorder.errors)
     details = getattr(result, "details", None)
     if isinstance(details, dict):
         details["score"] = score_line(score)

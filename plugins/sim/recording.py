@@ -276,8 +276,9 @@ class Recorder:
             self._overhead_writer.write(image)
             self._next_overhead += 1.0 / OVERHEAD_FPS
 
-    def finish(self, score: dict[str, Any]) -> None:
-        """Write the final overhead PNG and the score, and close the videos."""
+    def finish(self) -> None:
+        """Write the final overhead PNG and close the videos (the score is the sim
+        plugin's to write)."""
         if self._camera_writer is not None and self._camera_last is not None:
             # the last frame shown lasts until the run's end
             self._fill_camera(
@@ -291,11 +292,6 @@ class Recorder:
             self.paths["overhead_png"] = self.directory / "overhead.png"
         except OSError as exc:
             self.errors.append(f"overhead.png: {exc.strerror or exc}")
-        try:
-            write_score(score, self.directory / "score.json")
-            self.paths["score"] = self.directory / "score.json"
-        except OSError as exc:
-            self.errors.append(f"score.json: {exc.strerror or exc}")
         self.close()
 
     def close(self) -> None:
