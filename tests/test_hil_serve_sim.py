@@ -8,7 +8,8 @@ clock). Real processes and real signals throughout: the run succeeds and the
 served world agrees; Ctrl-C on the run exits 130; Ctrl-C on serve-sim mid-run
 loses the run's link (exit 3) and serve-sim exits 130 with the world's score; the SO-101's
 real profile does the same against ``serve-sim sim_so101``. The Magician and the Koch
-profiles run the same task against their served worlds, which score it.
+profiles run the same task against their served worlds, which score it, and Ctrl-C
+on either run exits 130 without adding to its dataset.
 """
 
 import json
@@ -189,6 +190,17 @@ def test_load_ducky_on_a_real_profile_scored_by_its_served_world(tmp_path, sim, 
         info = json.loads((tmp_path / "ds" / "meta" / "info.json").read_text())
         assert info["total_episodes"] == 1 and info["total_frames"] > 100, info
         assert "observation.images.camera" in info["features"], info["features"]
+
+        # Ctrl-C mid-run on the bench: halted, exit 130, and no half episode in the dataset
+        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "int", tmp_path, *dataset)
+        wait_for_ticks(tmp_path / "int", run)
+        run.send_signal(signal.SIGINT)
+        out, err = run.communicate(timeout=END_S)
+        assert run.returncode == 130, out + err
+        assert result_record(tmp_path / "int")["status"] == "INTERRUPTED"
+        info = json.loads((tmp_path / "ds" / "meta" / "info.json").read_text())
+        assert info["total_episodes"] == 1, "an interrupted run is never an episode"
+
         code, served = bench.interrupt()
         assert code == 130
         assert "score: ducky on duckybot: yes" in served and "collisions: 0" in served

@@ -34,6 +34,7 @@ from armtree.config.params import Param
 from armtree.loader.profile import Profile
 
 from .common import TagRoles, finish_detection, probe
+from .hamming_blur import hamming_blur_reader
 from .hamming_code import CODEWORDS, GRID
 from .kernels import apart_from, best_of_overlapping, read_markers, sample_cells
 from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
@@ -44,6 +45,12 @@ FAMILY = "hamming"
 #: enough to refuse the guesses that made wrong ids of small tilted markers, not so
 #: much that clean rows are refused (docs/benchmarks-history.md, "Small markers").
 MIN_ROW_GAP = 1.0
+#: Candidates up to this side (px) that the cell reading leaves unread are fitted with
+#: blurred code words (:mod:`.hamming_blur`); larger markers have cells to threshold.
+BLUR_FIT_MAX_SIDE_PX = 32.0
+#: The fine search's local threshold: small markers' borders stand out of a 7 px
+#: neighbourhood where a threshold for the whole frame merges them with their cells.
+FINE_SEARCH = {"adaptive": True, "block_px": 7, "offset": 7.0, "blur": 3}
 #: Showers 2016's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
 
@@ -156,7 +163,9 @@ class HammingTracker(Tracker):
     marker, and a row nearly as close to two code words is a guess (docs/
     benchmarks-history.md, "Small markers"). ``max_border_errors`` is how many of the 32
     border cells may read white; ``only_registered`` drops ids the profile does
-    not list.
+    not list. ``fine_search`` looks for candidates with a local threshold as well,
+    and ``blur_fit`` reads small candidates the cells cannot be thresholded in by
+    fitting blurred code words to them (:mod:`.hamming_blur`).
     """
 
     family = FAMILY
@@ -175,6 +184,8 @@ class HammingTracker(Tracker):
         refine: bool = True,
         max_flip_margin: float = 0.25,
         min_row_gap: float = MIN_ROW_GAP,
+        fine_search: bool = True,
+        blur_fit: bool = True,
     ) -> None:
         self.preprocessing = preprocessing or Preprocessing(**SEED_PREPROCESS)
         self.roles = roles or TagRoles({})
@@ -186,6 +197,9 @@ class HammingTracker(Tracker):
         self.refine = bool(refine)
         self.max_flip_margin = float(max_flip_margin)
         self.min_row_gap = float(min_row_gap)
+        self.fine_search = bool(fine_search)
+        self.blur_fit = bool(blur_fit)
+        self._fine = Preprocessing(**FINE_SEARCH)
 
     # -- the Tracker contract -------------------------------------------------
 
@@ -227,7 +241,13 @@ class HammingTracker(Tracker):
         else:
             processed = self.preprocessing.apply(gray)
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-        return dark_quads(dark, self.min_side_px)
+        quads = dark_quads(dark, self.min_side_px)
+        if self.fine_search:
+            fine = dark_quads(self._fine.dark(gray), self.min_side_px)
+            if len(quads) and len(fine):
+                fine = fine[~_same_squares(fine, quads)]  # one candidate per marker
+            quads = np.concatenate([quads, fine])
+        return quads
 
     def decode(self, gray: np.ndarray, quads: np.ndarray) -> list[_Reading]:
         """Read, check and decode every candidate; one reading per accepted marker."""
@@ -243,8 +263,9 @@ class HammingTracker(Tracker):
         levels = sample_cells(
             np.ascontiguousarray(gray), quads.astype(np.float64), _CELL_SAMPLES, _QUIET_SAMPLES
         )
+        reading = levels @ _READING_OP
         rows, turns, ids, corrected, ties, unread = read_markers(
-            levels @ _READING_OP,
+            reading,
             _BORDER_CELLS,
             _TURNED,
             CODEWORDS,
@@ -257,16 +278,64 @@ class HammingTracker(Tracker):
             self.min_row_gap,
         )
         corners = quads[rows[:, None], _ROLLS[turns]]
+        if self.blur_fit:
+            contrasted = reading[:, -1] >= self.min_contrast
+            more, more_ids = self._fit_small(gray, quads, rows, contrasted)
+            corners = np.concatenate([corners, more])
+            ids = np.concatenate([ids, more_ids])
+            # a fitted reading is the least sure: any reading of the cells wins over it
+            corrected = np.concatenate([corrected, np.full(len(more_ids), 99)])
+            ties = np.concatenate([ties, np.ones(len(more_ids), dtype=ties.dtype)])
         unseen = int(apart_from(quads[unread], corners).sum())
-        if len(rows) == 0:
+        if len(corners) == 0:
             return [], unseen
         # a dark sheet with a white window around a marker can itself read as a
         # marker with corrections; the marker in the window, read cleanly, is the one
         kept = best_of_overlapping(corners, corrected, ties > 1)
         readings = [
-            _Reading(corners[i], int(ids[i]), int(corrected[i]), bool(ties[i] > 1)) for i in kept
+            _Reading(
+                corners[i],
+                int(ids[i]),
+                int(min(corrected[i], self.max_corrected_bits)),
+                bool(ties[i] > 1),
+            )
+            for i in kept
         ]
         return readings, unseen
+
+    def _fit_small(
+        self, gray: np.ndarray, quads: np.ndarray, read: np.ndarray, contrasted: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Printed-order corners ``(M, 4, 2)`` and ids ``(M,)`` of the small candidates
+        the cells left unread, with a white quiet zone around a dark border
+        (``contrasted``), that blurred code words fit (:mod:`.hamming_blur`)."""
+        sides = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).mean(axis=1)
+        small = (sides <= BLUR_FIT_MAX_SIDE_PX) & contrasted
+        small[read] = False
+        picked = np.flatnonzero(small)
+        if len(picked) == 0:
+            return np.zeros((0, 4, 2), quads.dtype), np.zeros(0, dtype=np.int64)
+        fit_ids, fit_turns = hamming_blur_reader().read(np.ascontiguousarray(gray), quads[picked])
+        ok = fit_ids >= 0
+        if self.only_registered:
+            ok &= np.isin(fit_ids, np.array(sorted(self.roles.table), dtype=np.int64))
+        rows = picked[ok]
+        return quads[rows[:, None], _ROLLS[fit_turns[ok]]], fit_ids[ok].astype(np.int64)
+
+
+def _same_squares(quads: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """Which of ``quads (N, 4, 2)`` outline a square of ``others (M, 4, 2)`` again: centres
+    within a quarter side and sides within 30 % (a marker inside a dark sheet is not its
+    sheet)."""
+
+    def centres_sides(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        sides = np.linalg.norm(q - np.roll(q, 1, axis=1), axis=2).mean(axis=1)
+        return q.mean(axis=1), sides
+
+    (c1, s1), (c2, s2) = centres_sides(quads), centres_sides(others)
+    near = np.linalg.norm(c1[:, None] - c2[None], axis=2) < 0.25 * s2[None]
+    ratio = s1[:, None] / np.maximum(s2[None], 1e-9)
+    return (near & (ratio > 0.7) & (ratio < 1.3)).any(axis=1)
 
 
 def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
@@ -282,6 +351,8 @@ def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
         refine=values["refine"],
         max_flip_margin=values["max_flip_margin"],
         min_row_gap=values["min_row_gap"],
+        fine_search=values["fine_search"],
+        blur_fit=values["blur_fit"],
     )
 
 
@@ -352,6 +423,8 @@ hamming_factory.PARAMS = (
         minimum=0.0,
         maximum=0.5,
     ),
+    Param("fine_search", "bool", True, doc="also look for markers with a 7 px local threshold"),
+    Param("blur_fit", "bool", True, doc="read small blurred markers by fitting code words"),
     Param(
         "min_row_gap",
         "float",
