@@ -32,9 +32,9 @@ from .hamming_code import BITS, CODEWORDS, GRID, REFUSED_IDS, id_problem
 from .kernels import sample_cells
 
 #: Least correlation between a candidate's levels and its reading's prediction.
-MIN_FIT = 0.9
+MIN_FIT = 0.96
 #: Least ratio of the unexplained variance of the nearest other reading to the best's.
-MIN_GAP = 1.5
+MIN_GAP = 1.6
 #: Blur widths tried (sd, in cells): from a sharp print to a pixel of blur at 1.8 px a cell.
 BLUR_CELLS = (0.3, 0.5, 0.7)
 #: Points read along each side of a cell.
