@@ -146,11 +146,11 @@ class HammingBlurReader:
                 gx = gy + (gram[..., rows] @ x[..., rows, None])[..., 0]
             if not changed:
                 break
-        scores = scores.reshape(n * s * k, BITS, 16)
-        words = words.reshape(n * s * k, BITS)
-        top = scores[:, BITS - 1].max(axis=1)  # the last row saw every other final
+        flat_scores = scores.reshape(n * s * k, BITS, 16)
+        flat_words = words.reshape(n * s * k, BITS)
+        top = flat_scores[:, BITS - 1].max(axis=1)  # the last row saw every other final
         # the nearest other reading of the same turn: one row at its second-best word
-        second_row = np.sort(scores, axis=2)[:, :, -2].max(axis=1)
+        second_row = np.sort(flat_scores, axis=2)[:, :, -2].max(axis=1)
         top = top.reshape(n, s * k)
         best = top.argmax(axis=1)
         turn_of = np.tile(np.arange(k), s)
@@ -159,7 +159,7 @@ class HammingBlurReader:
         # the best reading under any other turn
         other_turn = np.where(turn_of[None, :] != best_turn[:, None], top, -np.inf).max(axis=1)
         second = np.maximum(second_row.reshape(n, s * k)[np.arange(n), best], other_turn)
-        nibbles = words.reshape(n, s * k, BITS)[np.arange(n), best]
+        nibbles = flat_words.reshape(n, s * k, BITS)[np.arange(n), best]
         return nibbles, best_turn, np.column_stack([score, second])
 
     def read(self, gray: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
