@@ -471,6 +471,10 @@ class TagSpec:
         return TagSpec(self.role, tuple(ids), self.size_mm, self.family_ids)
 
 
+def _no_interrupt(reason: str, fault: HardwareFault | None = None) -> None:
+    """The interrupt of a context made without a run: nothing to halt."""
+
+
 @dataclass
 class RigContext:
     """What a component factory receives besides its own configuration.
@@ -484,7 +488,7 @@ class RigContext:
     clock: Clock
     seed: int = 0
     shared: dict[str, Any] = field(default_factory=dict)
-    interrupt: Callable[[str, HardwareFault | None], None] = lambda reason, fault=None: None
+    interrupt: Callable[[str, HardwareFault | None], None] = _no_interrupt
     record_dir: Any = None
     #: Called once per tick with the run's time, in order of registration (the sim's
     #: emulators then its world). On a virtual clock a stepper returns only when its

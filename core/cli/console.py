@@ -17,6 +17,9 @@ import contextlib
 import os
 import sys
 
+# Cheap this early: it only names what _collections_abc, which os loads, defines.
+from collections.abc import Callable
+
 EXIT_INTERRUPTED = 130
 #: armtree.runtime.interrupts.STOP_SIGNALS, without importing it (nor enum) this early.
 _STOP_SIGNALS = (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP, _signal.SIGQUIT)
@@ -30,10 +33,10 @@ def _exit_starting(signum: int, frame: object) -> None:
         os._exit(EXIT_INTERRUPTED)
 
 
-def _take_signals(handler: object) -> None:
+def _take_signals(handler: Callable[[int, object], None]) -> None:
     for sig in _STOP_SIGNALS:
         try:
-            _signal.signal(sig, handler)  # type: ignore[arg-type]
+            _signal.signal(sig, handler)
         except (ValueError, OSError):  # noqa: SIM105 - contextlib costs an import here
             continue
 

@@ -87,21 +87,24 @@ def node_type_schema(name: str, factory: Any) -> dict[str, Any]:
 
 def tree_definitions(registry: Registry) -> dict[str, Any]:
     """``definitions`` for a tree file: ``node`` and ``tree``."""
+    # The include's own keys, kept apart so the check below can read them as a dict.
+    include_keys = {
+        "file": {"type": "string", "description": "tree file, relative to this one"},
+        "with": {"type": "object", "description": "parameter values"},
+        "name": NAME,
+        "namespace": {
+            "type": "string",
+            "description": "prefix for the blackboard keys this instance keeps to itself",
+        },
+    }
+    assert set(include_keys) == set(SUBTREE_KEYS)
     subtree = {
         "type": "object",
         "properties": {
             "subtree": {
                 "type": "object",
                 "description": "include another tree file, substituting its {param} references",
-                "properties": {
-                    "file": {"type": "string", "description": "tree file, relative to this one"},
-                    "with": {"type": "object", "description": "parameter values"},
-                    "name": NAME,
-                    "namespace": {
-                        "type": "string",
-                        "description": "prefix for the blackboard keys this instance keeps to itself",
-                    },
-                },
+                "properties": include_keys,
                 "required": ["file"],
                 "additionalProperties": False,
             }
@@ -109,7 +112,6 @@ def tree_definitions(registry: Registry) -> dict[str, Any]:
         "required": ["subtree"],
         "additionalProperties": False,
     }
-    assert set(subtree["properties"]["subtree"]["properties"]) == set(SUBTREE_KEYS)
     nodes = [node_type_schema(c.name, c.factory) for c in registry.all() if c.kind == "behaviour"]
     params_decl = {
         "anyOf": [

@@ -131,7 +131,8 @@ class SubtreeIncludes:
         self.tree_keys.initial_blackboard(data, inner)
         if name is None and "name" in spec:
             holder = MarkedDict({"name": spec["name"]}, mark=spec.mark)
-            holder.value_marks["name"] = spec.value_mark("name")
+            if (name_mark := spec.value_mark("name")) is not None:
+                holder.value_marks["name"] = name_mark
             name = node_name(holder, "subtree", ctx, self.errors)
         if "root" not in data:
             error("the included tree has no root node", data.mark, inner)

@@ -47,7 +47,8 @@ class RigChecks:
         self.tags: set[str] = set(profile.tags())
         self._model: Any = None
         self._model_built = False
-        self._place_reach: dict[str, bool] = {}
+        # None caches "no model can judge" too, so the reach is asked once per place.
+        self._place_reach: dict[str, bool | None] = {}
         self._workcell = workcell_of(profile)
 
     # ------------------------------------------------------------------ values

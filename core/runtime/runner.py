@@ -55,6 +55,7 @@ from py_trees.common import Status
 from armtree.api.clock import Clock
 from armtree.api.outcomes.failures import FailureLog
 from armtree.api.rig import Rig
+from armtree.api.views import ProfileView
 from armtree.errors import HardwareFault
 from armtree.loader.tree import Tree
 
@@ -341,9 +342,10 @@ class Run:
                 self._open_log()
                 self.blackboard.start(getattr(self.tree, "blackboard", None), self.log.enabled)
                 try:
-                    if self.rig is None and getattr(self.tree, "profile", None) is not None:
+                    profile: ProfileView | None = getattr(self.tree, "profile", None)
+                    if self.rig is None and profile is not None:
                         self.rig = build_rig(
-                            self.tree.profile,
+                            profile,
                             self._manager(),
                             self.clock,
                             seed=self.seed,

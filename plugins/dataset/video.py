@@ -95,6 +95,9 @@ class EpisodeVideo:
             while (item := self._queue.get()) is not None:
                 frame, repeat = item
                 shown = frame if frame is not None else shown
+                if shown is None:
+                    # add() converts the first image it is given, so only a bug gets here.
+                    raise RuntimeError("a repeated frame before any frame")
                 for _ in range(repeat):
                     shown.pts = pts
                     pts += 1

@@ -157,6 +157,9 @@ class MjpegServer:
     def url(self) -> str:
         """The stream's URL, e.g. ``http://127.0.0.1:8081/camera.mjpg``."""
         host = self._server.server_address[0]
+        # typeshed allows bytes for any address family; an AF_INET socket names a str.
+        if isinstance(host, (bytes, bytearray)):
+            host = host.decode()
         return f"http://{host}:{self.port}{STREAM_PATH}"
 
     def start(self) -> str:

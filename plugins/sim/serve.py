@@ -47,7 +47,7 @@ from .scoring import score_line
 from .truth import world_truth
 
 #: The shipped real-hardware profile that matches a sim profile's arm, for the hint line.
-REAL_PROFILES = {
+REAL_PROFILES: dict[tuple[str, str | None], str] = {
     ("dobot_v1", "original"): "dobot_v1.yaml",
     ("dobot_v1", "open-dobot"): "dobot_v1_opendobot.yaml",
     ("dobot_magician", None): "dobot_magician.yaml",
@@ -226,6 +226,9 @@ def real_profile_for(arm: dict[str, Any]) -> str | None:
     """The shipped real-hardware profile for a sim profile's arm section, if there is one."""
     kind = arm.get("type")
     firmware = arm.get("firmware", "original") if kind == "dobot_v1" else None
+    # A hand-written profile may give anything here: only names can match.
+    if not isinstance(kind, str) or not (firmware is None or isinstance(firmware, str)):
+        return None
     return REAL_PROFILES.get((kind, firmware))
 
 

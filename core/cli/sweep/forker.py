@@ -253,13 +253,13 @@ class Forker:
     """
 
     def __init__(self, log: Path | None = None, env: dict[str, str] | None = None) -> None:
-        self._log = open(log, "ab") if log is not None else subprocess.DEVNULL  # noqa: SIM115
+        self._log = open(log, "ab") if log is not None else None  # noqa: SIM115
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "armtree.cli.sweep.forker"],
             env={**os.environ, **(env or {})},
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
-            stderr=self._log,
+            stderr=self._log if self._log is not None else subprocess.DEVNULL,
             text=True,
             bufsize=1,
             start_new_session=True,  # Ctrl-C reaches the sweep, which stops the runs itself
@@ -341,7 +341,7 @@ class Forker:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait()
-        if self._log is not subprocess.DEVNULL:
+        if self._log is not None:
             self._log.close()
 
 

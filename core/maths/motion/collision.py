@@ -327,7 +327,7 @@ class CollisionChecker:
         if len(oc):
             hit |= self._box_hits(rot, c, np.broadcast_to(half, c.shape)).any(axis=1)
         if self._mesh is not None:
-            hit |= self._mesh_hits(rot, c, half).any(axis=1)
+            hit |= self._mesh_hits(self._mesh, rot, c, half).any(axis=1)
         return hit
 
     def _box_hits(self, rot: np.ndarray, c: np.ndarray, half: np.ndarray) -> np.ndarray:
@@ -365,9 +365,12 @@ class CollisionChecker:
                 )
         return out
 
-    def _mesh_hits(self, rot: np.ndarray, c: np.ndarray, half: np.ndarray) -> np.ndarray:
-        """Boolean ``(N, B)``: box ``b`` of configuration ``n`` touches a mesh triangle."""
-        tris, tri_lo, tri_hi, mesh_lo, mesh_hi = self._mesh
+    def _mesh_hits(
+        self, mesh: tuple[np.ndarray, ...], rot: np.ndarray, c: np.ndarray, half: np.ndarray
+    ) -> np.ndarray:
+        """Boolean ``(N, B)``: box ``b`` of configuration ``n`` touches a triangle of ``mesh``
+        (:func:`_mesh_arrays`; the callers have ruled out a scene without meshes)."""
+        tris, tri_lo, tri_hi, mesh_lo, mesh_hi = mesh
         half = np.broadcast_to(half, c.shape)
         ext = np.einsum("...ij,...j->...i", np.abs(rot), half)
         lo, hi = c - ext, c + ext
@@ -420,7 +423,7 @@ class CollisionChecker:
         if len(oc):
             ov = obb_overlap(c[0, 0], rot[0, 0], half[0, 0], oc, orot, oh)
             names += [f"obstacle {self.scene.boxes[o].name!r}" for o in np.flatnonzero(ov)]
-        if self._mesh is not None and self._mesh_hits(rot, c, half)[0, 0]:
+        if self._mesh is not None and self._mesh_hits(self._mesh, rot, c, half)[0, 0]:
             names.append("a mesh obstacle")
         return names
 

@@ -83,6 +83,8 @@ def signed_depths(checker: CollisionChecker, q: np.ndarray, keys: list[ContactKe
     out = np.empty(len(keys))
     for n, (kind, b, other) in enumerate(keys):
         if kind == "table":
+            if scene.table_z is None:
+                raise ValueError("a table contact for a scene without a table")
             low = centre[b, 2] - np.abs(rot[b, 2, :]) @ half[b]
             out[n] = float(scene.table_z) - low
         elif kind == "box":

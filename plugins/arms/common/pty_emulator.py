@@ -345,6 +345,8 @@ class PtyEmulator(FirmwareEmulator):
                 continue
             if not complete or self.barrier.missing() == 0 or time.monotonic() > deadline:
                 return
+            if self._master is None:
+                return  # a handler hung up the port: nothing more will arrive on it
             select.select([self._master], [], [], 0.05)
 
     def _settle(self, tick: float | None) -> None:

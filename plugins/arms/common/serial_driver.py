@@ -43,6 +43,10 @@ from .checks import check_joint_target, check_position_target
 from .framing import identify_foreign_protocol
 
 
+def _no_interrupt(reason: str, fault: HardwareFault | None = None) -> None:
+    """The interrupt of a driver made without a run: nothing to halt."""
+
+
 def open_serial_port(port: str, baud: int, read_timeout: float = 0.01) -> serial.Serial:
     """Open ``port`` exclusively at ``baud`` (8N1), or raise a :class:`HardwareFault` saying why."""
     if not os.path.exists(port):
@@ -177,7 +181,7 @@ class SerialArmDriver(ArmDriver):
         self.clock = clock
         self.barrier = barrier
         self.pump = pump
-        self.interrupt = interrupt or (lambda reason, fault=None: None)
+        self.interrupt = interrupt or _no_interrupt
         self.link_timeout = link_timeout
         self.connect_timeout = connect_timeout
         #: Wall time (``time.perf_counter``) of the newest write, for latency figures.
