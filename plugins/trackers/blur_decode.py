@@ -45,6 +45,47 @@ SHORTLIST = 32
 _MIDDLE = 2
 
 
+def sample_grid(cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where a fit reads a marker of ``cells`` a side (border included): the points'
+    positions along a side, in cells ``(cells * PER_CELL,)``, and the points on the
+    unit square ``(points, 1, 2)`` as :func:`.kernels.sample_cells` takes them, at the
+    middle of each of ``PER_CELL**2`` sub-cells, row by row."""
+    x = (np.arange(cells * PER_CELL) + 0.5) / PER_CELL
+    u, v = np.meshgrid(x / cells, x / cells, indexing="xy")
+    return x, np.column_stack([u.ravel(), v.ravel()])[:, None, :]
+
+
+def light_basis(uv: np.ndarray) -> np.ndarray:
+    """``(points, 3)``: what a level may carry apart from the print at points ``uv``
+    (:func:`sample_grid`): a black level and a linear light gradient."""
+    return np.column_stack([np.ones(len(uv)), uv[:, 0, :] - 0.5])
+
+
+def cell_spread(x: np.ndarray, cells: int, sd: float) -> np.ndarray:
+    """``(len(x), cells + 2)``: how much of each printed cell a Gaussian blur of ``sd``
+    cells carries to each point ``x`` along a side (:func:`sample_grid`).
+
+    Printed cell j spans [j - 1, j] cells from the border's outer edge; cells 0 and
+    ``cells + 1`` are the quiet zone, reaching out for ever. The blur is separable, so
+    the spread of a print is this along rows, then along columns.
+    """
+    lows = np.concatenate([[-np.inf], np.arange(cells + 1.0)])
+    highs = np.concatenate([np.arange(cells + 1.0), [np.inf]])
+    return ndtr((x[:, None] - lows) / sd) - ndtr((x[:, None] - highs) / sd)
+
+
+def clear_readings(
+    top: np.ndarray, second: np.ndarray, min_fit: float, min_gap: float
+) -> np.ndarray:
+    """Which readings to keep: a correlation ``top`` of at least ``min_fit``, and the
+    nearest other reading's unexplained variance ``min_gap`` times the best's or more
+    (a reading that anti-correlates explains nothing, as one that does not correlate)."""
+    top = np.asarray(top, dtype=np.float64)
+    second = np.clip(np.asarray(second, dtype=np.float64), 0.0, 1.0)
+    unexplained = np.maximum(1.0 - top**2, 1e-12)
+    return (top >= min_fit) & ((1.0 - second**2) / unexplained >= min_gap)
+
+
 class BlurFitReader:
     """Reads candidates of one ArUco-style dictionary by fitting its blurred words.
 
@@ -64,31 +105,20 @@ class BlurFitReader:
         #: Each word's id and turn (the marker's top-left corner is quad corner ``turn``).
         self.ids, self.turns = np.divmod(np.arange(count), 4)
         self._count = count
-        # points at the middle of each of PER_CELL**2 sub-cells, on the unit square
-        x = (np.arange(cells * PER_CELL) + 0.5) / PER_CELL
-        u, v = np.meshgrid(x / cells, x / cells, indexing="xy")
-        self._uv = np.column_stack([u.ravel(), v.ravel()])[:, None, :]
-        # what a level may carry apart from the print: black level and light gradient
-        light = np.column_stack([np.ones(len(self._uv)), self._uv[:, 0, :] - 0.5])
+        x, self._uv = sample_grid(cells)
+        light = light_basis(self._uv)
         self._light = light.astype(np.float32)
         self._unlight = np.linalg.pinv(light).astype(np.float32)
-        # cell j of the printed grid spans [j - 1, j] cells from the border's outer edge,
-        # the quiet zone's outer cells reaching out for ever
-        lows = np.concatenate([[-np.inf], np.arange(cells + 1.0)])
-        highs = np.concatenate([np.arange(cells + 1.0), [np.inf]])
         fits = []
         for sd in BLUR_CELLS:
-            spread = (ndtr((x[:, None] - lows) / sd) - ndtr((x[:, None] - highs) / sd)).astype(
-                np.float32
-            )
-            # the blur is separable: along rows, then along columns, of every word at once
+            spread = cell_spread(x, cells, sd).astype(np.float32)
+            # along rows, then along columns, of every word at once
             along_rows = printed.reshape(-1, cells + 2) @ spread.T  # (words x rows, x)
             along_rows = along_rows.reshape(count, cells + 2, -1).transpose(0, 2, 1)
             blurred = (along_rows.reshape(-1, cells + 2) @ spread.T).reshape(count, -1)
             # (words, x * y) as (x, y): transpose to the points' order, y then x
-            blurred = blurred.reshape(count, len(x), len(x)).transpose(0, 2, 1)
-            blurred = blurred.reshape(count, -1)
-            predicted = self._unlit(blurred.T).T
+            by_point = blurred.reshape(count, len(x), len(x)).transpose(0, 2, 1)
+            predicted = self._unlit(by_point.reshape(count, -1).T).T
             predicted /= np.linalg.norm(predicted, axis=1, keepdims=True)
             fits.append(predicted)
         #: (blur widths, words, points): each word's prediction, unlit and of unit length.
@@ -126,11 +156,8 @@ class BlurFitReader:
         if n == 0:
             return ids, turns
         words, scores = self.fits(gray, quads)
-        best, top = words[:, 0], scores[:, 0].astype(np.float64)
-        # a word that anti-correlates explains nothing, as one that does not correlate
-        second = np.clip(scores[:, 1], 0.0, 1.0).astype(np.float64)
-        unexplained = np.maximum(1.0 - top**2, 1e-12)
-        ok = (top >= MIN_FIT) & ((1.0 - second**2) / unexplained >= MIN_GAP)
+        best = words[:, 0]
+        ok = clear_readings(scores[:, 0], scores[:, 1], MIN_FIT, MIN_GAP)
         ids[ok], turns[ok] = self.ids[best[ok]], self.turns[best[ok]]
         return ids, turns
 
@@ -147,4 +174,14 @@ def _reader(words: bytes, shape: tuple[int, int]) -> BlurFitReader:
     return BlurFitReader(np.frombuffer(words, dtype=np.uint8).reshape(shape))
 
 
-__all__ = ["BLUR_CELLS", "MIN_FIT", "MIN_GAP", "BlurFitReader", "blur_fit_reader"]
+__all__ = [
+    "BLUR_CELLS",
+    "MIN_FIT",
+    "MIN_GAP",
+    "BlurFitReader",
+    "blur_fit_reader",
+    "cell_spread",
+    "clear_readings",
+    "light_basis",
+    "sample_grid",
+]

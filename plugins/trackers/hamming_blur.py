@@ -26,8 +26,8 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.special import ndtr
 
+from .blur_decode import cell_spread, clear_readings, light_basis, sample_grid
 from .hamming_code import BITS, CODEWORDS, GRID, REFUSED_IDS, id_problem
 from .kernels import sample_cells
 
@@ -37,8 +37,6 @@ MIN_FIT = 0.96
 MIN_GAP = 1.6
 #: Blur widths tried (sd, in cells): from a sharp print to a pixel of blur at 1.8 px a cell.
 BLUR_CELLS = (0.3, 0.5, 0.7)
-#: Points read along each side of a cell.
-PER_CELL = 2
 #: Sweeps over the seven rows at most (the fit seldom changes after the second).
 SWEEPS = 3
 
@@ -63,22 +61,16 @@ class HammingBlurReader:
     """Reads Hampy candidates whose cells are too small and blurred to threshold."""
 
     def __init__(self) -> None:
-        x = (np.arange(GRID * PER_CELL) + 0.5) / PER_CELL  # along a side, in cells
-        u, v = np.meshgrid(x / GRID, x / GRID, indexing="xy")
-        self._uv = np.column_stack([u.ravel(), v.ravel()])[:, None, :]
-        light = np.column_stack([np.ones(len(self._uv)), self._uv[:, 0, :] - 0.5])
+        x, self._uv = sample_grid(GRID)
+        light = light_basis(self._uv)
         unlight = np.eye(len(light)) - light @ np.linalg.pinv(light)  # removes light
         self._light, self._light_fit = light, np.linalg.pinv(light)
-        # printed cell j spans [j - 1, j] cells from the border's outer edge, the quiet
-        # zone's outer cells reaching out for ever
-        lows = np.concatenate([[-np.inf], np.arange(GRID + 1.0)])
-        highs = np.concatenate([np.arange(GRID + 1.0), [np.inf]])
         fixed = np.ones((_PRINTED, _PRINTED))
         fixed[1:-1, 1:-1] = 0.0  # border (and the inside, given by the words) black
         turned = _turned_cells()
         self._base, self._data, self._base2, self._cross, self._gram = [], [], [], [], []
         for sd in BLUR_CELLS:
-            spread = ndtr((x[:, None] - lows) / sd) - ndtr((x[:, None] - highs) / sd)
+            spread = cell_spread(x, GRID, sd)
             predict = unlight @ np.kron(spread, spread)  # (points, printed cells), unlit
             base = predict @ fixed.ravel()
             self._base.append(base)
@@ -169,10 +161,7 @@ class HammingBlurReader:
         if count == 0:
             return ids, turns
         nibbles, turn, scores = self.fit(self.levels(gray, quads))
-        top = scores[:, 0]
-        second = np.clip(scores[:, 1], 0.0, 1.0)
-        unexplained = np.maximum(1.0 - top**2, 1e-12)
-        ok = (top >= MIN_FIT) & ((1.0 - second**2) / unexplained >= MIN_GAP)
+        ok = clear_readings(scores[:, 0], scores[:, 1], MIN_FIT, MIN_GAP)
         for i in np.flatnonzero(ok):
             marker_id = int((nibbles[i] << _SHIFTS).sum())
             if marker_id in REFUSED_IDS or id_problem(marker_id) is not None:
