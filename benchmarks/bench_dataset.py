@@ -1,6 +1,7 @@
 """Cost of an episode: runs with ``--dataset`` against the same runs without it.
 
-    python benchmarks/bench_dataset.py [--tree load_ducky.yaml] [--rig sim_dobot] [--seeds 1-6] [--rounds 3]
+    python benchmarks/bench_dataset.py [--tree load_ducky.yaml] [--rig sim_dobot] [--seeds 1-6]
+        [--sweep-seeds 1-40] [--rounds 3]
 
 Two ways a user makes episodes, each against its own peer measured in the same
 session with the same seeds:
@@ -10,7 +11,9 @@ session with the same seeds:
   appending to one growing dataset); the medians of the runs and of each pair's
   ratio, which a shared machine's load moves least;
 * ``armtree sweep TREE --seeds A-B --workers 2``, against the same with
-  ``--dataset DIR --dataset-keep all``, alternating, the best round of each.
+  ``--dataset DIR --dataset-keep all``, alternating, the best round of each
+  (``--sweep-seeds``, default ``--seeds``: a long sweep spreads the sweep's own start
+  and last append over more runs, as a user's sweep of a thousand seeds does).
 
 Each line gives wall and CPU seconds per run (CPU: every process of the
 configuration, children included). Then the cost of one append as the newest video
@@ -86,12 +89,15 @@ def main() -> None:
     parser.add_argument("--tree", default="load_ducky.yaml")
     parser.add_argument("--rig", default="sim_dobot")
     parser.add_argument("--seeds", default="1-6")
+    parser.add_argument("--sweep-seeds", default=None)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--appends", type=int, default=100)
     args = parser.parse_args()
     first, _, last = args.seeds.partition("-")
     seeds = range(int(first), int(last or first) + 1)
-    n = len(seeds)
+    sweep_seeds = args.sweep_seeds or args.seeds
+    first, _, last = sweep_seeds.partition("-")
+    n = int(last or first) - int(first) + 1
     best: dict[str, tuple[float, float]] = {}
     print(f"load average before: {os.getloadavg()[0]:.1f}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -106,7 +112,7 @@ def main() -> None:
 
         def sweep(folder: Path | None, out: str) -> list[list[str]]:
             command = [str(BIN / "armtree"), "sweep", args.tree, "--rig", args.rig]
-            command += ["--seeds", args.seeds, "--workers", "2", "--out", out, "--overwrite"]
+            command += ["--seeds", sweep_seeds, "--workers", "2", "--out", out, "--overwrite"]
             return [command + _dataset(folder)]
 
         # run-tree: each seed without, then with --dataset, so that each pair meets the

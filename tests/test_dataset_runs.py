@@ -381,9 +381,10 @@ def test_an_encoder_that_fails_drops_the_episode_once_and_the_run_goes_on(
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_ctrl_c_on_a_sweep_keeps_the_episodes_before_it_and_the_dataset_valid(tmp_path):
-    """Issue 28: SIGINT into a real ``armtree sweep --dataset`` process once an episode is
-    in: exit 130, the dataset passes check and a LeRobot reader, and its episodes are the
-    first seeds in order (the runs cut short are dropped whole, none half-written)."""
+    """Issue 28: SIGINT into a real ``armtree sweep --dataset`` process once a run has
+    ended (its episode waits for the next batched append): exit 130, the dataset passes
+    check and a LeRobot reader, and its episodes are the first seeds in order, the ended
+    runs' all in (the runs cut short are dropped whole, none half-written)."""
     import signal
     import subprocess
     import sys
@@ -398,11 +399,9 @@ def test_ctrl_c_on_a_sweep_keeps_the_episodes_before_it_and_the_dataset_valid(tm
         stderr=subprocess.PIPE,
         text=True,
     )
-    info = tmp_path / "ds" / "meta" / "info.json"
+    first = tmp_path / "out" / "runs" / "seed-1" / "outcome.json"
     deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if info.exists() and json.loads(info.read_text() or "{}").get("total_episodes", 0) >= 1:
-            break
+    while time.monotonic() < deadline and proc.poll() is None and not first.exists():
         time.sleep(0.2)
     assert proc.poll() is None, proc.communicate()
     proc.send_signal(signal.SIGINT)

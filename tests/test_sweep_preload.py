@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import pytest
 
 from armtree.cli.sweep.forker import _LoadedTrees
@@ -47,6 +49,35 @@ def test_a_load_that_fails_or_says_anything_is_left_to_the_child(work, capsys):
     assert trees.get(task(1, plugins=("no_such_plugin_xyz",))) is None
     assert trees.get(task(1, plugins=("loud_plugin_for_preload.py",))) is None
     assert capsys.readouterr().out == "", "nothing reaches the forker's stdout (its protocol)"
+
+
+def test_the_modules_a_task_names_are_imported_before_its_runs_fork(work, monkeypatch):
+    (work / "preloaded_for_runs_xyz.py").write_text("IMPORTED = True\n")
+    monkeypatch.syspath_prepend(str(work))
+    monkeypatch.delitem(sys.modules, "preloaded_for_runs_xyz", raising=False)
+    named = task(1, preload=("preloaded_for_runs_xyz", "no_such_module_for_runs_xyz"))
+    assert RunTask.from_json(named.to_json()) == named, "the names travel with the task"
+    assert _LoadedTrees().get(named) is not None, "a module that fails is left to the run"
+    assert sys.modules["preloaded_for_runs_xyz"].IMPORTED
+    assert "no_such_module_for_runs_xyz" not in sys.modules
+
+
+def test_a_dataset_sweep_asks_its_runs_process_to_load_pyav_once(work):
+    from armtree.api.sweep import Sweep
+    from armtree.plugins.dataset import plugin
+
+    class Tree:
+        name, tick_hz, manager, profile = "waits", 20.0, None, None
+
+    sweep = Sweep(tree=Tree(), seeds=[1], out=work, settings={"dataset": str(work / "ds")})
+    plugin.armtree_sweep_started(sweep)
+    try:
+        assert sweep.preload == ["av"]
+    finally:
+        sweep.close()
+    bare = Sweep(tree=Tree(), seeds=[1], out=work, settings={})
+    plugin.armtree_sweep_started(bare)
+    assert bare.preload == [], "a sweep without a dataset loads nothing more"
 
 
 VOLATILE = {"started", "wall_seconds", "tick_lateness_ms", "source", "sweep_run_dir", "log"}

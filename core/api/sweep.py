@@ -15,13 +15,16 @@ from .views import TreeView
 class Sweep:
     """A sweep as its hooks see it: the loaded tree, the seeds, the report folder,
     the plugins' option values (handed to every run), what plugins keep for it (each
-    under a key of its own) and closers run at its end, newest first, whatever happened."""
+    under a key of its own), modules its runs will import (``preload``: a local sweep's
+    run process imports them once, and each run starts with them loaded) and closers
+    run at its end, newest first, whatever happened."""
 
     tree: TreeView
     seeds: Sequence[int]
     out: Path
     settings: dict[str, Any] = field(default_factory=dict)
     plugin_state: dict[str, Any] = field(default_factory=dict)
+    preload: list[str] = field(default_factory=list)
     closers: list[Callable[[], None]] = field(default_factory=list)
 
     def close(self) -> None:

@@ -403,9 +403,11 @@ def armtree_sweep_started(sweep: Sweep) -> None:
     """A sweep has checked its options and loaded its tree; no run has started.
 
     :param sweep: the :class:`armtree.cli.sweep.hooks.Sweep` (tree, seeds, out folder,
-        settings, closers). What ``sweep.settings`` holds after this hook is what
-        every run gets in ``run.settings`` (with the run's ``tree``, ``rig``,
-        ``overrides``, ``seed`` and ``sweep_run_dir``, its own folder).
+        settings, preload, closers). What ``sweep.settings`` holds after this hook is
+        what every run gets in ``run.settings`` (with the run's ``tree``, ``rig``,
+        ``overrides``, ``seed`` and ``sweep_run_dir``, its own folder). Name in
+        ``sweep.preload`` the heavy modules every run of yours will import: a local
+        sweep imports them once in its run process, before it forks each run.
 
     Raising :class:`armtree.ConfigError` refuses the sweep: the CLI prints it and
     exits 2, and no run starts. Register clean-up in ``sweep.closers``.

@@ -101,6 +101,8 @@ def armtree_sweep_started(sweep: Any) -> None:
         return
     session = SweepDataset(sweep, getattr(sweep.tree, "manager", None))
     sweep.plugin_state[KEY] = session
+    # Every run encodes its camera video: PyAV loaded once, not once a run.
+    sweep.preload.append("av")
     sweep.closers.append(session.close)
 
 

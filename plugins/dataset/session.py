@@ -16,6 +16,7 @@ import queue
 import shutil
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,11 @@ ENDED = ("success", "failure", "false success", "false failure")
 STAGED = "dataset-episode"
 #: Episodes appended together at most, in a sweep.
 BATCH = 64
+#: A sweep appends once this many episodes are ready in seed order, or once the oldest
+#: of them has waited :data:`APPEND_AFTER_S`: each append rewrites the newest video
+#: file, so appending run by run would copy it over and over.
+APPEND_EVERY = 16
+APPEND_AFTER_S = 20.0
 
 
 def where(settings: dict[str, Any]) -> str:
@@ -240,7 +246,8 @@ def _os_error(exc: OSError) -> str:
 
 class SweepDataset:
     """A sweep's dataset: its writer, and a thread appending the runs' staged episodes
-    in seed order as soon as every earlier seed has ended."""
+    in seed order once every earlier seed has ended, :data:`APPEND_EVERY` at a time (or
+    what is ready after :data:`APPEND_AFTER_S`, and all the rest at the sweep's end)."""
 
     def __init__(self, sweep: Any, manager: Any) -> None:
         settings = sweep.settings
@@ -299,10 +306,17 @@ class SweepDataset:
 
     def _work(self) -> None:
         done = False
+        ready: list[dict[str, Any]] = []
+        waiting_since = 0.0
         while not done:
-            item = self._queue.get()
-            items = [item]
-            while True:  # everything already waiting goes in one append
+            timeout = (
+                None if not ready else max(0.0, waiting_since + APPEND_AFTER_S - time.monotonic())
+            )
+            try:
+                items = [self._queue.get(timeout=timeout)]
+            except queue.Empty:
+                items = []
+            while True:  # everything already waiting is taken at once
                 try:
                     items.append(self._queue.get_nowait())
                 except queue.Empty:
@@ -312,14 +326,18 @@ class SweepDataset:
                     done = True
                 else:
                     self.ended[int(outcome["seed"])] = outcome
-            ready = []
             while self.next < len(self.order) and (self.order[self.next] in self.ended or done):
                 outcome = self.ended.pop(self.order[self.next], None)
                 self.next += 1
                 if outcome is not None:
+                    if not ready:
+                        waiting_since = time.monotonic()
                     ready.append(outcome)
-            for start in range(0, len(ready), BATCH):
-                self._append(ready[start : start + BATCH])
+            due = ready and time.monotonic() - waiting_since >= APPEND_AFTER_S
+            if done or due or len(ready) >= APPEND_EVERY:
+                for start in range(0, len(ready), BATCH):
+                    self._append(ready[start : start + BATCH])
+                ready = []
 
     def _append(self, outcomes: list[dict[str, Any]]) -> None:
         folders = [Path(o["run_dir"]) / STAGED for o in outcomes if o.get("run_dir")]

@@ -10,8 +10,6 @@ copies their packets, shifting each file's timestamps to follow the last.
 
 from __future__ import annotations
 
-import queue
-import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -27,15 +25,17 @@ QUANTISER = 23
 
 
 class EpisodeVideo:
-    """Encodes one episode's frames into an MP4 at ``fps``, on a thread of its own.
+    """Encodes one episode's frames into an MP4 at ``fps``.
 
-    :meth:`add` returns at once: a new image is converted on the caller's thread (a
-    repeated one not at all) and the encoding is left to the thread, which PyAV lets
-    run beside the caller (it releases the GIL while x264 works). An error of the
-    thread (a full disk) is raised by :meth:`finish`.
+    :meth:`add` converts a new image (a repeated one not at all) and hands it to
+    x264, which encodes on ``threads`` threads of its own (frame threads: each
+    frame's bytes are the same whatever the timing). Those threads need no GIL, so
+    the encoding runs beside the run on another core; a Python thread calling the
+    encoder would wait for the GIL at every frame while the run holds it. An error
+    (a full disk) is raised by the :meth:`add` or :meth:`finish` that meets it.
     """
 
-    def __init__(self, path: Path, fps: int, width: int, height: int, threads: int = 1) -> None:
+    def __init__(self, path: Path, fps: int, width: int, height: int, threads: int = 2) -> None:
         av = deps.av()
         self.path = Path(path)
         self.fps = int(fps)
@@ -55,25 +55,24 @@ class EpisodeVideo:
             },
         )
         stream.width, stream.height, stream.pix_fmt = self.width, self.height, "yuv420p"
-        stream.codec_context.thread_count = threads
+        stream.codec_context.thread_count = max(1, int(threads))
+        stream.codec_context.thread_type = "FRAME"
         self._stream = stream
         self._last: np.ndarray | None = None
-        # A bounded queue: a caller faster than the encoder waits rather than filling memory.
-        self._queue: queue.Queue = queue.Queue(maxsize=64)
-        self._error: BaseException | None = None
-        self._thread = threading.Thread(target=self._encode, name="armtree-video", daemon=True)
-        self._thread.start()
+        self._shown: Any = None
 
     def add(self, image: np.ndarray, repeat: int = 1) -> None:
         """Append ``image`` (H, W, 3 BGR uint8, the video's size) ``repeat`` times."""
-        if self._error is not None:
-            raise self._error
-        frame = None
+        if self._container is None:
+            raise RuntimeError("the video is closed")
         if image is not self._last:
-            frame = self._frame(image)
+            self._shown = self._frame(image)
             self._last = image
-        self._queue.put((frame, repeat))
-        self.frames += repeat
+        for _ in range(repeat):
+            self._shown.pts = self.frames
+            self.frames += 1
+            for packet in self._stream.encode(self._shown):
+                self._container.mux(packet)
 
     def _frame(self, image: np.ndarray) -> Any:
         if image.shape[:2] != (self.height, self.width):
@@ -89,44 +88,20 @@ class EpisodeVideo:
         frame = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
         return frame.reformat(format="yuv420p")
 
-    def _encode(self) -> None:
-        shown, pts = None, 0
+    def finish(self) -> int:
+        """Flush the encoder and close the file; the number of frames written. Raises the
+        encoder's error (a full disk), the file left incomplete."""
+        if self._container is None:
+            raise RuntimeError("the video is closed")
         try:
-            while (item := self._queue.get()) is not None:
-                frame, repeat = item
-                shown = frame if frame is not None else shown
-                if shown is None:
-                    # add() converts the first image it is given, so only a bug gets here.
-                    raise RuntimeError("a repeated frame before any frame")
-                for _ in range(repeat):
-                    shown.pts = pts
-                    pts += 1
-                    for packet in self._stream.encode(shown):
-                        self._container.mux(packet)
             for packet in self._stream.encode():
                 self._container.mux(packet)
-        except BaseException as exc:  # noqa: BLE001 - handed to the caller by finish()
-            self._error = exc
-            while self._queue.get() is not None:  # let a waiting caller go on
-                pass
-
-    def finish(self) -> int:
-        """Encode what is queued, flush and close the file; the number of frames written.
-        Raises the encoder's error (a full disk), the file left incomplete."""
-        if self._thread.is_alive():
-            self._queue.put(None)
-            self._thread.join()
-        self.close()
-        if self._error is not None:
-            raise self._error
+        finally:
+            self.close()
         return self.frames
 
     def close(self) -> None:
-        """Stop encoding and close the file (safe twice); an unfinished video is incomplete."""
-        if self._thread.is_alive():
-            self._error = self._error or RuntimeError("closed before it was finished")
-            self._queue.put(None)
-            self._thread.join()
+        """Close the file (safe twice); an unfinished video is incomplete."""
         container, self._container = self._container, None
         if container is not None:
             container.close()

@@ -226,6 +226,7 @@ def _run(
         blocked=blocked,
         timeout=args.timeout,
         settings=dict(plugged.settings),
+        preload=tuple(plugged.preload),
     )
     tasks = [RunTask(seed=s, run_dir=str(out / "runs" / f"seed-{s}"), **template) for s in seeds]
     workers = args.workers or os.cpu_count() or 1

@@ -20,6 +20,7 @@ SIGTERM (they halt within a tick and exit), then SIGKILL after a grace period.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import io
 import itertools
 import json
@@ -87,7 +88,12 @@ class _LoadedTrees:
         self._loaded: tuple[Any, Any] | None = None
 
     def get(self, task: RunTask) -> tuple[Any, Any] | None:
-        """:func:`load_task` of ``task`` if it loads cleanly, else None."""
+        """:func:`load_task` of ``task`` if it loads cleanly, else None; first the modules
+        the task says its run will import (one that fails is left to the run)."""
+        for name in task.preload:
+            if name not in sys.modules:
+                with contextlib.suppress(Exception):
+                    importlib.import_module(name)
         key = load_key(task)
         if key != self._key:
             self._key, self._loaded = key, self._load(task)

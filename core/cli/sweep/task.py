@@ -29,7 +29,8 @@ class RunTask:
 
     ``timeout`` is the run's own limit on the run clock (``--timeout``), ``attempt``
     counts retries after a run's process died, ``settings`` the values of the options
-    plugins added to the sweep (the run gets them in ``run.settings``).
+    plugins added to the sweep (the run gets them in ``run.settings``), ``preload``
+    the modules plugins said the run will import (a forker imports them before it forks).
     """
 
     tree: str
@@ -42,6 +43,7 @@ class RunTask:
     timeout: float | None = None
     attempt: int = 1
     settings: dict[str, Any] = dataclasses.field(default_factory=dict)
+    preload: tuple[str, ...] = ()
 
     def to_json(self) -> str:
         """The task as one line of JSON."""
@@ -51,7 +53,7 @@ class RunTask:
     def from_json(cls, text: str) -> RunTask:
         """The task from :meth:`to_json`."""
         data = json.loads(text)
-        for key in ("overrides", "plugins", "blocked"):
+        for key in ("overrides", "plugins", "blocked", "preload"):
             data[key] = tuple(data.get(key) or ())
         data["settings"] = dict(data.get("settings") or {})
         return cls(**data)
