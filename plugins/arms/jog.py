@@ -150,6 +150,8 @@ def limits_text(rig: Rig) -> list[tuple[str, str, str]]:
     """``(name, position, limits)`` per joint, for the table; a driver that reads servo
     counts (``joint_counts()``, bus servos) shows them beside the angle."""
     arm = rig.arm
+    if arm is None:
+        raise ConfigError("jog: the profile has no arm")
     q = arm.joints()
     read = getattr(arm, "joint_counts", None)
     counts = read() if callable(read) else [None] * len(q)
@@ -243,7 +245,7 @@ def build_app(rig: Rig, save_to: Path, refresh_hz: float = 20.0) -> Any:
                 joints.add_row(f"{mark}{name}", pos, lim)
             pose = self.query_one("#pose", DataTable)
             pose.clear()
-            xyz = rig.arm.pose()[:3, 3]
+            xyz = jogger.arm.pose()[:3, 3]
             for axis, v in zip("xyz", xyz, strict=True):
                 pose.add_row(axis, f"{v:8.1f}")
             pose.add_row("tool", "grip" if jogger.gripping else "released")
@@ -325,6 +327,10 @@ def places_file(profile: Profile, save: str | None) -> Path:
     profile's own file; a shipped profile is never written to."""
     from armtree.config.resolve import shipped_dir
 
+    if profile.source is None:
+        raise ConfigError(
+            f"{profile.name} was not read from a file: no profile to record places into"
+        )
     source = Path(profile.source)
     if save:
         target = Path(save)

@@ -93,8 +93,8 @@ class UrdfModel(KinematicModel):
         *,
         name: str = "urdf",
         base: str = "base",
-        home: Sequence[float] | None = None,
-        tool_axis: Sequence[float] | None = None,
+        home: Sequence[float] | np.ndarray | None = None,
+        tool_axis: Sequence[float] | np.ndarray | None = None,
         seeds: int = 12,
         seed: int = 0,
     ) -> None:

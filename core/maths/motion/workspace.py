@@ -195,7 +195,10 @@ def sector_constraint(lower_deg: float, upper_deg: float) -> Callable[[Any], Any
 
 
 def _joint_vector(
-    theta: dict[int, Any], lower: Sequence[float], upper: Sequence[float], like: Any
+    theta: dict[int, Any],
+    lower: Sequence[float] | np.ndarray,
+    upper: Sequence[float] | np.ndarray,
+    like: Any,
 ) -> Any:
     """All joints as one ``(..., n)`` value: the given ones, the others over their whole range."""
     n = len(lower)
@@ -219,8 +222,8 @@ def _joint_vector(
 
 def limits_constraint(
     theta: dict[int, Any],
-    lower: Sequence[float],
-    upper: Sequence[float],
+    lower: Sequence[float] | np.ndarray,
+    upper: Sequence[float] | np.ndarray,
     coupled: Sequence[Callable[[Any], Any]],
     like: Any,
 ) -> Any:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Final
 
 from armtree.plugins.arms.common.framing import CountedLengthParser
 
@@ -42,8 +43,9 @@ INSTRUCTIONS = {
 }
 
 #: Register encodings: an unsigned value, or two's complement (``TWOS``); any other
-#: number is the bit that carries the sign of a sign-magnitude value.
-UNSIGNED: int | None = None
+#: number is the bit that carries the sign of a sign-magnitude value. Final, so that
+#: after ``encoding is UNSIGNED`` mypy knows the encoding is a number.
+UNSIGNED: Final = None
 TWOS = -1
 
 

@@ -147,7 +147,12 @@ def _background_enter(ready: Callable[[str], None]) -> Callable[[], bool]:
     import threading
 
     pressed = threading.Event()
-    threading.Thread(target=lambda: (ready(""), pressed.set()), daemon=True).start()
+
+    def wait() -> None:
+        ready("")
+        pressed.set()
+
+    threading.Thread(target=wait, daemon=True).start()
     return pressed.is_set
 
 

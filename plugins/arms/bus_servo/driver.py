@@ -102,7 +102,7 @@ class _Request:
     what: str
     ids: list[int]
     packet: Callable[[list[int]], bytes]
-    on_reply: Callable[[Packet], None] | None = None
+    on_reply: Callable[[Packet], object] | None = None
     #: Data bytes each awaited status packet carries (None: any); a packet of another
     #: size is a late answer to an earlier request, not this one's.
     size: int | None = None
@@ -358,12 +358,12 @@ class BusServoDriver(SerialArmDriver):
         """The requests that bring the bus up, each after the one before has its answers."""
         codec, ids = self.codec, self.spec.ids
         for servo_id in ids:
+
+            def ping(waiting: list[int], i: int = servo_id) -> bytes:
+                return codec.ping(i)
+
             yield _Request(
-                "a ping",
-                [servo_id],
-                lambda w, i=servo_id: codec.ping(i),
-                self._on_ping,
-                size=len(codec.ping_reply(0, 0)),
+                "a ping", [servo_id], ping, self._on_ping, size=len(codec.ping_reply(0, 0))
             )
         if self.spec.bus == "feetech":  # a Feetech ping carries no model number
             address, size = self.spec.links[0].model.span("model_number", "model_number")
@@ -382,9 +382,11 @@ class BusServoDriver(SerialArmDriver):
         for link in self.spec.links:
             offset = link.calibration.homing_offset
             if link.calibrated:
-                yield from self._ensure(
-                    link, "homing_offset", lambda v, o=offset: None if v == o else o
-                )
+
+                def homing(value: int, o: int = offset) -> int | None:
+                    return None if value == o else o
+
+                yield from self._ensure(link, "homing_offset", homing)
             if self.spec.bus == "dynamixel":
                 yield from self._ensure(link, "drive_mode", _time_based)
         yield self._status_read()
@@ -499,7 +501,10 @@ class BusServoDriver(SerialArmDriver):
             return 0
         # a servo far from its goal (knocked, or read wrong) asks more than the register
         # holds: as fast as it goes, not a driver error
-        top = (1 << self._model_of[servo_id].register("goal_velocity").encoding) - 1
+        sign_bit = self._model_of[servo_id].register("goal_velocity").encoding
+        if sign_bit is None:  # Feetech's speed is sign-magnitude
+            raise TypeError("a Feetech goal_velocity register without its sign bit")
+        top = (1 << sign_bit) - 1
         return min(top, max(1, int(round(distance / seconds))))
 
     def _goal_request(
@@ -590,8 +595,8 @@ class BusServoDriver(SerialArmDriver):
         done = []
         for move in self._moves:
             there = all(
-                self.servos[i].present is not None
-                and abs(self.servos[i].present - c) <= ARRIVED_COUNTS
+                (present := self.servos[i].present) is not None
+                and abs(present - c) <= ARRIVED_COUNTS
                 for i, c in move.goal.items()
             )
             if there and now >= move.due - 1e-9:
@@ -614,13 +619,11 @@ class BusServoDriver(SerialArmDriver):
 
     def _angles(self) -> np.ndarray | None:
         present = [self.servos[s.id].present for s in self.spec.joints]
-        if any(p is None for p in present):
+        known = [p for p in present if p is not None]
+        if len(known) < len(present):
             return None
         q = np.array(
-            [
-                float(s.calibration.degrees(p))
-                for s, p in zip(self.spec.joints, present, strict=True)
-            ]
+            [float(s.calibration.degrees(p)) for s, p in zip(self.spec.joints, known, strict=True)]
         )
         # A joint sent to its limit reads up to a count past it (goals are whole counts):
         # it is at the limit, and a plan from there must not be refused for it.
@@ -670,14 +673,16 @@ class BusServoDriver(SerialArmDriver):
     def _stream_step(self, now: float) -> tuple[dict[int, int], dict[int, float]]:
         """The set point due at ``now`` as goal counts and arrival times per servo."""
         active = self._stream
-        if active is not None and active.stream is None:
-            active.stream = TrajectoryStream(active.trajectory, now, self.stream_period)
-            self.last_trajectory = (now, active.trajectory)
-        if active is None or not active.stream.due(now):
-            if active is not None:
-                active.handle.update(MotionStatus.RUNNING, progress=active.stream.progress(now))
+        if active is None:
             return {}, {}
-        point = active.stream.next(now)
+        stream = active.stream
+        if stream is None:
+            stream = active.stream = TrajectoryStream(active.trajectory, now, self.stream_period)
+            self.last_trajectory = (now, active.trajectory)
+        if not stream.due(now):
+            active.handle.update(MotionStatus.RUNNING, progress=stream.progress(now))
+            return {}, {}
+        point = stream.next(now)
         goals = self._counts(point.q)
         timing = {i: point.ramp_s for i in goals}
         if point.last:
@@ -686,7 +691,7 @@ class BusServoDriver(SerialArmDriver):
                 _Move(active.handle, goals, now + point.ramp_s, active.start, point.q)
             )
         else:
-            active.handle.update(MotionStatus.RUNNING, progress=active.stream.progress(now))
+            active.handle.update(MotionStatus.RUNNING, progress=stream.progress(now))
         return goals, timing
 
     def _counts(self, q: np.ndarray) -> dict[int, int]:
@@ -826,11 +831,17 @@ class BusServoDriver(SerialArmDriver):
                 reg = self._model_of[servo_id].register(register)
                 data = encode_value(value, reg.size, reg.encoding, self.codec.byteorder)
                 last = n == len(values) - 1
+
+                def write(
+                    waiting: list[int], i: int = servo_id, d: bytes = data, a: int = reg.address
+                ) -> bytes:
+                    return self.codec.write(i, a, d)
+
                 self._queue.append(
                     _Request(
                         f"the write of its {register}",
                         [servo_id],
-                        lambda w, i=servo_id, d=data, a=reg.address: self.codec.write(i, a, d),
+                        write,
                         (lambda p: handle.update(MotionStatus.DONE)) if last else None,
                         size=0,
                     )

@@ -10,8 +10,8 @@ sim`` builds the bus emulator, its servos mounted on the arm as the calibration 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, Protocol, cast
 
 import armtree
 from armtree.api.clock import Clock
@@ -132,7 +132,23 @@ def emulator_for(
     )
 
 
-def _factory(preset: str | None) -> Any:
+class _BusServoFactory(Protocol):
+    """A bus-servo factory (:func:`_factory`) with the members the loader and the tools
+    read off it."""
+
+    PARAMS: tuple[Param, ...]
+    model: Callable[[dict[str, Any]], UrdfModel]
+    spec: Callable[[dict[str, Any]], ArmSpec]
+    simulated: Callable[[dict[str, Any]], bool]
+    emulator: Callable[..., BusServoEmulator]  # (config, clock, seed=0)
+    calibrate_servos: Callable[..., dict[str, dict[str, int]]]  # (config, profile, **io)
+    grips_with: Callable[[dict[str, Any]], str | None]
+    faults: tuple[str, ...]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> BusServoDriver: ...
+
+
+def _factory(preset: str | None) -> _BusServoFactory:
     """The factory of ``type: bus_servo`` (``preset`` None) or of one preset."""
 
     def factory(config: dict[str, Any], context: RigContext) -> BusServoDriver:
@@ -165,6 +181,9 @@ def _factory(preset: str | None) -> Any:
         """The arm's servos, checked."""
         return arm_spec(_config(config, preset))
 
+    # mypy types a def as a plain callable, which has no attributes to set: the same
+    # function, typed as what it is once the members below are set.
+    factory = cast(_BusServoFactory, factory)
     factory.model = model
     factory.spec = spec
     factory.simulated = on_emulator

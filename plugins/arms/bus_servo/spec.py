@@ -278,10 +278,13 @@ def arm_model(config: Mapping[str, Any]) -> UrdfModel:
 def _check_home_axis(model: UrdfModel, home: Sequence[Any]) -> None:
     """Home must hold the tool along ``tool_axis``, as every position target does (else
     no move reaches home's position as home, and the plugin checks fail far from here)."""
+    tool_axis = model.tool_axis
+    if tool_axis is None:  # no axis to hold the tool along
+        return
     z = model.link_frames(np.asarray(home, dtype=float))[-1][:3, 2]
-    off = float(np.degrees(np.arccos(np.clip(np.dot(z, model.tool_axis), -1.0, 1.0))))
+    off = float(np.degrees(np.arccos(np.clip(np.dot(z, tool_axis), -1.0, 1.0))))
     if off > HOME_AXIS_TOL_DEG:
-        axis = [round(float(v), 3) + 0.0 for v in model.tool_axis]
+        axis = [round(float(v), 3) + 0.0 for v in tool_axis]
         raise ConfigError(
             f"arm.home: {shown(home)} holds the tool {off:.1f} deg off tool_axis {axis} "
             "(every position target keeps the tool along it): give joint angles that point "

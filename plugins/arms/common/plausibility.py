@@ -80,7 +80,7 @@ class StatusGuard:
 
     # ------------------------------------------------------------------ readings
 
-    def check(self, q: Sequence[float], now: float) -> str | None:
+    def check(self, q: Sequence[float] | np.ndarray, now: float) -> str | None:
         """``None`` when ``q`` (one joint reading at run time ``now``) is plausible, else why.
 
         A plausible reading becomes the reference for the next; a refused one is

@@ -78,8 +78,8 @@ def dobot_profile(
     l1: float,
     l2: float,
     d: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
+    lower: Sequence[float] | np.ndarray,
+    upper: Sequence[float] | np.ndarray,
     coupled: Sequence[Callable[[Any], Any]] = (),
     drop: float = 0.0,
 ) -> Callable[[Any, Any], list[Any]]:
@@ -159,8 +159,8 @@ def _atan2_corners(y: Interval, x: Interval, on_cut: float) -> Interval:
 def scara_constraints(
     l1: float,
     l2: float,
-    lower: Sequence[float],
-    upper: Sequence[float],
+    lower: Sequence[float] | np.ndarray,
+    upper: Sequence[float] | np.ndarray,
     z_offset: float = 0.0,
     coupled: Sequence[Callable[[Any], Any]] = (),
 ) -> ConstraintSystem:

@@ -201,8 +201,8 @@ class SSC32Driver(SerialArmDriver):
                 m.handle.update(MotionStatus.DONE)
                 done.append(m)
             else:
-                total = np.linalg.norm(m.goal - m.start)
-                left = np.linalg.norm(m.goal - joints)
+                total = float(np.linalg.norm(m.goal - m.start))
+                left = float(np.linalg.norm(m.goal - joints))
                 m.handle.update(MotionStatus.RUNNING, progress=1 - left / total if total else 0)
         self._moves = [m for m in self._moves if m not in done]
 

@@ -156,12 +156,12 @@ class SSC32Emulator(PtyEmulator):
             self._group_move(req, t)
         out = bytearray()
         pulses = None
-        for kind, ch in req.queries:
+        for kind, channel in req.queries:
             if kind == "Q":
                 out += b"+" if self.moving(t) else b"."
-            elif ch is not None and 0 <= ch < CHANNELS:
+            elif channel is not None and 0 <= channel < CHANNELS:
                 pulses = self.pulses(t).tolist() if pulses is None else pulses
-                out.append(int(round(pulses[ch] / 10.0)) & 0xFF)
+                out.append(int(round(pulses[channel] / 10.0)) & 0xFF)
         if req.version:
             out += (S.VERSION + "\r").encode("ascii")
         if out:

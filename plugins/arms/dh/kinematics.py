@@ -149,13 +149,13 @@ class DHModel(KinematicModel):
         limits: Sequence[tuple[float, float]],
         convention: str = "modified",
         name: str = "dh",
-        tool_offset: Sequence[float] = (0.0, 0.0, 0.0),
-        base: Sequence[float] = (0.0, 0.0, 0.0),
-        home: Sequence[float] | None = None,
+        tool_offset: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+        base: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+        home: Sequence[float] | np.ndarray | None = None,
         seeds: int = 12,
         seed: int = 0,
         link_width: float = 60.0,
-        tool_axis: Sequence[float] | None = None,
+        tool_axis: Sequence[float] | np.ndarray | None = None,
         tool_boxes: Sequence[LinkBox] = (),
     ) -> None:
         if convention not in ("modified", "standard"):
@@ -463,9 +463,9 @@ class DHModel(KinematicModel):
             tgt = np.repeat(flat_t[todo], k, axis=0)
             q, err = self._dls(q, tgt, full, tol, its, orientation_weight)
             ok = ((err < tol) & self.within_limits(q)).reshape(todo.size, k)
-            q = q.reshape(todo.size, k, self.dof)
+            per_start = q.reshape(todo.size, k, self.dof)
             found = ok.any(axis=1)
-            out[todo[found]] = q[found, np.argmax(ok[found], axis=1)]
+            out[todo[found]] = per_start[found, np.argmax(ok[found], axis=1)]
             todo = todo[~found]
         return out.reshape(*lead, self.dof)
 
@@ -622,10 +622,10 @@ class DHModel(KinematicModel):
         boxes = []
         for i in range(self.dof + (0 if tool else 1)):
             rel = np.linalg.inv(frames[i]) @ frames[i + 1][:, 3]
-            size = tuple(float(max(abs(s), width)) for s in rel[:3])
+            sx, sy, sz = (float(max(abs(s), width)) for s in rel[:3])
             off = np.eye(4)
             off[:3, 3] = rel[:3] / 2
-            boxes.append(LinkBox(f"link{i}", i, size, off))
+            boxes.append(LinkBox(f"link{i}", i, (sx, sy, sz), off))
         return (*boxes, *tool)
 
 
@@ -753,5 +753,6 @@ def _tool_boxes(spec: Any, dof: int, source: str) -> tuple[LinkBox, ...]:
         offset = np.eye(4)
         offset[:3, 3] = vectors[1]
         name = str(item.get("name", f"tool{k}"))
-        out.append(LinkBox(name, dof, tuple(vectors[0]), offset))
+        sx, sy, sz = vectors[0]  # three numbers: checked above
+        out.append(LinkBox(name, dof, (sx, sy, sz), offset))
     return tuple(out)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -99,6 +100,19 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> SSC32Emula
     )
 
 
+class _DHFactory(Protocol):
+    """:func:`dh_factory` with the members the loader and the tools read off it."""
+
+    PARAMS: tuple[Param, ...]
+    validate: Callable[[dict[str, Any], Profile], None]
+    model: Callable[[dict[str, Any]], DHModel]
+    simulated: Callable[[dict[str, Any]], bool]
+    emulator: Callable[..., SSC32Emulator]  # (config, clock, seed=0)
+    grips_with: Callable[[dict[str, Any]], str | None]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> SSC32Driver: ...
+
+
 def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
     """Any serial arm from a DH table, its joints on an SSC-32 servo board (``port: sim``)."""
     model = _model(config)
@@ -131,6 +145,11 @@ def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:
         checker=CollisionChecker(model, Scene.from_profile(context.profile or {})),
         **options,
     )
+
+
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+dh_factory = cast(_DHFactory, dh_factory)
 
 
 def _validate(config: dict[str, Any], profile: Profile) -> None:

@@ -151,7 +151,7 @@ class MagicianDriver(SerialArmDriver):
                     self._request(P.Cmd.QUEUE_CURRENT_INDEX, 0x00, on_reply=self._on_index)
                     self._request(P.Cmd.QUEUE_LEFT_SPACE, 0x00, on_reply=self._on_left_space)
                 self._request(P.Cmd.GET_POSE, 0x00, on_reply=self._on_pose)
-        if fail:
+        if fail and req is not None:  # fail is set only with a request outstanding
             self.lose_link(f"link lost: no reply to command {req.id} after {req.tries} tries")
             return
         if lost is not None:
@@ -224,8 +224,8 @@ class MagicianDriver(SerialArmDriver):
                 p.handle.update(MotionStatus.DONE)
                 done.append(p)
             elif p.index is not None and p.goal is not None and self._joints is not None:
-                total = np.linalg.norm(p.goal - p.start)
-                left = np.linalg.norm(p.goal - self._joints)
+                total = float(np.linalg.norm(p.goal - p.start))
+                left = float(np.linalg.norm(p.goal - self._joints))
                 prog = 1.0 - left / total if total > 0 else 0.0
                 p.handle.update(MotionStatus.RUNNING, progress=prog)
         with self._lock:

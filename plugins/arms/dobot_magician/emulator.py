@@ -51,7 +51,7 @@ class MagicianEmulator(PtyEmulator):
     ) -> None:
         super().__init__(model, clock, seed=seed, q0=q0)
         self.model: MagicianModel = model
-        self.joints = MagicianJoints(
+        self.joints: MagicianJoints = MagicianJoints(
             model.home if q0 is None else q0,
             np.array([j.max_speed for j in model.joints]),
             np.array([j.max_accel for j in model.joints]),
@@ -194,8 +194,8 @@ class MagicianEmulator(PtyEmulator):
         q = self.joints.reported(t)
         try:
             if cid == P.Cmd.PTP and len(frame.params) >= 17:
-                mode, target = P.unpack_ptp(frame.params)
-                path = self.planner.plan(mode, np.array(target), q, t)
+                mode, values = P.unpack_ptp(frame.params)
+                path = self.planner.plan(mode, np.array(values), q, t)
                 self.joints.follow(path)
                 return path.end_time
             if cid == P.Cmd.SET_HOME:

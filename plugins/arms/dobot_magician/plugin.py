@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Protocol, cast
 
 import armtree
 from armtree.api.clock import Clock
@@ -44,6 +45,18 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MagicianEm
     return MagicianEmulator(_model(config), clock, seed=seed)
 
 
+class _MagicianFactory(Protocol):
+    """:func:`magician_factory` with the members the loader and the tools read off it."""
+
+    PARAMS: tuple[Param, ...]
+    model: Callable[[dict[str, Any]], MagicianModel]
+    simulated: Callable[[dict[str, Any]], bool]
+    emulator: Callable[..., MagicianEmulator]  # (config, clock, seed=0)
+    grips_with: Callable[[dict[str, Any]], str]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> MagicianDriver: ...
+
+
 def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDriver:
     """Dobot Magician over its 0xAA 0xAA serial protocol (``port: sim`` for the emulator)."""
     model = _model(config)
@@ -59,6 +72,9 @@ def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDri
     )
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+magician_factory = cast(_MagicianFactory, magician_factory)
 magician_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device, or sim for the built-in emulator"),
     Param(

@@ -13,6 +13,8 @@ import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 from armtree.plugins.arms.common import FixedFrameParser
 
 HEADER = 0xA5
@@ -125,7 +127,7 @@ class Status:
 
 
 def move_joints(
-    q: Sequence[float],
+    q: Sequence[float] | np.ndarray,
     r_head: float = 0.0,
     suction: bool = False,
     mode: int = MODE_MOVJ,
@@ -133,7 +135,10 @@ def move_joints(
     pause: float = 0.0,
 ) -> Command:
     """State 6: go to joint angles ``q`` (base, rear, fore; degrees)."""
-    return Command(STATE_MOVE_JOINTS, 0.0, *q, r_head, float(suction), mode, gripper, pause)
+    base, rear, fore = q
+    return Command(
+        STATE_MOVE_JOINTS, 0.0, base, rear, fore, r_head, float(suction), mode, gripper, pause
+    )
 
 
 def move_xyz(
@@ -145,7 +150,8 @@ def move_xyz(
     pause: float = 0.0,
 ) -> Command:
     """State 3: go to Cartesian ``xyz`` (mm) with the firmware's own IK."""
-    return Command(STATE_MOVE_XYZ, 0.0, *xyz, r_head, float(suction), mode, gripper, pause)
+    x, y, z = xyz
+    return Command(STATE_MOVE_XYZ, 0.0, x, y, z, r_head, float(suction), mode, gripper, pause)
 
 
 def jog(axis: int, speed_percent: float = 0.0, linear: bool = False) -> Command:

@@ -196,8 +196,11 @@ class DobotV1Driver(SerialArmDriver):
         self.commands_written += 1
         self.remember_sent(item.key)
         if item.kind == "move" and item.handle is not None:
-            start = np.array(self._status.joints) if self._status else item.target
-            self._inflight.append((item.handle, start, item.target))
+            target = item.target
+            if target is None:  # move_joints queues every move with its target
+                raise ValueError(f"a move without its target: {item.command}")
+            start = np.array(self._status.joints) if self._status else target
+            self._inflight.append((item.handle, start, target))
             item.handle.update(MotionStatus.RUNNING, 0.0)
         elif item.kind == "tool" and item.handle is not None and item.done_when is not None:
             self._tool_waits.append((item.handle, item.done_when))

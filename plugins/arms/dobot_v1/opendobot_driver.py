@@ -376,7 +376,11 @@ class OpenDobotDriver(SerialArmDriver):
                 dirs.append(int(forward))
                 counts[j] += int(math.copysign(n_done, d)) if d else 0
             payload = od.steps_payload(
-                self.board, tuple(steps), tuple(dirs), self._grab_pwm, self._rot_pwm
+                self.board,
+                (steps[0], steps[1], steps[2]),
+                (dirs[0], dirs[1], dirs[2]),
+                self._grab_pwm,
+                self._rot_pwm,
             )
             self._stream.append(("steps", payload))
         # steps that the encoding could not make in their slot go in extra slots
@@ -387,7 +391,11 @@ class OpenDobotDriver(SerialArmDriver):
             for j in range(3):
                 counts[j] += int(math.copysign(steps[j], int(delta[j]))) if delta[j] else 0
             payload = od.steps_payload(
-                self.board, tuple(steps), tuple(dirs), self._grab_pwm, self._rot_pwm
+                self.board,
+                (steps[0], steps[1], steps[2]),
+                (dirs[0], dirs[1], dirs[2]),
+                self._grab_pwm,
+                self._rot_pwm,
             )
             self._stream.append(("steps", payload))
         self._planned = plan.target.copy()
@@ -438,7 +446,9 @@ class OpenDobotDriver(SerialArmDriver):
         def adopt(payload: bytes) -> None:
             self._on_counters(payload)
             with self._lock:
-                self._planned = self._counters.copy()
+                # no counters yet when the board's reply was refused: keep the plan
+                if self._counters is not None:
+                    self._planned = self._counters.copy()
 
         self._queue_request(_Request(od.GET_COUNTERS, on_reply=adopt), first=True)
 

@@ -119,7 +119,7 @@ class OpenDobotEmulator(PtyEmulator):
 
     def _slot(self) -> None:
         if self._calib is not None:
-            self._calibration_slot()
+            self._calibration_slot(self._calib)
             return
         while self._queue and self._queue[0][0] != od.STEPS:
             self._action(self._queue.popleft())
@@ -151,8 +151,7 @@ class OpenDobotEmulator(PtyEmulator):
         elif cmd == od.LASER_ON:
             self.laser = on
 
-    def _calibration_slot(self) -> None:
-        c = self._calib
+    def _calibration_slot(self, c: dict) -> None:
         j = c["joint"]
         angle = self.true_joints()[j]
         switch = self.switch_angles[j]
@@ -263,6 +262,6 @@ class OpenDobotEmulator(PtyEmulator):
             front = round(od.ACCEL_ZERO + od.ACCEL_SCALE * math.sin(q[2]))
             return struct.pack(">6h", rear, 0, 0, front, 0, 0)
         g = 16384.0
-        rear = (g * math.cos(q[1]), 0.0, g * math.sin(q[1]))
-        front = (-g * math.sin(q[2]), 0.0, g * math.cos(q[2]))
-        return struct.pack(">6h", *(round(v) for v in rear + front))
+        rear_g = (g * math.cos(q[1]), 0.0, g * math.sin(q[1]))
+        front_g = (-g * math.sin(q[2]), 0.0, g * math.cos(q[2]))
+        return struct.pack(">6h", *(round(v) for v in rear_g + front_g))

@@ -8,7 +8,8 @@ a pseudo-terminal and drives it through the same pyserial driver.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -54,7 +55,7 @@ def _triple(config: dict[str, Any], key: str, default: float) -> tuple[float, fl
     if len(values) != 3 or (key == "joint_scales" and 0.0 in values):
         raise ConfigError(f"arm.{key}: three numbers (base, rear arm, forearm) are required"
                           + (", none of them 0" if key == "joint_scales" else ""))  # fmt: skip
-    return values  # type: ignore[return-value]
+    return values
 
 
 def dobot_v1_emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> PtyEmulator:
@@ -73,6 +74,18 @@ def dobot_v1_emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> Pt
         q0=q0,
         status_period=float(config.get("status_period", 0.05)),
     )
+
+
+class _DobotV1Factory(Protocol):
+    """:func:`dobot_v1_factory` with the members the loader and the tools read off it."""
+
+    PARAMS: tuple[Param, ...]
+    model: Callable[[dict[str, Any]], DobotV1Model]
+    simulated: Callable[[dict[str, Any]], bool]
+    emulator: Callable[..., PtyEmulator]  # (config, clock, seed=0)
+    grips_with: Callable[[dict[str, Any]], str]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> ArmDriver: ...
 
 
 def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
@@ -101,6 +114,9 @@ def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:
     return driver
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+dobot_v1_factory = cast(_DobotV1Factory, dobot_v1_factory)
 dobot_v1_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device (/dev/ttyUSB0, COM3), or sim for the emulator"),
     Param("firmware", "str", "original", doc="firmware on the arm", choices=FIRMWARES),

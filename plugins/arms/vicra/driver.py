@@ -378,8 +378,8 @@ class VicraDriver(SerialArmDriver):
                 m.handle.update(MotionStatus.DONE)
                 finished.append(m)
             else:
-                total = np.linalg.norm(m.goal[:3] - m.start[:3])
-                left = np.linalg.norm(m.goal[:3] - self._joints[:3])
+                total = float(np.linalg.norm(m.goal[:3] - m.start[:3]))
+                left = float(np.linalg.norm(m.goal[:3] - self._joints[:3]))
                 m.handle.update(MotionStatus.RUNNING, progress=1 - left / total if total else 0)
         with self._lock:
             self._motions = [m for m in self._motions if m not in finished]

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Protocol, cast
 
 import armtree
 from armtree.api.clock import Clock
@@ -30,6 +31,18 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MarlinEmul
     return MarlinEmulator(_model(config), clock, seed=seed)
 
 
+class _VicraFactory(Protocol):
+    """:func:`vicra_factory` with the members the loader and the tools read off it."""
+
+    PARAMS: tuple[Param, ...]
+    model: Callable[[dict[str, Any]], VicraModel]
+    simulated: Callable[[dict[str, Any]], bool]
+    emulator: Callable[..., MarlinEmulator]  # (config, clock, seed=0)
+    grips_with: Callable[[dict[str, Any]], str]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> VicraDriver: ...
+
+
 def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
     """VICRA SCARA arm on Marlin G-code (Mega + RAMPS); ``port: sim`` for the emulator."""
     model = _model(config)
@@ -51,6 +64,9 @@ def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
     )
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+vicra_factory = cast(_VicraFactory, vicra_factory)
 vicra_factory.PARAMS = (
     Param("port", "str", "sim", doc="serial device, or sim for the built-in Marlin emulator"),
     Param(
