@@ -48,6 +48,12 @@ MIN_ROW_GAP = 1.0
 #: Candidates up to this side (px) that the cell reading leaves unread are fitted with
 #: blurred code words (:mod:`.hamming_blur`); larger markers have cells to threshold.
 BLUR_FIT_MAX_SIDE_PX = 32.0
+#: ... and down to this side: below it (under 1.4 px a cell) a fit is too often of
+#: the wrong code word to keep.
+BLUR_FIT_MIN_SIDE_PX = 12.0
+#: The shortest side (px) whose candidate's cells are read one by one; smaller ones
+#: (the search looks down to ``min_side_px``) go to the blur fit alone.
+CELLS_MIN_SIDE_PX = 12.0
 #: The fine search's local threshold: small markers' borders stand out of a 7 px
 #: neighbourhood where a threshold for the whole frame merges them with their cells.
 FINE_SEARCH = {"adaptive": True, "block_px": 7, "offset": 7.0, "blur": 3}
@@ -176,7 +182,7 @@ class HammingTracker(Tracker):
         preprocessing: Preprocessing | None = None,
         roles: TagRoles | None = None,
         *,
-        min_side_px: float = 12.0,
+        min_side_px: float = 10.0,
         max_corrected_bits: int = 2,
         max_border_errors: int = 1,
         min_contrast: float = 20.0,
@@ -243,7 +249,7 @@ class HammingTracker(Tracker):
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         quads = dark_quads(dark, self.min_side_px)
         if self.fine_search:
-            fine = dark_quads(self._fine.dark(gray), self.min_side_px)
+            fine = dark_quads(self._fine.dark(gray), self.min_side_px, hull_fallback=True)
             if len(quads) and len(fine):
                 fine = fine[~_same_squares(fine, quads)]  # one candidate per marker
             quads = np.concatenate([quads, fine])
@@ -264,8 +270,13 @@ class HammingTracker(Tracker):
             np.ascontiguousarray(gray), quads.astype(np.float64), _CELL_SAMPLES, _QUIET_SAMPLES
         )
         reading = levels @ _READING_OP
+        contrasted = reading[:, -1] >= self.min_contrast
+        # under CELLS_MIN_SIDE_PX a side, cells are too small to call one by one
+        sides = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).min(axis=1)
+        cells_read = reading.copy() if (sides < CELLS_MIN_SIDE_PX).any() else reading
+        cells_read[sides < CELLS_MIN_SIDE_PX, -1] = -np.inf
         rows, turns, ids, corrected, ties, unread = read_markers(
-            reading,
+            cells_read,
             _BORDER_CELLS,
             _TURNED,
             CODEWORDS,
@@ -279,7 +290,6 @@ class HammingTracker(Tracker):
         )
         corners = quads[rows[:, None], _ROLLS[turns]]
         if self.blur_fit:
-            contrasted = reading[:, -1] >= self.min_contrast
             more, more_ids = self._fit_small(gray, quads, rows, contrasted)
             corners = np.concatenate([corners, more])
             ids = np.concatenate([ids, more_ids])
@@ -310,7 +320,7 @@ class HammingTracker(Tracker):
         the cells left unread, with a white quiet zone around a dark border
         (``contrasted``), that blurred code words fit (:mod:`.hamming_blur`)."""
         sides = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).mean(axis=1)
-        small = (sides <= BLUR_FIT_MAX_SIDE_PX) & contrasted
+        small = (sides >= BLUR_FIT_MIN_SIDE_PX) & (sides <= BLUR_FIT_MAX_SIDE_PX) & contrasted
         small[read] = False
         picked = np.flatnonzero(small)
         if len(picked) == 0:
@@ -383,7 +393,7 @@ hamming_factory.PARAMS = (
     Param(
         "min_side_px",
         "float",
-        12.0,
+        10.0,
         unit="px",
         doc="smallest marker side looked for",
         minimum=1.0,

@@ -190,10 +190,25 @@ def dark_after_blur3(image: np.ndarray, level: float = 127.0) -> np.ndarray:
     return total2
 
 
-def dark_quads(dark: np.ndarray, min_side_px: float) -> np.ndarray:
+#: Corners of a simplified outline that :func:`dark_quads` still tries as a ragged square.
+HULL_MAX_VERTICES = 12
+#: ... and its largest perimeter (px): a larger marker's outline is not ragged but
+#: broken (a covered marker), and its hull would be read as the whole marker.
+HULL_MAX_PERIMETER_PX = 128.0
+#: Its tolerance simplifying the hull, a fraction of the hull's perimeter.
+HULL_EPSILON = 0.05
+
+
+def dark_quads(dark: np.ndarray, min_side_px: float, hull_fallback: bool = False) -> np.ndarray:
     """Convex quadrilaterals ``(N, 4, 2)`` float32, clockwise on screen, outlining the dark
     regions of ``dark`` (255 where dark) with every side at least ``min_side_px`` long:
-    the shapes a square marker's black border makes."""
+    the shapes a square marker's black border makes.
+
+    With ``hull_fallback``, a small outline (:data:`HULL_MAX_PERIMETER_PX`) that does not
+    simplify to a convex quad but to at most :data:`HULL_MAX_VERTICES` corners is
+    simplified again from its convex hull:
+    at under two pixels a cell, noise and blur make a marker's outline ragged, and its
+    hull is the square again. The fill check still keeps blobs out."""
     # findContoursLinkRuns gives what RETR_CCOMP with CHAIN_APPROX_SIMPLE gives,
     # without findContours' internal full-frame threshold on OpenCV's worker threads.
     contours, _ = cv2.findContoursLinkRuns(dark)
@@ -212,7 +227,13 @@ def dark_quads(dark: np.ndarray, min_side_px: float) -> np.ndarray:
         if perimeter < min_perimeter or perimeter > max_perimeter:
             continue
         approx = cv2.approxPolyDP(contour, 0.03 * perimeter, True)
-        if len(approx) != 4 or not cv2.isContourConvex(approx):
+        square = len(approx) == 4 and cv2.isContourConvex(approx)
+        ragged = len(approx) <= HULL_MAX_VERTICES and perimeter <= HULL_MAX_PERIMETER_PX
+        if not square and hull_fallback and ragged:
+            hull = cv2.convexHull(contour)
+            approx = cv2.approxPolyDP(hull, HULL_EPSILON * cv2.arcLength(hull, True), True)
+            square = len(approx) == 4 and cv2.isContourConvex(approx)
+        if not square:
             continue
         # a square's outline fills its quad; a blob's (an ellipse, a hand) does not
         fill = area / max(cv2.contourArea(approx), 1.0)
