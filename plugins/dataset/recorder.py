@@ -147,7 +147,7 @@ class EpisodeRecorder:
     ``folder.partial`` meanwhile. ``threads`` is the video encoder's.
     """
 
-    def __init__(self, rig: Rig, fps: int, folder: Path, threads: int = 1) -> None:
+    def __init__(self, rig: Rig | None, fps: int, folder: Path, threads: int = 1) -> None:
         arm = getattr(rig, "arm", None)
         if arm is None:
             raise ValueError("the rig has no arm: an episode records an arm's joints")
@@ -233,6 +233,7 @@ class EpisodeRecorder:
             if self.video is None:
                 raise ValueError("the camera gave the run no frame, so the episode has no images")
             self.video.finish()
+            assert self._image is not None  # set with the video
             image_shape = (*self._image.shape[:2], 3)
             picks = Counter(self._shown_at[i] for i in stats.sample_indices(len(self._shown_at)))
             image_stats = stats.of_images([self._samples[i] for i in picks], list(picks.values()))

@@ -124,7 +124,7 @@ class DatasetWriter:
         done = Appended()
         recover(self.root)  # an append of this writer cut short after its commit
         info = self.info
-        accepted = []
+        accepted: list[Episode] = []
         for position, episode in enumerate(episodes):
             why = self.refusal(episode, info)
             if why is None and info is None and accepted:
@@ -163,7 +163,9 @@ class _Append:
         if info is None:
             info = layout.new_info(self.fps, episodes[0].robot_type, episodes[0].features())
             for key in layout.video_keys(info):
-                height, width = episodes[0].image_shape[:2]
+                shape = episodes[0].image_shape
+                assert shape is not None  # a video feature comes of a camera's images
+                height, width = shape[:2]
                 info["features"][key]["info"] = layout.video_info(self.fps, height, width)
         self.info = info
         self.keys = layout.video_keys(info)
@@ -252,6 +254,7 @@ class _Append:
 
     def video_row(self, key: str, files: _Files, episode: Episode) -> dict[str, Any]:
         """Where the episode's video goes: its file, and the seconds it spans in it."""
+        assert episode.video is not None  # refused before: "its camera video is missing"
         slot = files.place(Path(episode.video).stat().st_size, episode.video)
         start = files.seconds.get(slot, 0.0)
         end = files.seconds[slot] = start + episode.length / self.fps

@@ -35,7 +35,7 @@ def tag_table(profile: Profile, family: str | None = None) -> dict[int, TagSpec]
     where = profile
     tags_method = getattr(profile, "tags", None)
     checked = callable(tags_method)
-    raw = tags_method() if checked else profile_section(profile, "tags")
+    raw = tags_method() if callable(tags_method) else profile_section(profile, "tags")
     table: dict[int, TagSpec] = {}
     for role, spec in (raw or {}).items():
         if not isinstance(spec, TagSpec):

@@ -22,8 +22,9 @@ first). Ids whose turns read as other ids are not valid markers at all
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, cast
 
 import cv2
 import numpy as np
@@ -56,9 +57,9 @@ BLUR_FIT_MIN_SIDE_PX = 12.0
 CELLS_MIN_SIDE_PX = 12.0
 #: The fine search's local threshold: small markers' borders stand out of a 7 px
 #: neighbourhood where a threshold for the whole frame merges them with their cells.
-FINE_SEARCH = {"adaptive": True, "block_px": 7, "offset": 7.0, "blur": 3}
+FINE_SEARCH: dict[str, Any] = {"adaptive": True, "block_px": 7, "offset": 7.0, "blur": 3}
 #: Showers 2016's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
-SEED_PREPROCESS = {"threshold": 0.4, "blur": 3}
+SEED_PREPROCESS: dict[str, Any] = {"threshold": 0.4, "blur": 3}
 
 # Sample offsets inside a cell (in cells): the centre and four points around it.
 _OFFSETS = np.array([[0.5, 0.5], [0.35, 0.35], [0.65, 0.35], [0.65, 0.65], [0.35, 0.65]])
@@ -366,20 +367,32 @@ def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
     )
 
 
+class _HammingFactory(Protocol):
+    """:func:`hamming_factory` with the members the loader reads off it."""
+
+    PARAMS: tuple[Param, ...]
+    validate: Callable[[dict[str, Any], Profile], None]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> HammingTracker: ...
+
+
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
     """Hampy-format Hamming markers (9x9, 28-bit ids), Showers 2016's preprocessing by default."""
-    values = check_config(config, hamming_factory.PARAMS, "tracker", context.profile)
+    values = check_config(config, _PARAMS, "tracker", context.profile)
     return _tracker(values, context.profile)
 
 
 def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and run it once."""
-    values = check_config(config, hamming_factory.PARAMS, "tracker", profile)
+    values = check_config(config, _PARAMS, "tracker", profile)
     probe(_tracker(values, profile), profile, "tracker.preprocess")
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+hamming_factory = cast(_HammingFactory, hamming_factory)
 hamming_factory.validate = _validate
-hamming_factory.PARAMS = (
+_PARAMS: tuple[Param, ...] = (
     Param("preprocess", "dict", SEED_PREPROCESS, doc="threshold, adaptive, block_px, offset, blur"),
     Param(
         "size_mm",
@@ -444,3 +457,4 @@ hamming_factory.PARAMS = (
         maximum=3.5,
     ),
 )
+hamming_factory.PARAMS = _PARAMS

@@ -104,6 +104,7 @@ class Preprocessing:
             if self.adaptive:
                 return dark_after_blur3(self._binarise(gray))
             # the global threshold, and the one dark_after_blur3 applies, in one
+            assert self.threshold is not None  # binarises, and not adaptively
             return dark_after_blur3(gray, 255.0 * self.threshold)
         binary = self._binarise(gray)
         if self.blur:

@@ -133,10 +133,10 @@ class Effects:
             x1 = int((self.shadow_x + self.shadow_width) * w)
             band = np.ones(w, np.float32)
             band[max(x0, 0) : max(min(x1, w), 0)] = self.shadow
-            band = cv2.GaussianBlur(band.reshape(1, -1), (0, 0), 4.0).reshape(-1)
-            out *= band[None, :]
+            soft = cv2.GaussianBlur(band.reshape(1, -1), (0, 0), 4.0).reshape(-1)
+            out *= soft[None, :]
         if self.blur > 0:
-            out = cv2.GaussianBlur(out, (0, 0), self.blur)
+            out = np.asarray(cv2.GaussianBlur(out, (0, 0), self.blur), dtype=np.float32)
         if self.noise > 0:
             out += self.rng.normal(0.0, self.noise, out.shape).astype(np.float32)
         return np.clip(out + 0.5, 0, 255).astype(np.uint8)
