@@ -129,8 +129,12 @@ def _counted(
             return None
         if isinstance(value, str) and REFERENCE.match(value):
             return {port: value}
-        whole = isinstance(value, int) and not isinstance(value, bool)
-        if whole and (value >= 1 or (forever and value == -1)):
+        # the test written out, not through a variable: mypy narrows only a test it sees
+        if (
+            isinstance(value, int)
+            and not isinstance(value, bool)
+            and (value >= 1 or (forever and value == -1))
+        ):
             return {port: str(value)}
         return None
 

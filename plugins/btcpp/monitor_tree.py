@@ -92,8 +92,10 @@ def _tree_xml(tree: Tree, nodes: list[Any], paths: dict[int, str], uids: dict[in
             parent_info is not None
             and (info.type, info.mark) == (parent_info.type, parent_info.mark)
         )
-        tag, ports = type(node).__name__, {}
-        if not made_inside:
+        tag = type(node).__name__
+        ports: dict[str, str] = {}
+        # made_inside holds whenever info is None; the test says so to mypy
+        if info is not None and not made_inside:
             options = {k: v for k, v in info.params.items() if v is not None}
             mapped = exported(info.type, options)
             if mapped is not None:

@@ -237,6 +237,8 @@ class XmlDocument:
         params = self._params(tree_id)
         if params is not None:
             data["params"] = params
+            # _params marks the mapping at its first port's element, a Mark
+            assert params.mark is not None
             data.key_marks["params"] = data.value_marks["params"] = params.mark
         if len(element.children) != 1:
             self.error(
@@ -370,12 +372,13 @@ class XmlDocument:
                 spec.key_marks["child"] = spec.value_marks["child"] = children[0].mark
             return
         if kind == "composite" or children:
-            nodes = MarkedList(mark=children[0].mark if children else element.mark)
+            nodes_mark = children[0].mark if children else element.mark
+            nodes = MarkedList(mark=nodes_mark)
             for child in children:
                 nodes.append(self.node(child))
                 nodes.item_marks.append(child.mark)
             spec["children"] = nodes
-            spec.key_marks["children"] = spec.value_marks["children"] = nodes.mark
+            spec.key_marks["children"] = spec.value_marks["children"] = nodes_mark
 
     def _subtree(self, element: Element) -> MarkedDict:
         """``<SubTree ID=...>`` as a ``subtree:`` node including tree ``#ID`` of this file."""

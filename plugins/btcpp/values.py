@@ -128,16 +128,18 @@ def from_port(text: str, port: str, port_type: str | None, mark: Mark) -> Any:
 def _moved(value: Any, base: Mark) -> Any:
     """Marks of YAML read from an attribute value, moved to where the value was written."""
 
-    def at(mark: Mark | None) -> Mark | None:
-        if mark is None:
-            return None
+    def shift(mark: Mark) -> Mark:
         column = base.column + mark.column - 1 if mark.line == 1 else mark.column
         return Mark(base.file, base.line + mark.line - 1, column)
 
+    def at(mark: Mark | None) -> Mark | None:
+        return None if mark is None else shift(mark)
+
     if isinstance(value, MarkedDict):
         value.mark = at(value.mark)
-        value.key_marks = {k: at(m) for k, m in value.key_marks.items()}
-        value.value_marks = {k: at(m) for k, m in value.value_marks.items()}
+        # a key's or value's mark is never None, so it keeps its type
+        value.key_marks = {k: shift(m) for k, m in value.key_marks.items()}
+        value.value_marks = {k: shift(m) for k, m in value.value_marks.items()}
         for item in value.values():
             _moved(item, base)
     elif isinstance(value, MarkedList):

@@ -177,17 +177,19 @@ class ExperimentCommand:
         run = None
         manager = getattr(args, "manager", None)
 
-        def part(tree: str, settings: list[str], title: str) -> bool:
-            """Run one part's tree; True when it succeeded (the exit code kept otherwise)."""
+        def part(tree: str, settings: list[str], title: str) -> Rig | None:
+            """Run one part's tree; the rig it ran on when it succeeded (None otherwise, the
+            exit code kept)."""
             nonlocal code, run
             r, run = run_tree(tree, args.rig, args.overrides + settings, args.seed, title, manager)
             code = code or report(r, title)
-            return r.status == "SUCCESS"
+            return run.rig if r.status == "SUCCESS" else None
 
         if "grid" in parts:
             grid = [f"grid={args.grid}", f"height_mm={args.height_mm}", f"slip_mm={args.slip_mm}"]
-            if part("experiment_grid.yaml", grid, "experiment 1: grid"):
-                results["grid"] = grid_tables(_bb("grid_views"), run.rig, out)
+            rig = part("experiment_grid.yaml", grid, "experiment 1: grid")
+            if rig is not None:
+                results["grid"] = grid_tables(_bb("grid_views"), rig, out)
         if "servo" in parts:
             part("experiment_servo.yaml", [f"targets={args.targets}", f"hover_mm={hover}", f"seed={args.seed}",
                  f"tolerance_mm={args.tolerance_mm}", f"aim_mm={args.aim_mm}"], "experiment 2: servoing")  # fmt: skip
@@ -196,10 +198,10 @@ class ExperimentCommand:
                 results["servo"] = servo_table(trials, args.tolerance_mm, out)
                 results["servo"].update(tolerance=args.tolerance_mm, aim=args.aim_mm)
         settings = [f"poses={args.poses}", f"seed={args.seed}"]
-        if "validation" in parts and part(
-            "experiment_validation.yaml", settings, "model validation"
-        ):
-            results["validation"] = validation_table(_bb("validation_views"), run.rig, out)
+        if "validation" in parts:
+            rig = part("experiment_validation.yaml", settings, "model validation")
+            if rig is not None:
+                results["validation"] = validation_table(_bb("validation_views"), rig, out)
         device = getattr(getattr(run, "rig", None), "reference", None)
         results["device"] = getattr(device, "description", "")
         path = write_report(results, out)

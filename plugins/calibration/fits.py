@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.api.rig import Rig
+from armtree.api.rig import Camera, Rig
 from armtree.config.calibration import correction_mapping, update_calibration_file
 from armtree.maths.motion.kinematic_calibration import CalibrationPoints, fit_kinematics
 from armtree.maths.perception.frames import (
@@ -91,6 +91,13 @@ def _reached(poses: list[dict[str, Any]]) -> list[dict[str, Any]]:
 # -------------------------------------------------------------------- hand-eye
 
 
+def _camera(rig: Rig, what: str) -> Camera:
+    """The rig's camera; :class:`Refused` when it has none (``what`` needs one)."""
+    if rig.camera is None:
+        raise Refused(f"{what} needs the rig's camera; this rig has none")
+    return rig.camera
+
+
 def hand_eye(poses: list[dict[str, Any]], rig: Rig, methods: Sequence[str]) -> dict[str, Any]:
     """Durovic 2017's three positions, or every method on N poses; the least residual wins."""
     poses = _reached(poses)
@@ -99,7 +106,8 @@ def hand_eye(poses: list[dict[str, Any]], rig: Rig, methods: Sequence[str]) -> d
                    np.array(p["rvec"]) if p.get("seen") else None)
         for p in poses
     ]  # fmt: skip
-    mount = rig.camera.mount
+    camera = _camera(rig, "a hand-eye calibration")
+    mount = camera.mount
     marker = getattr(_workcell(rig).tool_marker, "offset_mm", (0.0, 0.0, 0.0))
     if len(poses) == 3 and not methods:
         methods = ["three_positions"]
@@ -109,13 +117,15 @@ def hand_eye(poses: list[dict[str, Any]], rig: Rig, methods: Sequence[str]) -> d
         mount,
         methods=list(methods) or None,
         marker_offset=marker,
-        guess=np.asarray(rig.camera.extrinsics, dtype=float),
+        guess=np.asarray(camera.extrinsics, dtype=float),
         marker_z=None if table is None else float(table),
     )
     best = found[0]
+    # solve puts first a fit with a pose (a finite residual), or raises DegenerateData
+    assert best.pose is not None
     frame = "tool" if mount == EYE_IN_HAND else "base"
     pose = np.round(best.pose, 6).tolist()
-    before = np.asarray(rig.camera.extrinsics, dtype=float)
+    before = np.asarray(camera.extrinsics, dtype=float)
     moved = float(np.linalg.norm(best.pose[:3, 3] - before[:3, 3]))
     table_rows = [
         {"method": f.method, "rms_mm": None if f.rms_mm == float("inf") else round(f.rms_mm, 3),
@@ -223,7 +233,7 @@ def correction(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, A
         if len(measured) < 4 or np.ptp(measured[:, 0]) < 1.0 or np.ptp(measured[:, 1]) < 1.0:
             raise Refused(f"{name}: the points do not spread along both x and y")
         before, after = cross_validated(measured, true, folds)
-        entry = {
+        entry: dict[str, Any] = {
             "held_out_before_mm": round(float(np.mean(before)), 3),
             "held_out_after_mm": round(float(np.mean(after)), 3),
         }
@@ -257,7 +267,7 @@ def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Rig) -> dict[s
         raise Refused("no touch measurement of the marker (visit_poses touch:)")
     if len(poses) < 3:
         raise Refused(f"the camera saw the marker from {len(poses)} poses; at least 3 needed")
-    extr = np.asarray(rig.camera.extrinsics, dtype=float)
+    extr = np.asarray(_camera(rig, "the camera offset").extrinsics, dtype=float)
     r_tc = extr[:3, :3]
     p_ca = [np.array(p["tvec"]) for p in poses]
     tools = [np.array(p["tool_pose"]) for p in poses]
@@ -313,7 +323,10 @@ def camera_offset(poses: list[dict[str, Any]], touched: Any, rig: Rig) -> dict[s
 def arm_model_builder(rig: Rig) -> tuple[Any, dict[str, Any], Any]:
     """The arm factory's model builder, its profile keys, and the factory (for its PARAMS)."""
     profile = rig.profile
-    arm = dict(profile.component("arm"))
+    config = profile.component("arm")
+    if config is None:
+        raise Refused("the profile has no arm: there is no kinematic model to calibrate")
+    arm = dict(config)
     component = profile.manager.registry.get("arm", arm["type"])
     make = getattr(component.factory, "model", None)
     if make is None:
@@ -358,7 +371,7 @@ def kinematics(poses: list[dict[str, Any]], rig: Rig, folds: int) -> dict[str, A
     f = fit_kinematics(
         lambda p: make({**arm, **p}), {k: float(arm[k]) for k in free}, points, free=free
     )
-    section = {k: round(f.params[k], 4) for k in free}
+    section: dict[str, Any] = {k: round(f.params[k], 4) for k in free}
     section["joint_offsets_deg"] = [round(float(v), 4) for v in f.joint_offsets_deg]
     b, a = cv["before"], cv["after"]
     return {

@@ -240,6 +240,9 @@ def _simulate(
     measured: list[np.ndarray] = []
     try:
         emulator = _emulator_of(rig)
+        driver = rig.arm
+        if driver is None:
+            raise ConfigError(f"--simulate: profile {args.rig} builds no arm")
         for joint, amount in enumerate(missed):
             if amount:
                 emulator.inject("missed_steps", joint=joint, amount=amount)
@@ -249,14 +252,14 @@ def _simulate(
             while len(joints) < args.simulate and tries < 20 * args.simulate:
                 tries += 1
                 q = _random_pose(nominal, rng)
-                handle = rig.arm.move_joints(q)
+                handle = driver.move_joints(q)
                 for _ in range(4000):
                     if handle.done:
                         break
                     rig.step(clock.advance(0.05))
                 if handle.status.value != "done":
                     continue
-                joints.append(np.asarray(rig.arm.joints(), dtype=float))
+                joints.append(np.asarray(driver.joints(), dtype=float))
                 # The simulated measuring device: ground truth plus noise, measurement only.
                 true_tool = truth.position(np.asarray(emulator.true_joints(), dtype=float))
                 measured.append(true_tool + rng.normal(0.0, args.noise_mm, 3))

@@ -8,6 +8,8 @@ a margin. Positions are the tool centre, mm in the base frame.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from armtree.maths.motion.kinematics import KinematicModel
@@ -70,7 +72,7 @@ def square_grid(
     model: KinematicModel,
     height: float,
     n: int,
-    usable: np.ndarray,
+    usable: Callable[[np.ndarray], np.ndarray],
     centre: np.ndarray | None = None,
 ) -> np.ndarray:
     """An ``n`` x ``n`` square grid at ``height`` (mm) of the largest side that keeps every

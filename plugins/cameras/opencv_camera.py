@@ -18,7 +18,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol, cast
 
 import cv2
 import numpy as np
@@ -206,9 +206,18 @@ def _expected(device: int | str) -> str:
     return "the device or file (no such device, busy, no permission, or not a video)"
 
 
+class _OpenCVFactory(Protocol):
+    """:func:`opencv_factory` with the members the loader reads off it."""
+
+    PARAMS: tuple[Param, ...]
+    simulated: Callable[[dict[str, Any]], bool]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> OpenCVCamera: ...
+
+
 def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:
     """A USB camera (index or path) through cv2.VideoCapture, captured on its own thread."""
-    values, intr, extrinsics, where = camera_config(config, context, opencv_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, _PARAMS)
     device = values["device"]
     if isinstance(device, bool) or not isinstance(device, (int, str)) or device == "":
         raise config_error(
@@ -232,8 +241,12 @@ def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:
     )
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+opencv_factory = cast(_OpenCVFactory, opencv_factory)
 opencv_factory.simulated = lambda config: False  # always a device
-opencv_factory.PARAMS = (
+# a module constant too: in the factory's body mypy still sees the def, without PARAMS
+_PARAMS: tuple[Param, ...] = (
     # a negative index crashed OpenCV's capture thread (a segfault): refused at load
     Param("device", "any", 0, doc="camera index (>= 0) or device path / stream URL", minimum=0),
     Param("width", "int", 640, unit="px", doc="requested image width", minimum=1),
@@ -257,3 +270,4 @@ opencv_factory.PARAMS = (
     ),
     *INTRINSICS_PARAMS,
 )
+opencv_factory.PARAMS = _PARAMS

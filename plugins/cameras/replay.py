@@ -16,7 +16,7 @@ import glob
 from abc import abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, cast
 
 import cv2
 import numpy as np
@@ -34,6 +34,9 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".pp
 
 class ReplayCamera(FrameSourceCamera):
     """Base of the replay cameras: pacing by clock or by call, looping, end of recording."""
+
+    #: Set from a checked positive rate in __init__, never None as a Camera's may be.
+    fps: float
 
     def __init__(
         self, name: str, clock: Any, intrinsics: Any, fps: float, pace: str, loop: bool, **kw: Any
@@ -198,9 +201,25 @@ def _check_fps(fps: Any, where: Any) -> float:
     return float(fps)
 
 
+class _VideoFactory(Protocol):
+    """:func:`video_factory` with the member the loader reads off it."""
+
+    PARAMS: tuple[Param, ...]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> VideoCamera: ...
+
+
+class _ImagesFactory(Protocol):
+    """:func:`images_factory` with the member the loader reads off it."""
+
+    PARAMS: tuple[Param, ...]
+
+    def __call__(self, config: dict[str, Any], context: RigContext) -> ImagesCamera: ...
+
+
 def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
     """Replays a video file as a camera, paced by the run's clock."""
-    values, intr, extrinsics, where = camera_config(config, context, video_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, _VIDEO_PARAMS)
     path = Path(values["path"])
     if not path.is_file():
         raise config_error(where, "camera.path", f"no video file {path}")
@@ -217,16 +236,21 @@ def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
     )
 
 
-video_factory.PARAMS = (
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once PARAMS is set.
+video_factory = cast(_VideoFactory, video_factory)
+# a module constant too: in the factory's body mypy still sees the def, without PARAMS
+_VIDEO_PARAMS: tuple[Param, ...] = (
     Param("path", "str", doc="video file"),
     Param("fps", "float", None, unit="Hz", doc="replay rate; the file's own rate by default"),
     *_REPLAY_PARAMS,
 )
+video_factory.PARAMS = _VIDEO_PARAMS
 
 
 def images_factory(config: dict[str, Any], context: RigContext) -> ImagesCamera:
     """Replays a folder of images (name order) as a camera, paced by the run's clock."""
-    values, intr, extrinsics, where = camera_config(config, context, images_factory.PARAMS)
+    values, intr, extrinsics, where = camera_config(config, context, _IMAGES_PARAMS)
     return ImagesCamera(
         image_paths(values["path"], where),
         context.clock,
@@ -239,8 +263,11 @@ def images_factory(config: dict[str, Any], context: RigContext) -> ImagesCamera:
     )
 
 
-images_factory.PARAMS = (
+# the same as video_factory's cast above
+images_factory = cast(_ImagesFactory, images_factory)
+_IMAGES_PARAMS: tuple[Param, ...] = (
     Param("path", "str", doc="folder of images, or a glob such as frames/*.png"),
     Param("fps", "float", 10.0, unit="Hz", doc="replay rate"),
     *_REPLAY_PARAMS,
 )
+images_factory.PARAMS = _IMAGES_PARAMS

@@ -116,7 +116,8 @@ class SceneSampler:
             "tool": rows[n - 1],
             "suction": bool(getattr(arm.tool, "suction", False)),
         }
-        if camera_pose is not None:
+        # camera_pose is set only with a camera
+        if camera is not None and camera_pose is not None:
             snapshot["camera"] = {
                 "mount": camera.mount,
                 "pose": rows[n + b],

@@ -117,20 +117,21 @@ class PageServer:
         """Bind and serve on a new thread; the URL. Raises :class:`ConfigError` if it cannot bind."""
         ready = threading.Event()
         failure: list[BaseException] = []
-        self.loop = asyncio.new_event_loop()
+        # the thread runs this loop, the one self.loop names from here on (never None)
+        loop = self.loop = asyncio.new_event_loop()
 
         def serve() -> None:
-            asyncio.set_event_loop(self.loop)
+            asyncio.set_event_loop(loop)
             try:
-                self.loop.run_until_complete(self._bind())
+                loop.run_until_complete(self._bind())
             except BaseException as exc:  # noqa: BLE001 - handed to the starting thread
                 failure.append(exc)
                 ready.set()
                 return
             ready.set()
-            self.loop.run_forever()
-            self.loop.run_until_complete(self._shutdown())
-            self.loop.close()
+            loop.run_forever()
+            loop.run_until_complete(self._shutdown())
+            loop.close()
 
         self._thread = threading.Thread(target=serve, name="armtree-monitor", daemon=True)
         self._thread.start()

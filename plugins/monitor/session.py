@@ -69,8 +69,9 @@ class MonitorSession:
             if start is not None:
                 self.recorder.add_record(start)
         if self.active:
-            if getattr(run, "rig", None) is not None:
-                self.taps = RigTaps(run.rig)
+            rig = getattr(run, "rig", None)
+            if rig is not None:
+                self.taps = RigTaps(rig)
             self.scene = SceneSampler(run, self.taps)
             run.log.listeners.append(self.on_record)
             run.control.listeners.append(self.on_state)
@@ -93,7 +94,8 @@ class MonitorSession:
             recorder.add_stats(sample.tick, sample.t, observer.rate.summary(), sample.overruns)
             taps = self.taps
             seen = taps.shown() if taps is not None else None
-            if recorder.wants_image(sample.t, seen):
+            # wants_image is False for None too; the test is written out for mypy
+            if seen is not None and recorder.wants_image(sample.t, seen):
                 recorder.add_image(seen, sample.tick, sample.t)
             if self.scene is not None and recorder.wants_scene(sample.t):
                 recorder.add_scene(self.scene.sample(), sample.t)

@@ -58,7 +58,8 @@ class TreeWatcher:
     def __init__(self, run: Run, report: Any = None) -> None:
         self.run = run
         self.report = report
-        self.source = Path(run.tree.source) if getattr(run.tree, "source", None) else None
+        source = getattr(run.tree, "source", None)
+        self.source = Path(source) if source else None
         self.files = watched_files(run.tree)
         self._stamps = {p: _stamp(p) for p in self.files}
         self._stop = threading.Event()
@@ -102,10 +103,13 @@ class TreeWatcher:
     def _load(self) -> None:
         from armtree.loader.tree_loader import load_tree
 
+        source = self.source
+        if source is None:  # never: start() polls only a tree read from a file
+            return
         settings = self.run.settings
         try:
             tree = load_tree(
-                self.source,
+                source,
                 rig=settings.get("rig"),
                 overrides=settings.get("overrides") or (),
                 manager=self.run.manager,

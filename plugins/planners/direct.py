@@ -7,9 +7,9 @@ move is validated (limits, collisions, singularity margin) before use.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -100,7 +100,8 @@ def planner_checker(
         try:
             checker.check_start(q, what)
         except ConfigError as exc:
-            if not callable(getattr(profile, "error", None)):
+            # profile is None: no error method either, so the ConfigError goes on as it is
+            if profile is None or not callable(getattr(profile, "error", None)):
                 raise
             # Name the key to change: the margin when the pose is clear without it.
             if margin > 0 and not CollisionChecker(model, scene).contacts(q):
@@ -133,6 +134,17 @@ def validate_start(config: Mapping[str, Any], profile: Profile) -> None:
     planner_checker(config, SimpleNamespace(profile=profile), model, Scene.from_profile(profile))
 
 
+class _DirectFactory(Protocol):
+    """:func:`direct_factory` with the members the loader reads off it."""
+
+    PARAMS: tuple[Param, ...]
+    validate: Callable[[Mapping[str, Any], Profile], None]
+
+    def __call__(
+        self, config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
+    ) -> DirectPlanner: ...
+
+
 def direct_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> DirectPlanner:
@@ -142,6 +154,9 @@ def direct_factory(
     return DirectPlanner(checker, float(config.get("resolution_deg", 2.0)), min_sv)
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once the members below are set.
+direct_factory = cast(_DirectFactory, direct_factory)
 direct_factory.validate = validate_start
 
 

@@ -29,6 +29,8 @@ def arm_model(profile: Profile | dict[str, Any], manager: Any = None) -> Any:
 
     manager = manager or getattr(profile, "manager", None) or get_plugin_manager()
     config = profile.component("arm") if hasattr(profile, "component") else profile["arm"]
+    if config is None:
+        raise ConfigError("the profile has no arm to cover", file=profile_source(profile))
     factory = manager.registry.get("arm", config["type"]).factory
     make = getattr(factory, "model", None)
     if make is None:
@@ -137,7 +139,8 @@ def plot_workspace(cov: Covering, scene: Scene, name: str, path: Path) -> None:
             polys = _rects(lo[keep], hi[keep], a, b)
             ax.add_collection(
                 PolyCollection(
-                    polys,
+                    # matplotlib takes an (N, 4, 2) array as N polygons; its stub says Sequence
+                    polys,  # type: ignore[arg-type]
                     facecolors=colour,
                     edgecolors="none",
                     alpha=0.8,
