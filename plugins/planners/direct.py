@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from types import SimpleNamespace
-from typing import Any, Protocol, cast
+from typing import Any, Protocol, TypeVar, cast
 
 import numpy as np
 
@@ -134,15 +134,21 @@ def validate_start(config: Mapping[str, Any], profile: Profile) -> None:
     planner_checker(config, SimpleNamespace(profile=profile), model, Scene.from_profile(profile))
 
 
-class _DirectFactory(Protocol):
-    """:func:`direct_factory` with the members the loader reads off it."""
+PlannerT_co = TypeVar("PlannerT_co", covariant=True)
+
+
+class PlannerFactory(Protocol[PlannerT_co]):
+    """A planner factory, ``factory(config, context, model, scene)``, with the members
+    the loader reads off it: ``PARAMS`` and the load-time ``validate(config, profile)``.
+    A plugin casts its factory function to it once its members are set (mypy types a
+    ``def`` as a plain callable, which has no attributes to set)."""
 
     PARAMS: tuple[Param, ...]
     validate: Callable[[Mapping[str, Any], Profile], None]
 
     def __call__(
         self, config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
-    ) -> DirectPlanner: ...
+    ) -> PlannerT_co: ...
 
 
 def direct_factory(
@@ -156,7 +162,7 @@ def direct_factory(
 
 # mypy types a def as a plain callable, which has no attributes to set: the same function,
 # typed as what it is once the members below are set.
-direct_factory = cast(_DirectFactory, direct_factory)
+direct_factory = cast(PlannerFactory[DirectPlanner], direct_factory)
 direct_factory.validate = validate_start
 
 

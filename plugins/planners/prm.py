@@ -22,7 +22,7 @@ import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import platformdirs
@@ -30,13 +30,17 @@ import platformdirs
 from armtree.api.rig import Planner
 from armtree.config.params import Param
 from armtree.errors import ConfigError, PlanningError
-from armtree.loader.profile import Profile
 from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.kinematics import KinematicModel
 from armtree.maths.motion.start_contact import StartContactRecovery
 from armtree.maths.motion.validation import check_config
 from armtree.maths.motion.workspace import ArmWorkspace
-from armtree.plugins.planners.direct import CHECK_PARAMS, planner_checker, validate_start
+from armtree.plugins.planners.direct import (
+    CHECK_PARAMS,
+    PlannerFactory,
+    planner_checker,
+    validate_start,
+)
 
 if TYPE_CHECKING:  # networkx and scipy load when a roadmap is built, not with the plugin
     import networkx as nx
@@ -420,17 +424,6 @@ def default_cache_dir() -> Path:
     return platformdirs.user_cache_path("armtree") / "prm"
 
 
-class _PRMFactory(Protocol):
-    """:func:`prm_factory` with the members the loader reads off it."""
-
-    PARAMS: tuple[Param, ...]
-    validate: Callable[[Mapping[str, Any], Profile], None]
-
-    def __call__(
-        self, config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
-    ) -> PRMPlanner: ...
-
-
 def prm_factory(
     config: Mapping[str, Any], context: Any, model: KinematicModel, scene: Any
 ) -> PRMPlanner:
@@ -453,7 +446,7 @@ def prm_factory(
 
 # mypy types a def as a plain callable, which has no attributes to set: the same function,
 # typed as what it is once the members below are set.
-prm_factory = cast(_PRMFactory, prm_factory)
+prm_factory = cast(PlannerFactory[PRMPlanner], prm_factory)
 prm_factory.validate = validate_start
 prm_factory.PARAMS = (
     Param(

@@ -273,9 +273,12 @@ class HammingTracker(Tracker):
         reading = levels @ _READING_OP
         contrasted = reading[:, -1] >= self.min_contrast
         # under CELLS_MIN_SIDE_PX a side, cells are too small to call one by one
-        sides = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).min(axis=1)
-        cells_read = reading.copy() if (sides < CELLS_MIN_SIDE_PX).any() else reading
-        cells_read[sides < CELLS_MIN_SIDE_PX, -1] = -np.inf
+        shortest = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).min(axis=1)
+        small = shortest < CELLS_MIN_SIDE_PX
+        cells_read = reading
+        if small.any():
+            cells_read = reading.copy()
+            cells_read[small, -1] = -np.inf  # below min_contrast: read_markers skips it
         rows, turns, ids, corrected, ties, unread = read_markers(
             cells_read,
             _BORDER_CELLS,

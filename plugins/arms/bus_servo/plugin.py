@@ -21,6 +21,7 @@ from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.scene import Scene
 from armtree.maths.motion.urdf import UrdfModel
 from armtree.plugins.arms.common import driver_port, on_emulator
+from armtree.plugins.arms.common.factory import ArmFactory
 from armtree.plugins.arms.common.pty_emulator import FAULTS
 
 from .calibrate import calibrate_servos
@@ -132,20 +133,13 @@ def emulator_for(
     )
 
 
-class _BusServoFactory(Protocol):
-    """A bus-servo factory (:func:`_factory`) with the members the loader and the tools
-    read off it."""
+class _BusServoFactory(ArmFactory[UrdfModel, BusServoEmulator, BusServoDriver], Protocol):
+    """A bus-servo factory's members (:func:`_factory`), and its spec, servo
+    calibration and the faults its emulator can play."""
 
-    PARAMS: tuple[Param, ...]
-    model: Callable[[dict[str, Any]], UrdfModel]
     spec: Callable[[dict[str, Any]], ArmSpec]
-    simulated: Callable[[dict[str, Any]], bool]
-    emulator: Callable[..., BusServoEmulator]  # (config, clock, seed=0)
     calibrate_servos: Callable[..., dict[str, dict[str, int]]]  # (config, profile, **io)
-    grips_with: Callable[[dict[str, Any]], str | None]
     faults: tuple[str, ...]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> BusServoDriver: ...
 
 
 def _factory(preset: str | None) -> _BusServoFactory:

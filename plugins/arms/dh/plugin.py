@@ -16,6 +16,7 @@ from armtree.loader.profile import Profile
 from armtree.maths.motion.collision import CollisionChecker
 from armtree.maths.motion.scene import Scene
 from armtree.plugins.arms.common import driver_port, on_emulator
+from armtree.plugins.arms.common.factory import ArmFactory
 
 from .driver import TRAJECTORY_KINDS, SSC32Driver
 from .emulator import SSC32Emulator
@@ -100,17 +101,10 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> SSC32Emula
     )
 
 
-class _DHFactory(Protocol):
-    """:func:`dh_factory` with the members the loader and the tools read off it."""
+class _DHFactory(ArmFactory[DHModel, SSC32Emulator, SSC32Driver], Protocol):
+    """:func:`dh_factory`'s members, and the load-time check of its chain."""
 
-    PARAMS: tuple[Param, ...]
     validate: Callable[[dict[str, Any], Profile], None]
-    model: Callable[[dict[str, Any]], DHModel]
-    simulated: Callable[[dict[str, Any]], bool]
-    emulator: Callable[..., SSC32Emulator]  # (config, clock, seed=0)
-    grips_with: Callable[[dict[str, Any]], str | None]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> SSC32Driver: ...
 
 
 def dh_factory(config: dict[str, Any], context: RigContext) -> SSC32Driver:

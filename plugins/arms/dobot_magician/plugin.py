@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, Protocol, cast
+from typing import Any, cast
 
 import armtree
 from armtree.api.clock import Clock
@@ -11,6 +10,7 @@ from armtree.api.rig import RigContext
 from armtree.config.params import Param
 from armtree.errors import ConfigError
 from armtree.plugins.arms.common import driver_port, on_emulator
+from armtree.plugins.arms.common.factory import ArmFactory
 
 from .driver import MagicianDriver
 from .emulator import MagicianEmulator
@@ -45,16 +45,7 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MagicianEm
     return MagicianEmulator(_model(config), clock, seed=seed)
 
 
-class _MagicianFactory(Protocol):
-    """:func:`magician_factory` with the members the loader and the tools read off it."""
-
-    PARAMS: tuple[Param, ...]
-    model: Callable[[dict[str, Any]], MagicianModel]
-    simulated: Callable[[dict[str, Any]], bool]
-    emulator: Callable[..., MagicianEmulator]  # (config, clock, seed=0)
-    grips_with: Callable[[dict[str, Any]], str]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> MagicianDriver: ...
+_MagicianFactory = ArmFactory[MagicianModel, MagicianEmulator, MagicianDriver]
 
 
 def magician_factory(config: dict[str, Any], context: RigContext) -> MagicianDriver:

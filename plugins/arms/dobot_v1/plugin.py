@@ -8,8 +8,7 @@ a pseudo-terminal and drives it through the same pyserial driver.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, Protocol, cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from armtree.api.clock import Clock
 from armtree.api.rig import ArmDriver, RigContext
 from armtree.config.params import Param
 from armtree.errors import ConfigError
+from armtree.plugins.arms.common.factory import ArmFactory
 
 from ..common import PtyEmulator, driver_port, on_emulator
 from .driver import DobotV1Driver
@@ -76,16 +76,7 @@ def dobot_v1_emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> Pt
     )
 
 
-class _DobotV1Factory(Protocol):
-    """:func:`dobot_v1_factory` with the members the loader and the tools read off it."""
-
-    PARAMS: tuple[Param, ...]
-    model: Callable[[dict[str, Any]], DobotV1Model]
-    simulated: Callable[[dict[str, Any]], bool]
-    emulator: Callable[..., PtyEmulator]  # (config, clock, seed=0)
-    grips_with: Callable[[dict[str, Any]], str]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> ArmDriver: ...
+_DobotV1Factory = ArmFactory[DobotV1Model, PtyEmulator, ArmDriver]
 
 
 def dobot_v1_factory(config: dict[str, Any], context: RigContext) -> ArmDriver:

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, Protocol, cast
+from typing import Any, cast
 
 import armtree
 from armtree.api.clock import Clock
@@ -11,6 +10,7 @@ from armtree.api.rig import RigContext
 from armtree.config.params import Param
 from armtree.errors import ConfigError
 from armtree.plugins.arms.common import driver_port, on_emulator
+from armtree.plugins.arms.common.factory import ArmFactory
 
 from .driver import VicraDriver
 from .emulator import MarlinEmulator
@@ -31,16 +31,7 @@ def _emulator(config: dict[str, Any], clock: Clock, seed: int = 0) -> MarlinEmul
     return MarlinEmulator(_model(config), clock, seed=seed)
 
 
-class _VicraFactory(Protocol):
-    """:func:`vicra_factory` with the members the loader and the tools read off it."""
-
-    PARAMS: tuple[Param, ...]
-    model: Callable[[dict[str, Any]], VicraModel]
-    simulated: Callable[[dict[str, Any]], bool]
-    emulator: Callable[..., MarlinEmulator]  # (config, clock, seed=0)
-    grips_with: Callable[[dict[str, Any]], str]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> VicraDriver: ...
+_VicraFactory = ArmFactory[VicraModel, MarlinEmulator, VicraDriver]
 
 
 def vicra_factory(config: dict[str, Any], context: RigContext) -> VicraDriver:
