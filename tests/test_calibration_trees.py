@@ -118,3 +118,18 @@ def test_calibrate_needs_a_rig_or_offline_input(tmp_path):
         calibrate("correction")
     with pytest.raises(armtree.ConfigError, match="hand-eye: give --rig PROFILE"):
         calibrate("hand-eye")
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["calibrate_camera_offset", "calibrate_correction", "calibrate_hand_eye", "calibrate_kinematics"],
+)
+def test_py_trees_visitors_see_every_node_of_a_calibration_tree(name):
+    import py_trees
+
+    tree = armtree.load_tree(name)
+    visitor = py_trees.visitors.SnapshotVisitor()
+    visitor.initialise()
+    for node in tree.root.iterate():
+        node.visit(visitor)  # as BehaviourTree.tick does for each visitor
+    assert set(visitor.visited) == {node.id for node in tree.root.iterate()}

@@ -312,13 +312,15 @@ class Frame:
 
     ``image`` is ``HxWx3`` BGR or ``HxW`` grey uint8; ``camera_matrix`` is 3x3 in
     pixels; ``distortion`` holds OpenCV's (k1, k2, p1, p2, k3); ``timestamp`` is
-    seconds on the run's clock.
+    seconds on the run's clock. An image of an uncalibrated camera (``armtree
+    detect`` on a file without ``--intrinsics``) has neither: trackers find markers
+    in it but measure no pose.
     """
 
     image: np.ndarray
     timestamp: float
-    camera_matrix: np.ndarray
-    distortion: np.ndarray
+    camera_matrix: np.ndarray | None
+    distortion: np.ndarray | None
     index: int = 0
 
 

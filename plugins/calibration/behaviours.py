@@ -408,7 +408,7 @@ class VisitPoses(ArmSkill):
         """The progress output: ``done`` of ``total``, doing ``what``."""
         self.output("progress", {"done": done, "total": total, "what": what})
 
-    def visit(
+    def visit_pose(
         self, k: int, pose: np.ndarray, role: str, total: int, what: str = "", done: int = -1
     ) -> Procedure:
         """Move to pose ``k`` (``pose``, of ``total``) and look for ``role``: the pose's record.

@@ -92,7 +92,7 @@ class SlipWatch:
         ``redone`` (without them when ``slip_mm`` is 0)."""
         self.mode = "joints"
         skill, rig = self.skill, self.skill.rig
-        record = yield from skill.visit(k, pose, self.role, total)
+        record = yield from skill.visit_pose(k, pose, self.role, total)
         if not self.slip:
             return record
         self.checks += 1
@@ -110,7 +110,7 @@ class SlipWatch:
                                  "is off (calibrate hand-eye first, or set slip_mm 0)")  # fmt: skip
             redone, last = redone + 1, off
             yield from self._home(f"pose {k + 1}: camera and joints disagree by {far:.2f} mm")
-            record = yield from skill.visit(k, pose, self.role, total)
+            record = yield from skill.visit_pose(k, pose, self.role, total)
             self.checks += 1
         self.redone += redone
         record["disagreement_mm"] = round(float(np.linalg.norm(offset(record, rig))), 4)
@@ -135,7 +135,7 @@ class SlipWatch:
             run = range(start, min(start + every, len(poses)))
             records = []
             for k in run:
-                records.append((yield from self.skill.visit(k, poses[k], self.role, len(poses))))
+                records.append((yield from self.skill.visit_pose(k, poses[k], self.role, len(poses))))
             now = yield from self._look(check, len(poses))
             self.checks += 1
             if moved(now, reference) <= self.slip:
@@ -167,7 +167,7 @@ class SlipWatch:
 
     def _look(self, pose: np.ndarray, total: int) -> Procedure:
         """Visit the pose looked at again (the reference) and look: its record, the marker seen."""
-        record = yield from self.skill.visit(
+        record = yield from self.skill.visit_pose(
             self.check_index, pose, self.role, total, "look for missed steps", self.done
         )
         if not record.get("seen"):

@@ -23,6 +23,7 @@ from typing import Any, Protocol, cast
 import cv2
 import numpy as np
 
+from armtree.api.component_factory import ComponentFactory
 from armtree.api.imaging import INTRINSICS_PARAMS, IntrinsicsBySize
 from armtree.api.rig import Frame, RigContext
 from armtree.config.component_config import config_error
@@ -206,13 +207,10 @@ def _expected(device: int | str) -> str:
     return "the device or file (no such device, busy, no permission, or not a video)"
 
 
-class _OpenCVFactory(Protocol):
-    """:func:`opencv_factory` with the members the loader reads off it."""
+class _OpenCVFactory(ComponentFactory[OpenCVCamera], Protocol):
+    """:func:`opencv_factory` with its members: ``simulated(config)`` is always False."""
 
-    PARAMS: tuple[Param, ...]
     simulated: Callable[[dict[str, Any]], bool]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> OpenCVCamera: ...
 
 
 def opencv_factory(config: dict[str, Any], context: RigContext) -> OpenCVCamera:

@@ -16,11 +16,12 @@ import glob
 from abc import abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Any, cast
 
 import cv2
 import numpy as np
 
+from armtree.api.component_factory import ComponentFactory
 from armtree.api.imaging import INTRINSICS_PARAMS, video_fps
 from armtree.api.rig import Frame, RigContext
 from armtree.config.component_config import config_error
@@ -201,22 +202,6 @@ def _check_fps(fps: Any, where: Any) -> float:
     return float(fps)
 
 
-class _VideoFactory(Protocol):
-    """:func:`video_factory` with the member the loader reads off it."""
-
-    PARAMS: tuple[Param, ...]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> VideoCamera: ...
-
-
-class _ImagesFactory(Protocol):
-    """:func:`images_factory` with the member the loader reads off it."""
-
-    PARAMS: tuple[Param, ...]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> ImagesCamera: ...
-
-
 def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
     """Replays a video file as a camera, paced by the run's clock."""
     values, intr, extrinsics, where = camera_config(config, context, _VIDEO_PARAMS)
@@ -238,7 +223,7 @@ def video_factory(config: dict[str, Any], context: RigContext) -> VideoCamera:
 
 # mypy types a def as a plain callable, which has no attributes to set: the same function,
 # typed as what it is once PARAMS is set.
-video_factory = cast(_VideoFactory, video_factory)
+video_factory = cast(ComponentFactory[VideoCamera], video_factory)
 # a module constant too: in the factory's body mypy still sees the def, without PARAMS
 _VIDEO_PARAMS: tuple[Param, ...] = (
     Param("path", "str", doc="video file"),
@@ -264,7 +249,7 @@ def images_factory(config: dict[str, Any], context: RigContext) -> ImagesCamera:
 
 
 # the same as video_factory's cast above
-images_factory = cast(_ImagesFactory, images_factory)
+images_factory = cast(ComponentFactory[ImagesCamera], images_factory)
 _IMAGES_PARAMS: tuple[Param, ...] = (
     Param("path", "str", doc="folder of images, or a glob such as frames/*.png"),
     Param("fps", "float", 10.0, unit="Hz", doc="replay rate"),

@@ -142,9 +142,9 @@ class SceneSampler:
         """Where the image corners' rays meet the table top (x, y mm), if they do."""
         seen = self.taps.seen if self.taps is not None else None
         table = next((o for o in objects if o.kind == "table"), None)
-        if seen is None or table is None:
+        k = None if seen is None else seen.frame.camera_matrix
+        if seen is None or table is None or k is None:
             return []
-        k = seen.frame.camera_matrix
         h, w = seen.frame.image.shape[:2]
         px = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
         rays = np.column_stack(

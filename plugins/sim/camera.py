@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 
+from armtree.api.component_factory import CheckedFactory
 from armtree.api.rig import Camera, Frame, RigContext, frame_index
 from armtree.config.params import Param
 from armtree.errors import ConfigError
@@ -51,6 +52,9 @@ def camera_extrinsics(config: dict[str, Any]) -> np.ndarray:
 
 class SimCamera(Camera):
     """A camera that renders the simulated world; deterministic for the run's seed."""
+
+    #: Frames a second on the run's clock: always known, the frames are rendered at it.
+    fps: float
 
     def __init__(self, config: dict[str, Any], context: RigContext) -> None:
         self.config = dict(config)
@@ -220,6 +224,15 @@ def sim_camera(config: dict[str, Any], context: RigContext) -> SimCamera:
     return SimCamera(config, context)
 
 
+class _SimCameraFactory(CheckedFactory[SimCamera], Protocol):
+    """:func:`sim_camera` with its members: ``simulated(config)`` is always True."""
+
+    simulated: Callable[[dict[str, Any]], bool]
+
+
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once its members are set.
+sim_camera = cast(_SimCameraFactory, sim_camera)
 sim_camera.validate = _validate
 sim_camera.simulated = lambda config: True  # it renders the world: no device behind it
 sim_camera.PARAMS = (

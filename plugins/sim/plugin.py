@@ -231,9 +231,10 @@ def armtree_run_started(run: Run) -> None:
     directory = getattr(run, "record_dir", None)
     if not run.record_requested or directory is None:
         return
-    planner = getattr(getattr(run, "rig", None), "planner", None)
-    stepper._recorder = Recorder(directory, stepper._world, stepper._camera, planner)
-    run.rig.closers.append(stepper._recorder.close)
+    rig = run.rig
+    assert rig is not None  # the world stepper is one of the rig's
+    stepper._recorder = Recorder(directory, stepper._world, stepper._camera, rig.planner)
+    rig.closers.append(stepper._recorder.close)
 
 
 @armtree.hookimpl
@@ -260,6 +261,7 @@ def armtree_ground_truth(run: Run) -> Any:
     stepper = world_stepper(run)
     if stepper is None:
         return None
+    assert run.rig is not None  # the world stepper is one of the rig's
     stepper._world.settle()
     return world_truth(stepper._world, run.rig.profile)
 

@@ -44,11 +44,11 @@ def write_score(score: dict[str, Any], path: Path) -> None:
 
 def open_video(path: Path, fps: float, size: tuple[int, int]) -> tuple[Any, Path]:
     """A cv2.VideoWriter for ``path`` (MP4), falling back to MJPG AVI; returns it and its path."""
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), fps, size)
     if writer.isOpened():
         return writer, path
     avi = path.with_suffix(".avi")
-    writer = cv2.VideoWriter(str(avi), cv2.VideoWriter_fourcc(*"MJPG"), fps, size)
+    writer = cv2.VideoWriter(str(avi), cv2.VideoWriter.fourcc(*"MJPG"), fps, size)
     if not writer.isOpened():
         raise OSError(f"OpenCV cannot write a video to {path} or {avi}")
     return writer, avi

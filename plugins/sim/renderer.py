@@ -345,15 +345,16 @@ class Renderer:
         # What a drawable paints depends only on it and the camera pose: one that has not
         # moved since the last frame, under a camera that has not moved, paints it again.
         known, self._strokes = self._strokes, {}
-        visible = []
+        visible: list[tuple[Drawable, _Strokes]] = []
         for d in drawables:
             key = _drawable_key(d)
             if key not in self._strokes:
                 self._strokes[key] = (
                     known[key] if key in known else self._strokes_of(d, r_cw, t_cw, cam_pos)
                 )
-            if self._strokes[key] is not None:
-                visible.append((d, self._strokes[key]))
+            strokes = self._strokes[key]
+            if strokes is not None:
+                visible.append((d, strokes))
         for _, seen in self._order(visible):
             seen.paint(img)
         return img
@@ -391,8 +392,8 @@ class Renderer:
         valid = w > 1e-9
         # Rays that never meet the table in front of the camera see the floor colour.
         safe = np.where(valid, w, 1.0)
-        mx = np.where(valid, hom[..., 0] / safe, -10.0).astype(np.float32)
-        my = np.where(valid, hom[..., 1] / safe, -10.0).astype(np.float32)
+        mx: np.ndarray = np.where(valid, hom[..., 0] / safe, -10.0).astype(np.float32)
+        my: np.ndarray = np.where(valid, hom[..., 1] / safe, -10.0).astype(np.float32)
         # The table is smooth: remapping it at a quarter of the resolution and scaling
         # up costs a sixteenth.
         quarter = ((cam.width + 3) // 4, (cam.height + 3) // 4)
@@ -510,6 +511,7 @@ class Renderer:
             ):
                 uv = self._fill(strokes, pts, r_cw, t_cw, color)
             else:
+                assert fixed_all is not None  # made with uv_all
                 strokes.polygon(fixed_all[face], color)
             if uv is not None:
                 bbox.append(uv)
@@ -599,7 +601,7 @@ class Renderer:
         centres = ground.mean(axis=1)
         radii = np.max(np.linalg.norm(ground - centres[:, None], axis=2), axis=1)
         cc = np.column_stack([centres, np.full(len(centres), h)]) @ r_cw.T + t_cw
-        polys = []
+        polys: list[tuple[np.ndarray, np.ndarray]] = []
         # An outline depends only on these numbers and the camera pose: reuse last frame's.
         known, self._shadow_outlines = self._shadow_outlines, {}
         for g, c, r in zip(ground, cc, radii, strict=True):
@@ -608,8 +610,9 @@ class Renderer:
                 self._shadow_outlines[key] = (
                     known[key] if key in known else self._shadow_outline(g, c, float(r), r_cw, t_cw)
                 )
-            if self._shadow_outlines[key] is not None:
-                polys.append(self._shadow_outlines[key])
+            outline = self._shadow_outlines[key]
+            if outline is not None:
+                polys.append(outline)
         if not polys:
             return
         ih, iw = img.shape[:2]
@@ -624,6 +627,7 @@ class Renderer:
         offset = (-int(x0) * _SCALE, -int(y0) * _SCALE)
         cv2.fillPoly(mask, [fixed for _, fixed in polys], 255, cv2.LINE_8, _SHIFT, offset)
         if self._bg_shaded is None:
+            assert self._bg is not None  # the table was drawn before its shadows
             # The lamp's direct light is blocked: what is left is the ambient share (plus some
             # bounce). Shadows fall on the bare table, so it is darkened once per camera pose.
             alpha = min(1.0, self.light.ambient + 0.1)
@@ -772,7 +776,11 @@ def _noise_bank(
         # uint8 from the integers: clip(round(+-n), 0, 255) with one pass over the floats.
         rounded = cv2.add(n, 0.0, dtype=cv2.CV_16S)
         bank.append(
-            (cv2.add(rounded, 0, dtype=cv2.CV_8U), cv2.subtract(0, rounded, dtype=cv2.CV_8U))
+            (
+                cv2.add(rounded, 0, dtype=cv2.CV_8U),
+                # OpenCV takes a scalar for either operand; the stubs allow only arrays
+                cv2.subtract(0, rounded, dtype=cv2.CV_8U),  # type: ignore[call-overload]
+            )
         )
     return bank
 

@@ -48,7 +48,7 @@ def scene_objects(world: World) -> list[SceneObject]:
                     body.name,
                     body.kind,
                     body.center_pose().copy(),
-                    tuple(float(v) for v in body.size),
+                    (float(body.size[0]), float(body.size[1]), float(body.size[2])),
                     (r / 255.0, g / 255.0, b / 255.0),
                     body.held,
                     None if body.marker is None else int(body.marker.id),

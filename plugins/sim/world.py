@@ -16,6 +16,7 @@ Millimetres and the robot base frame (z up); times are seconds on the run's cloc
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from collections.abc import Callable
@@ -74,7 +75,7 @@ class World:
                 bot.route.legs,
                 bot.params,
                 np.random.default_rng(bot_rng.integers(2**63)),
-                loaded=lambda name=name: bool(self.carried_by(name, kinds=("ducky",))),
+                loaded=functools.partial(self._carries_a_ducky, name),
                 loop=bot.route.loop,
             )
         self.emulator: Any = None
@@ -214,6 +215,10 @@ class World:
                 self.gravity.fall(SETTLE_STEP_S, self.time + waited)
 
     # -- queries --------------------------------------------------------------------
+
+    def _carries_a_ducky(self, name: str) -> bool:
+        """Whether a ducky rides on the body ``name`` (a Duckybot's load)."""
+        return bool(self.carried_by(name, kinds=("ducky",)))
 
     def carried_by(self, name: str, kinds: tuple[str, ...] | None = None) -> list[Body]:
         """Bodies resting on ``name``, directly or on top of each other."""

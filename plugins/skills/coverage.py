@@ -13,12 +13,11 @@ its objects may lie in before anything runs. mm and degrees.
 from __future__ import annotations
 
 import math
-import types
 from typing import Any
 
 import numpy as np
 
-from armtree.api.skill.arm import camera_over
+from armtree.api.skill.arm import tool_under_camera
 from armtree.api.skill.survey import survey_points
 from armtree.config.workcell import workcell_of
 from armtree.maths.perception.frames import EYE_IN_HAND, camera_in_base
@@ -42,13 +41,14 @@ def scan_cameras(rig: Any, sweeps: int = 2, start: np.ndarray | None = None) -> 
     model = rig.arm.model
     here = model.position(model.home) if start is None else np.asarray(start, dtype=float)
     q = np.asarray(model.home, dtype=float)
-    # camera_over asks its caller for the rig, the clearance and where the joints are
-    stub = types.SimpleNamespace(rig=_AtJoints(rig, q), clearance=lambda: cell.clearance_z_mm)
+    survey = cell.need("survey", "a scan of the camera's view")
+    table_z = float(cell.need("table_z_mm", "a scan of the camera's view"))
     poses = []
-    for point in survey_points(cell.survey, float(cell.table_z_mm), here, sweeps):
-        tool = camera_over(stub, point, float(cell.look_height_mm))
+    for point in survey_points(survey, table_z, here, sweeps):
+        tool = tool_under_camera(
+            model, camera, q, cell.clearance_z_mm, point, float(cell.look_height_mm)
+        )
         q = model.ik(tool, near=q)
-        stub.rig.q = q
         poses.append(camera_in_base(camera.mount, camera.extrinsics, model.fk(q)))
     return poses
 
@@ -98,19 +98,6 @@ def unseen(
     for camera in scan_cameras(rig, sweeps, start):
         seen |= seen_whole(camera, camera_matrix, image_size, points, half)
     return points[~seen]
-
-
-class _AtJoints:
-    """A rig whose arm reports joints ``q`` (what camera_over starts its search from)."""
-
-    def __init__(self, rig: Any, q: np.ndarray) -> None:
-        self._rig = rig
-        self.q = q
-        self.arm = types.SimpleNamespace(model=rig.arm.model, joints=lambda: self.q)
-        self.camera = rig.camera
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._rig, name)
 
 
 __all__ = ["EDGE_PX", "scan_cameras", "seen_whole", "unseen"]

@@ -173,7 +173,9 @@ def locate(
             break
         if in_hand and hint is not None and looks == 1:
             view = eye_of(rig).last
-            tries = around(hint, radius, None if view is None else view.footprint(float(hint[2])))
+            tries = [
+                *around(hint, radius, None if view is None else view.footprint(float(hint[2])))
+            ]
     if seen is None or not refine:
         return Found(seen, looks, tally)
     # measure again from over the tag itself (nearer the image centre, less distortion),

@@ -125,7 +125,7 @@ class Sweep(ArmSkill):
     place (module docstring).
     """
 
-    PARAMS = (
+    PARAMS: tuple[Param, ...] = (
         Param(
             "tag", "str", "", "", "tag role to look for (empty: cover the region)", kind="tag_role"
         ),
@@ -164,9 +164,9 @@ class Sweep(ArmSkill):
         """The table points of the whole sweep, from where the tool is now."""
         cell = self.workcell
         here = self.rig.arm.pose()[:3, 3]
-        self._points = survey_points(
-            cell.survey, float(cell.table_z_mm), here, int(self.param("sweeps"))
-        )
+        survey = cell.need("survey", self.name)
+        table_z = float(cell.need("table_z_mm", self.name))
+        self._points = survey_points(survey, table_z, here, int(self.param("sweeps")))
         self._next = 0
         self._looked = 0
 

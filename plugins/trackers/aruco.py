@@ -21,11 +21,12 @@ at three to four pixels a cell its decoder misses some markers in every frame.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import cv2
 import numpy as np
 
+from armtree.api.component_factory import CheckedFactory
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config, config_error
 from armtree.config.params import Param
@@ -193,6 +194,11 @@ class ArucoTracker(Tracker):
             self._unread = int(self._reader.marker_like(grey, quads).sum())
         return self._unread or 0
 
+    @unread.setter
+    def unread(self, count: int) -> None:
+        """Tracker's own attribute, settable as there; the next detect() counts afresh."""
+        self._unread = count
+
     def _size_for(self, shape: tuple[int, ...]) -> None:
         """Set the detector's perimeter limit from ``min_side_px`` for frames of ``shape``."""
         if self.min_side_px is None or shape[:2] == self._sized_for:
@@ -226,7 +232,7 @@ class ArucoTracker(Tracker):
         found_in = gray if self.preprocessing.identity else self.preprocessing.apply(gray)
         self._size_for(found_in.shape)
         corners, ids, rejected = self.detector.detectMarkers(found_in)
-        quads = np.asarray(corners, dtype=np.float32).reshape(-1, 4, 2)
+        quads: np.ndarray = np.asarray(corners, dtype=np.float32).reshape(-1, 4, 2)
         ids = np.zeros(0, dtype=int) if ids is None else ids.reshape(-1)
         if self._rescue is not None and rejected is not None and len(rejected):
             more, more_ids = self._rescue(
@@ -279,18 +285,22 @@ def _tracker(values: dict[str, Any], dictionary: str, where: Any, family: str) -
 
 def aruco_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     """OpenCV ArUco markers of a predefined dictionary (4x4_50 by default), sub-pixel corners."""
-    values = check_config(config, aruco_factory.PARAMS, "tracker", context.profile)
+    values = check_config(config, _ARUCO_PARAMS, "tracker", context.profile)
     return _tracker(values, values["dictionary"], context.profile, FAMILY)
 
 
 def _validate(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks (``armtree check``): build the tracker and let OpenCV run it once."""
-    values = check_config(config, aruco_factory.PARAMS, "tracker", profile)
+    values = check_config(config, _ARUCO_PARAMS, "tracker", profile)
     probe(_tracker(values, values["dictionary"], profile, FAMILY), profile, "tracker.detector")
 
 
+# mypy types a def as a plain callable, which has no attributes to set: the same function,
+# typed as what it is once its members are set.
+aruco_factory = cast(CheckedFactory[ArucoTracker], aruco_factory)
 aruco_factory.validate = _validate
-aruco_factory.PARAMS = (
+# a module constant too: in the factory's body mypy still sees the def, without PARAMS
+_ARUCO_PARAMS: tuple[Param, ...] = (
     Param(
         "dictionary", "str", DEFAULT_DICTIONARY, doc="4x4_50, 5x5_100, 6x6_250, apriltag_36h11, ..."
     ),
@@ -329,18 +339,19 @@ aruco_factory.PARAMS = (
         doc="read small candidates OpenCV rejected again on edge-refined corners (edges only)",
     ),
 )
+aruco_factory.PARAMS = _ARUCO_PARAMS
 
 
 def apriltag_factory(config: dict[str, Any], context: RigContext) -> ArucoTracker:
     """AprilTag markers (36h11 by default): the aruco tracker with OpenCV's AprilTag dictionary."""
-    values = check_config(config, apriltag_factory.PARAMS, "tracker", context.profile)
+    values = check_config(config, _APRILTAG_PARAMS, "tracker", context.profile)
     dictionary = _apriltag_dictionary(values["family"])
     return _tracker(values, dictionary, context.profile, APRILTAG)
 
 
 def _validate_apriltag(config: dict[str, Any], profile: Profile) -> None:
     """Load-time checks, as the aruco tracker's."""
-    values = check_config(config, apriltag_factory.PARAMS, "tracker", profile)
+    values = check_config(config, _APRILTAG_PARAMS, "tracker", profile)
     tracker = _tracker(values, _apriltag_dictionary(values["family"]), profile, APRILTAG)
     probe(tracker, profile, "tracker.detector")
 
@@ -349,8 +360,9 @@ def _apriltag_dictionary(family: str) -> str:
     return f"apriltag_{family}"
 
 
+apriltag_factory = cast(CheckedFactory[ArucoTracker], apriltag_factory)
 apriltag_factory.validate = _validate_apriltag
-apriltag_factory.PARAMS = (
+_APRILTAG_PARAMS: tuple[Param, ...] = (
     Param(
         "family",
         "str",
@@ -358,5 +370,6 @@ apriltag_factory.PARAMS = (
         doc="AprilTag family (OpenCV carries 16h5, 25h9, 36h10, 36h11)",
         choices=APRILTAG_FAMILIES,
     ),
-    *(p for p in aruco_factory.PARAMS if p.name != "dictionary"),
+    *(p for p in _ARUCO_PARAMS if p.name != "dictionary"),
 )
+apriltag_factory.PARAMS = _APRILTAG_PARAMS

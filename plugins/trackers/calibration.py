@@ -62,6 +62,7 @@ class Board:
 
     def charuco(self) -> cv2.aruco.CharucoBoard:
         """OpenCV's ChArUco board for this target."""
+        assert self.marker_mm is not None, "a ChArUco board's marker size is checked when made"
         return cv2.aruco.CharucoBoard(
             (self.cols, self.rows),
             self.square_mm,
@@ -131,7 +132,8 @@ def find_board(gray: np.ndarray, board: Board) -> tuple[np.ndarray, np.ndarray] 
     corners, ids, _, _ = detector.detectBoard(gray)
     if ids is None or len(ids) < 6:
         return None
-    obj, img = board.charuco().matchImagePoints(corners, ids)
+    # the stubs type the corners as ArUco's, one array per marker; a ChArUco board's are one array
+    obj, img = board.charuco().matchImagePoints(corners, ids)  # type: ignore[call-overload]
     return img.reshape(-1, 2).astype(np.float32), obj.reshape(-1, 3).astype(np.float32)
 
 
@@ -203,11 +205,13 @@ def plot_calibration(result: CalibrationResult, path: str | Path) -> None:
         ms=6,
         label="found",
     )
+    assert first.projected is not None  # calibrate() reprojects every view it returns
     ax_img.plot(first.projected[:, 0], first.projected[:, 1], "r+", ms=6, label="reprojected")
     ax_img.set_title(f"{first.name}: corners")
     ax_img.legend(loc="lower right", fontsize=8)
     ax_img.set_axis_off()
     for view in result.views:
+        assert view.projected is not None
         d = view.projected - view.image_points
         ax_res.plot(d[:, 0], d[:, 1], ".", ms=3, alpha=0.7)
     ax_res.axhline(0, color="grey", lw=0.5)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from armtree.api.rig import Camera
 from armtree.config.params import Param
+from armtree.maths.motion.kinematics import KinematicModel
 from armtree.maths.perception.frames import EYE_IN_HAND, tool_for_camera_over
 
 from .actions import SkillFailure, fmt
@@ -70,12 +72,30 @@ def camera_over(
     Raises :class:`SkillFailure` when nothing near is reachable.
     """
     rig = skill.rig
-    model = rig.arm.model
-    if rig.camera.mount != EYE_IN_HAND:
-        return point + UP * height
-    min_z = skill.clearance()
-    q_near = rig.arm.joints()
+    return tool_under_camera(
+        rig.arm.model,
+        rig.camera,
+        np.asarray(rig.arm.joints(), dtype=float),
+        skill.clearance(),
+        point,
+        height,
+        min_height,
+    )
 
+
+def tool_under_camera(
+    model: KinematicModel,
+    camera: Camera,
+    q_near: np.ndarray,
+    min_z: float | None,
+    point: np.ndarray,
+    height: float,
+    min_height: float = 40.0,
+) -> np.ndarray:
+    """:func:`camera_over` for an arm at joints ``q_near`` (degrees) whose tool must stay at
+    or above ``min_z`` (mm; None: no limit): a survey planned before anything moves."""
+    if camera.mount != EYE_IN_HAND:
+        return point + UP * height
     home_z = float(model.position(model.home)[2])
 
     def rotation_at(xyz: np.ndarray) -> np.ndarray:
@@ -90,7 +110,7 @@ def camera_over(
         return model.fk(model.ik(reach, near=q_near))[:3, :3]
 
     def over(h: float) -> np.ndarray:
-        return tool_for_camera_over(model, point, h, rig.camera.extrinsics, rotation_at=rotation_at)
+        return tool_for_camera_over(model, point, h, camera.extrinsics, rotation_at=rotation_at)
 
     tool = point + UP * height
     for h in np.arange(height, min(min_height, height) - 1e-9, -5.0):
@@ -119,4 +139,4 @@ def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
     return want if best is None else best
 
 
-__all__ = ["UP", "ArmSkill", "above", "camera_over"]
+__all__ = ["UP", "ArmSkill", "above", "camera_over", "tool_under_camera"]

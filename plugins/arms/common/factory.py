@@ -12,27 +12,23 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
-from armtree.api.rig import RigContext
-from armtree.config.params import Param
+from armtree.api.component_factory import ComponentFactory
 
 ModelT = TypeVar("ModelT")
 EmulatorT = TypeVar("EmulatorT")
 DriverT_co = TypeVar("DriverT_co", covariant=True)
 
 
-class ArmFactory(Protocol[ModelT, EmulatorT, DriverT_co]):
+class ArmFactory(ComponentFactory[DriverT_co], Protocol[ModelT, EmulatorT, DriverT_co]):
     """An arm factory: ``factory(config, context)`` builds the driver; ``PARAMS`` its
     parameters, ``model(config)`` its kinematic model, ``simulated(config)`` whether it
     runs on the emulator, ``emulator(config, clock, seed=0)`` that emulator (not
     started), ``grips_with(config)`` the tool it grips with (None: it cannot grip)."""
 
-    PARAMS: tuple[Param, ...]
     model: Callable[[dict[str, Any]], ModelT]
     simulated: Callable[[dict[str, Any]], bool]
     emulator: Callable[..., EmulatorT]  # (config, clock, seed=0)
     grips_with: Callable[[dict[str, Any]], str | None]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> DriverT_co: ...
 
 
 __all__ = ["ArmFactory"]
