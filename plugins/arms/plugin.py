@@ -17,7 +17,7 @@ import contextlib
 import signal
 import sys
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -30,6 +30,10 @@ from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .fit import swap_misfits
+
+if TYPE_CHECKING:  # types only: every command loads this plugin, few need the runner
+    from armtree.runtime.run_end import RunResult
+    from armtree.runtime.runner import Run
 
 
 class EmulateCommand:
@@ -147,7 +151,7 @@ def armtree_validate_profile(profile: Profile) -> list[ConfigError]:
     return swap_misfits(profile)
 
 
-def _report_pauses(run: Any) -> None:
+def _report_pauses(run: Run) -> None:
     """Write each pause of the process the arm's driver noticed to the run log (a
     ``process_paused`` event, in the summary too), once."""
     take_pauses = getattr(getattr(getattr(run, "rig", None), "arm", None), "take_pauses", None)
@@ -164,13 +168,13 @@ def _report_pauses(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Any) -> None:
+def armtree_tick(run: Run) -> None:
     """Report the pauses the arm's driver noticed since the last tick."""
     _report_pauses(run)
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: RunResult) -> None:
     """Report a pause noticed after the last tick."""
     _report_pauses(run)
 

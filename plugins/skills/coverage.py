@@ -13,20 +13,21 @@ its objects may lie in before anything runs. mm and degrees.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Rig
 from armtree.api.skill.arm import tool_under_camera
 from armtree.api.skill.survey import survey_points
 from armtree.config.workcell import workcell_of
+from armtree.errors import ConfigError
 from armtree.maths.perception.frames import EYE_IN_HAND, camera_in_base
 
 #: A corner this close to the image's edge (px) may be lost to blur and noise.
 EDGE_PX = 3.0
 
 
-def scan_cameras(rig: Any, sweeps: int = 2, start: np.ndarray | None = None) -> list[np.ndarray]:
+def scan_cameras(rig: Rig, sweeps: int = 2, start: np.ndarray | None = None) -> list[np.ndarray]:
     """Camera poses (4x4, base frame, mm) from which a sweep of ``sweeps`` legs looks.
 
     Eye-in-hand: one per scan pose of the profile's survey, placed as the sweep
@@ -35,9 +36,13 @@ def scan_cameras(rig: Any, sweeps: int = 2, start: np.ndarray | None = None) -> 
     fixed camera. Needs a built rig (arm model, camera extrinsics); nothing moves.
     """
     camera = rig.camera
+    if camera is None:
+        raise ConfigError("a scan of the camera's view needs a camera in the profile (camera:)")
     if camera.mount != EYE_IN_HAND:
         return [np.asarray(camera.extrinsics, dtype=float)]
     cell = workcell_of(rig.profile)
+    if rig.arm is None:
+        raise ConfigError("a scan of an eye-in-hand camera's view needs an arm (arm:)")
     model = rig.arm.model
     here = model.position(model.home) if start is None else np.asarray(start, dtype=float)
     q = np.asarray(model.home, dtype=float)
@@ -80,7 +85,7 @@ def seen_whole(
 
 
 def unseen(
-    rig: Any,
+    rig: Rig,
     points: np.ndarray,
     marker_mm: float,
     camera_matrix: np.ndarray,

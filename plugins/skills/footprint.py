@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.eye import eye_of
 from armtree.maths.motion.collision import obb_overlap
 
@@ -52,7 +53,7 @@ class Neighbour:
         return float(self.centre[2] + self.half[2])
 
 
-def neighbours(skill: Any, target: np.ndarray, marker: int | None) -> list[Neighbour]:
+def neighbours(skill: ArmSkill, target: np.ndarray, marker: int | None) -> list[Neighbour]:
     """The objects whose markers the camera saw within :data:`NEAR_MM` of ``target``
     (mm) in the last :data:`MEMORY_S` seconds, other than marker ``marker`` (the one
     gripped), the tool's own (``workcell.tool_marker``) and those gripped away or

@@ -6,11 +6,10 @@ Positions are the tool centre in the arm's base frame, mm.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import Rig
 from armtree.api.skill.arm import UP, ArmSkill
 from armtree.api.skill.reach import lowest_reachable, reachable
 
@@ -30,7 +29,7 @@ GRIP = (
 )
 
 
-def has_gripper(rig: Any) -> bool:
+def has_gripper(rig: Rig) -> bool:
     """True when the rig's tool (``rig.tool``) is a gripper, not a suction cup."""
     tool = getattr(rig, "tool", None)
     return tool is not None and tool.kind == "gripper"
@@ -74,13 +73,14 @@ def edge_toward_base(target: np.ndarray, size: float, yaw: float | None) -> floa
     return float(half / max(abs(np.cos(angle)), abs(np.sin(angle))))
 
 
-def tool_pose_at(rig: Any, xyz: np.ndarray) -> np.ndarray:
+def tool_pose_at(rig: Rig, xyz: np.ndarray) -> np.ndarray:
     """The tool's pose (4x4) with its centre at ``xyz``, as the arm's model reaches it."""
+    assert rig.arm is not None, "gripping skills run on rigs with an arm"
     model = rig.arm.model
     return model.fk(model.ik(np.asarray(xyz, dtype=float), near=rig.arm.joints()))
 
 
-def tool_engaged(rig: Any) -> bool:
+def tool_engaged(rig: Rig) -> bool:
     """True when the rig's tool reports gripping (``rig.tool.holding``: suction on, a gripper
     nearer closed than open); False for a rig without one."""
     tool = getattr(rig, "tool", None)

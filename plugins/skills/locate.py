@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import Rig
 from armtree.api.skill.actions import Look, Move
 from armtree.api.skill.arm import ArmSkill, camera_over
 from armtree.api.skill.base import ActionFailed, Procedure
@@ -46,7 +47,7 @@ class Found:
     looks: int
     tally: Tally = field(default_factory=Tally)
 
-    def not_found(self, rig: Any) -> str:
+    def not_found(self, rig: Rig) -> str:
         """Why the tag was not found, for a failure's parentheses: the poses looked from and
         what the frames showed (markers of another family, other tags, nothing)."""
         family = getattr(rig.tracker, "marker_family", None)
