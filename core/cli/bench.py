@@ -15,6 +15,7 @@ progress bar, and prints their figures.
 from __future__ import annotations
 
 import argparse
+import functools
 import subprocess
 import sys
 import tempfile
@@ -41,6 +42,7 @@ def bench_tree(churn: bool = False) -> py_trees.behaviour.Behaviour:
     """
     branches: list[py_trees.behaviour.Behaviour] = []
     for b in range(10):
+        leaves: list[py_trees.behaviour.Behaviour]
         if churn:
             leaves = [
                 py_trees.behaviours.TickCounter(
@@ -226,7 +228,8 @@ def run_bench(args: argparse.Namespace) -> int:
                         args.ticks,
                         args.rounds,
                         churn=churn,
-                        progress=lambda task=task: bar.advance(task),
+                        # partial binds this benchmark's task now, not the loop's last one.
+                        progress=functools.partial(bar.advance, task),
                     )
                     reports.extend(figures.lines())
                 continue

@@ -14,6 +14,7 @@ import argparse
 import inspect
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,14 +41,14 @@ def hook_reference() -> str:
         for name, function in vars(hookspecs).items()
         if name.startswith("armtree_") and callable(function)
     ]
-    items = sorted(
-        [(pos, "section", text) for pos, text in sections]
-        + [(pos, "hook", (name, f)) for pos, name, f in hooks],
-        key=lambda item: item[0],
-    )
+    # A section is its comment's text, a hook its name and function; both in source order.
+    entries: list[tuple[int, str | tuple[str, Callable[..., object]]]] = [
+        (pos, text) for pos, text in sections
+    ]
+    entries += [(pos, (name, f)) for pos, name, f in hooks]
     out: list[str] = []
-    for _, what, value in items:
-        if what == "section":
+    for _, value in sorted(entries, key=lambda item: item[0]):
+        if isinstance(value, str):
             title, _, rest = value.partition(":")
             out.append(f"### {title.strip()}\n")
             if rest.strip():

@@ -66,7 +66,7 @@ def declared_params(factory: Any) -> tuple[Param, ...]:
     return tuple(getattr(factory, "PARAMS", ()) or ())
 
 
-def constructor_params(cls: type) -> tuple[Param, ...]:
+def constructor_params(cls: type[object]) -> tuple[Param, ...]:
     """The YAML parameters of ``cls.__init__``: names, defaults, types and docs.
 
     Positional-only parameters (other than the first, the name) and ``*args`` /
@@ -133,7 +133,7 @@ def name_argument(cls: type) -> str | None:
     return None
 
 
-def _signature(cls: type) -> inspect.Signature | None:
+def _signature(cls: type[object]) -> inspect.Signature | None:
     try:
         return inspect.signature(cls.__init__)
     except (TypeError, ValueError):
@@ -185,7 +185,7 @@ _ARGS_LINE = re.compile(r"^(\w+)\s*(?:\([^)]*\))?\s*:\s*(.*)$")
 _SPHINX_LINE = re.compile(r":param\s+(?:[^:]*\s)?(\w+)\s*:\s*(.*)")
 
 
-def param_docs(cls: type) -> dict[str, str]:
+def param_docs(cls: type[object]) -> dict[str, str]:
     """``{parameter: first line of its description}`` from the class or ``__init__`` docstring.
 
     Reads a Google-style ``Args:`` section (``mark (str): the mark to leave``)
@@ -195,8 +195,8 @@ def param_docs(cls: type) -> dict[str, str]:
     for text in (inspect.getdoc(cls.__init__), inspect.getdoc(cls)):
         if not text:
             continue
-        for match in _SPHINX_LINE.finditer(text):
-            docs.setdefault(match.group(1), match.group(2).strip())
+        for sphinx in _SPHINX_LINE.finditer(text):
+            docs.setdefault(sphinx.group(1), sphinx.group(2).strip())
         lines = text.splitlines()
         for i, line in enumerate(lines):
             if line.strip() not in ("Args:", "Arguments:", "Parameters:"):

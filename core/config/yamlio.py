@@ -77,6 +77,11 @@ class MarkedDict(dict):
     mark: Mark | None
     key_marks: dict[Any, Mark]
     value_marks: dict[Any, Mark]
+    # Declared, not set here: the profile loader sets them on a component's section only
+    # once a --set changes its type (the type before, and the keys the new type then
+    # drops: value and where), and reads them with getattr's default otherwise.
+    swapped_from: Any
+    dropped: dict[str, tuple[Any, Mark | None]]
 
     def __init__(self, *args: Any, mark: Mark | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

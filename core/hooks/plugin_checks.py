@@ -388,7 +388,7 @@ def _check_behaviour(factory: Any, report: _Reporter, params_ok: bool) -> None:
     )
 
 
-def _check_signature_constructor(factory: type, report: _Reporter) -> None:
+def _check_signature_constructor(factory: type[object], report: _Reporter) -> None:
     signature = inspect.signature(factory.__init__)
     for index, (pname, parameter) in enumerate(signature.parameters.items()):
         if parameter.kind is inspect.Parameter.POSITIONAL_ONLY and index > 1:

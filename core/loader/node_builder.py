@@ -110,10 +110,10 @@ class NodeBuilder:
             )
             return root if included.ok else None
         if not isinstance(ntype, str) or not self.registry.has("behaviour", ntype):
-            options = self.registry.names("behaviour") + ["subtree"]
+            known = self.registry.names("behaviour") + ["subtree"]
             why = self.registry.why_unknown("behaviour", str(ntype))
             error(
-                f"unknown node type {shown(ntype)}{did_you_mean(str(ntype), options)}{why}",
+                f"unknown node type {shown(ntype)}{did_you_mean(str(ntype), known)}{why}",
                 type_mark,
                 ctx,
             )

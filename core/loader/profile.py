@@ -281,7 +281,7 @@ class Profile:
 
 def load_profile(
     path_or_name: str | Path,
-    overrides: Iterable[str] = (),
+    overrides: Iterable[str | Override] = (),
     *,
     manager: PluginManager | None = None,
     base: Path | None = None,
@@ -292,8 +292,8 @@ def load_profile(
     ``path_or_name`` is a path or a name looked up in the working directory,
     then ``base`` (the directory of a tree naming the profile), then the shipped
     ``hardware/``; ``.yaml`` may be left out. ``overrides`` are ``KEY=VALUE``
-    strings. ``where`` is the position of the reference (a tree's ``rig:``) for
-    the not-found error. Raises :class:`ConfigError` listing every problem.
+    strings or parsed :class:`Override` objects. ``where`` is the position of the reference
+    (a tree's ``rig:``) for the not-found error. Raises :class:`ConfigError` listing every problem.
     """
     path = resolve(path_or_name, "profile", base)
     if path is None:
@@ -353,7 +353,9 @@ def _finish(
     plugins = _plugins(data, source, errors)
     if plugins:
         try:
-            manager = manager.extended([p for p, _ in plugins], dict(plugins))
+            # A spec with no known place is one the manager reports without a position.
+            where = {spec: mark for spec, mark in plugins if mark is not None}
+            manager = manager.extended([p for p, _ in plugins], where)
         except ConfigError as exc:
             errors.append(exc)
     invalid = _validate(data, manager, errors)
@@ -542,7 +544,7 @@ def _plugin_checks(profile: Profile, manager: PluginManager, clean: bool) -> lis
 
 def _plugins(
     data: MarkedDict, source: Path | None, errors: list[ConfigError]
-) -> list[tuple[str, Mark]]:
+) -> list[tuple[str, Mark | None]]:
     specs = data.get("plugins")
     if specs is None:
         return []
@@ -553,11 +555,13 @@ def _plugins(
             )
         )
         return []
-    out = []
+    out: list[tuple[str, Mark | None]] = []
     for i, spec in enumerate(specs):
         if spec.endswith(".py") and source is not None and not Path(spec).is_absolute():
             spec = str((source.parent / spec).resolve())
-        out.append((spec, specs.item_mark(i)))
+        # A list from an override or an include may be plain: its items' place is the list's.
+        mark = specs.item_mark(i) if isinstance(specs, MarkedList) else data.value_mark("plugins")
+        out.append((spec, mark))
     return out
 
 

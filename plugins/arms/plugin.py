@@ -17,7 +17,7 @@ import contextlib
 import signal
 import sys
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import yaml
 
@@ -30,10 +30,6 @@ from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .fit import swap_misfits
-
-if TYPE_CHECKING:  # types only: every command loads this plugin, few need the runner
-    from armtree.runtime.run_end import RunResult
-    from armtree.runtime.runner import Run
 
 
 class EmulateCommand:
@@ -151,7 +147,7 @@ def armtree_validate_profile(profile: Profile) -> list[ConfigError]:
     return swap_misfits(profile)
 
 
-def _report_pauses(run: Run) -> None:
+def _report_pauses(run: Any) -> None:
     """Write each pause of the process the arm's driver noticed to the run log (a
     ``process_paused`` event, in the summary too), once."""
     take_pauses = getattr(getattr(getattr(run, "rig", None), "arm", None), "take_pauses", None)
@@ -168,13 +164,13 @@ def _report_pauses(run: Run) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Run) -> None:
+def armtree_tick(run: Any) -> None:
     """Report the pauses the arm's driver noticed since the last tick."""
     _report_pauses(run)
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Run, result: RunResult) -> None:
+def armtree_run_finished(run: Any, result: Any) -> None:
     """Report a pause noticed after the last tick."""
     _report_pauses(run)
 

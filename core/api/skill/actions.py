@@ -90,6 +90,8 @@ class Move(Action):
         label: str = "move",
         corrected: bool = True,
     ) -> None:
+        if xyz is None and joints is None:
+            raise ValueError(f"{label}: a Move needs a position (xyz) or joints to go to")
         self.rig = rig
         self.xyz = None if xyz is None else np.asarray(xyz, dtype=float).reshape(3)
         #: Whether the profile's arm correction (Durovic 2017, eq. 8) applies to ``xyz``.
@@ -106,7 +108,12 @@ class Move(Action):
         """What this move goes to, for messages."""
         if self.xyz is not None:
             return f"{self.label} to {fmt(self.xyz)}"
-        return f"{self.label} to joints {np.round(self.joints, 1).tolist()}"
+        return f"{self.label} to joints {np.round(self._joint_goal(), 1).tolist()}"
+
+    def _joint_goal(self) -> np.ndarray:
+        """The joints to go to, for a move given no position."""
+        assert self.joints is not None, "__init__ refuses a move given neither xyz nor joints"
+        return self.joints
 
     def start(self) -> None:
         arm, planner = self.rig.arm, self.rig.planner
@@ -117,12 +124,12 @@ class Move(Action):
             self.corrected = False
         try:
             if planner is None:
-                goal = self.joints
                 if self.xyz is not None:
                     goal = arm.model.ik(self.xyz, near=arm.joints())
                     self._handle = arm.move_to(self.xyz, self.speed)
                 else:
-                    self._handle = arm.move_joints(self.joints, self.speed)
+                    goal = self._joint_goal()
+                    self._handle = arm.move_joints(goal, self.speed)
                 self._allow(goal)
                 return
             q0 = np.asarray(arm.joints(), dtype=float)

@@ -72,6 +72,8 @@ def camera_over(
     Raises :class:`SkillFailure` when nothing near is reachable.
     """
     rig = skill.rig
+    if rig.camera.mount != EYE_IN_HAND:
+        return point + UP * height
     return tool_under_camera(
         rig.arm.model,
         rig.camera,

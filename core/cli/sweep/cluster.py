@@ -16,13 +16,16 @@ import contextlib
 import signal
 import threading
 from concurrent.futures import Future
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from .forker import Forker, run_isolated
 from .options import check_address
 from .task import DIED, Outcome, RunTask, failed_outcome
+
+if TYPE_CHECKING:
+    from distributed import Worker
 
 #: How long a scheduler gets to answer (seconds).
 CONNECT_S = 5.0
@@ -98,15 +101,28 @@ class ForkerPlugin(WorkerPlugin):
             self.forker.close()
 
 
+def _forker_plugin(worker: Worker) -> ForkerPlugin | None:
+    """The sweep's plugin on ``worker``; None while it has none."""
+    plugin = worker.plugins.get(PLUGIN_NAME)
+    if plugin is not None and not isinstance(plugin, ForkerPlugin):
+        # Another plugin took the name: refuse rather than run seeds without a forker.
+        raise TypeError(
+            f"the worker's plugin {PLUGIN_NAME!r} is a {type(plugin).__name__}, "
+            "not armtree's ForkerPlugin"
+        )
+    return plugin
+
+
 def _forker_here() -> Forker:
     from distributed import get_worker
 
     worker = get_worker()
-    plugin = worker.plugins.get(PLUGIN_NAME)
+    plugin = _forker_plugin(worker)
     if plugin is None:  # the worker joined after the sweep registered its plugin
         plugin = ForkerPlugin()
         worker.plugins[PLUGIN_NAME] = plugin
     plugin.setup(worker)
+    assert plugin.forker is not None  # setup() starts one when there is none
     return plugin.forker
 
 
@@ -121,7 +137,7 @@ def stop_runs_on_worker() -> int:
     """Halt the runs under way on this worker (SIGTERM); how many there were."""
     from distributed import get_worker
 
-    plugin = get_worker().plugins.get(PLUGIN_NAME)
+    plugin = _forker_plugin(get_worker())
     if plugin is None or plugin.forker is None:
         return 0
     pids = plugin.forker.pids()

@@ -11,6 +11,7 @@ import struct
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from armtree.errors import ConfigError
 
@@ -96,7 +97,7 @@ def _obj(data: bytes, name: str) -> np.ndarray:
         except ValueError:
             raise ConfigError(f"bad OBJ line {line.strip()!r}", file=name, line=lineno) from None
     v = np.array(verts, dtype=float).reshape(-1, 3)
-    tris = []
+    tris: list[NDArray[np.float64]] = []
     for lineno, idx in faces:
         if min(idx) < 0 or max(idx) >= len(v):
             raise ConfigError("face refers to a vertex that does not exist", file=name, line=lineno)

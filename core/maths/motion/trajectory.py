@@ -123,7 +123,8 @@ class Trajectory:
             out[sel] = acc
         return out
 
-    def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _locate(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """The segment of each time ``t`` (clamped to the trajectory) and the time into it."""
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
         seg = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.coeffs) - 1)
         return seg, t - self.times[seg]

@@ -30,9 +30,10 @@ import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
 from armtree.errors import ConfigError
 
@@ -163,19 +164,26 @@ class UrdfModel(KinematicModel):
         lead = target.shape[:-2] if full else target.shape[:-1]
         flat = target.reshape(-1, 4, 4) if full else target.reshape(-1, 3)
         starts = self.seeds if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
-        closed = not full and self.closed_form is not None
+        # the closed form answers position targets only
+        closed = None if full else self.closed_form
         key = None
-        if target.size <= 16 and (seeds is None or closed):
+        if target.size <= 16 and (seeds is None or closed is not None):
             # the closed form depends on the first start's free joints only
-            free = list(self.closed_form.free) if closed else []
-            key = (target.shape, target.tobytes(), starts[0][free].tobytes() if closed else b"")
+            free = list(closed.free) if closed is not None else []
+            key = (
+                target.shape,
+                target.tobytes(),
+                starts[0][free].tobytes() if closed is not None else b"",
+            )
             with self._recent_lock:
                 if key in self._recent:
                     return self._recent[key].copy()
-        if closed:
+        if closed is not None:
+            axis = self.tool_axis
+            assert axis is not None, "a closed form is only detected for a model with a tool_axis"
             found = np.concatenate(
                 [
-                    self._polished(self.closed_form.solve(self, flat, self.tool_axis, f), flat)
+                    self._polished(closed.solve(self, flat, axis, f), flat)
                     for f in self._free_values(starts[0])
                 ],
                 axis=1,
@@ -238,6 +246,16 @@ class UrdfModel(KinematicModel):
             flat[live[near]], miss[near] = self._solve(start, goals[near], False, 8)
         flat[live[~((miss < IK_TOL_MM) & self.within_limits(flat[live]))]] = np.nan
         return flat.reshape(candidates.shape)
+
+    @overload
+    def _residual(
+        self, q: np.ndarray, goals: np.ndarray, full: bool, jacobian: Literal[True] = ...
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
+    @overload
+    def _residual(
+        self, q: np.ndarray, goals: np.ndarray, full: bool, jacobian: Literal[False]
+    ) -> tuple[np.ndarray, None]: ...
 
     def _residual(
         self, q: np.ndarray, goals: np.ndarray, full: bool, jacobian: bool = True
@@ -369,7 +387,7 @@ def load_urdf(
     for wanted in (tool_link, base_link):
         if wanted is not None and wanted not in links:
             raise doc.error(doc.root, f"no link called {wanted!r} (links: {', '.join(links)})")
-    chain_joints = []
+    chain_joints: list[Any] = []  # yourdfpy's joints: the library has no type information
     link = tool_link
     while link != base_link and link in parents:
         if len(chain_joints) > len(robot.joints):
@@ -384,7 +402,8 @@ def load_urdf(
             f"(it hangs from {base!r})",
         )
     chain_joints.reverse()
-    chain, joints = [], []
+    chain: list[ChainLink] = []
+    joints: list[Joint] = []
     for joint in chain_joints:
         chain.append(_chain_link(doc, joint, len(joints)))
         if chain[-1].joint is not None:
@@ -505,6 +524,7 @@ def _chain_link(doc: _Document, joint, index: int) -> ChainLink:
 
 def _joint(doc: _Document, joint, max_accel: float, speed_default: float) -> Joint:
     kind = _KINDS[joint.type]
+    assert kind is not None, "only the chain's moving joints become the arm's joints"
     limit = joint.limit
     unit = 180.0 / math.pi if kind == "revolute" else 1000.0
     if joint.type == "continuous":
@@ -660,7 +680,8 @@ def _distinct(q: np.ndarray) -> np.ndarray:
     return q
 
 
-def _unit(vector: Sequence[float]) -> np.ndarray:
+def _unit(vector: Sequence[float] | NDArray[np.float64]) -> np.ndarray:
+    """``vector`` scaled to length 1; ValueError unless it is a finite, non-zero [x, y, z]."""
     v = np.asarray(vector, dtype=float)
     norm = float(np.linalg.norm(v))
     if v.shape != (3,) or not math.isfinite(norm) or norm < 1e-9:

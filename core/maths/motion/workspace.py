@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from armtree.errors import ConfigError, Unreachable
 
@@ -85,8 +86,8 @@ def _as_system(constraints: ConstraintSystem | Sequence[Callable[[Any], Any]]) -
 
 def cover(
     constraints: ConstraintSystem | Sequence[Callable[[Any], Any]],
-    lower: Sequence[float],
-    upper: Sequence[float],
+    lower: Sequence[float] | NDArray[np.float64],
+    upper: Sequence[float] | NDArray[np.float64],
     delta: float,
     max_boxes: int = 20_000_000,
 ) -> Covering:
@@ -403,8 +404,14 @@ class ArmWorkspace:
             self.bounds = (np.asarray(shape.lower, float), np.asarray(shape.upper, float))
             self._section, self._sector = shape.section, shape.sector
         elif hasattr(model, "workspace_constraints"):
+            bounds_of = getattr(model, "workspace_bounds", None)
+            if not callable(bounds_of):
+                raise ConfigError(
+                    f"arm model {model.name!r} has workspace_constraints but no "
+                    "workspace_bounds() to say the box they are covered in"
+                )
             self.kind, self.system = "model", model.workspace_constraints
-            b_lo, b_hi = model.workspace_bounds()
+            b_lo, b_hi = bounds_of()
             self.bounds = (np.asarray(b_lo, dtype=float), np.asarray(b_hi, dtype=float))
 
     @property

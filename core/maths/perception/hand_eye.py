@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from numpy.typing import NDArray
 
 from .frames import EYE_IN_HAND, EYE_TO_HAND, eye_to_hand_from_three_positions
 
@@ -64,7 +65,9 @@ MIN_SPREAD_MM = 5.0
 class DegenerateData(ValueError):
     """The views cannot calibrate: :attr:`reason`, and :attr:`pose` to fix when one is to blame."""
 
-    def __init__(self, reason: str, pose: Sequence[float] | None = None) -> None:
+    def __init__(
+        self, reason: str, pose: Sequence[float] | NDArray[np.float64] | None = None
+    ) -> None:
         where = "" if pose is None else f" (fix the pose with the tool at {_mm(pose)})"
         super().__init__(reason + where)
         self.reason = reason
@@ -120,7 +123,7 @@ class HandEyeFit:
         return float(np.max(self.residuals_mm)) if len(self.residuals_mm) else float("inf")
 
 
-def _mm(xyz: Sequence[float]) -> str:
+def _mm(xyz: Sequence[float] | NDArray[np.float64]) -> str:
     return f"{np.round(np.asarray(xyz, dtype=float), 1).tolist()} mm"
 
 
@@ -136,6 +139,26 @@ def _pose(rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
     out[:3, :3] = cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))[0]
     out[:3, 3] = np.asarray(tvec, dtype=float).reshape(3)
     return out
+
+
+def _marker_position(view: MarkerView) -> NDArray[np.float64]:
+    """The marker's position in the camera frame; refused at a view that did not see it."""
+    if view.tvec is None:
+        raise DegenerateData(
+            "the camera did not see the marker at this pose; only seen views can be fitted",
+            view.tool_position,
+        )
+    return np.asarray(view.tvec, dtype=float)
+
+
+def _marker_pose(view: MarkerView) -> NDArray[np.float64]:
+    """The marker's pose in the camera frame (4x4 mm), which OpenCV's methods need whole."""
+    if view.rvec is None:
+        raise DegenerateData(
+            "OpenCV's methods need the marker's rotation at every pose; this one has none",
+            view.tool_position,
+        )
+    return _pose(view.rvec, _marker_position(view))
 
 
 def lateral_residuals(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -277,7 +300,7 @@ def e2h_pnp(
 def e2h_opencv(views: Sequence[MarkerView], name: str) -> HandEyeFit:
     """OpenCV's hand-eye (or robot-world) method ``name`` written for a fixed camera."""
     g_T_b = [_inverse(np.asarray(v.base_T_tool, dtype=float)) for v in views]
-    c_T_m = [_pose(v.rvec, v.tvec) for v in views]
+    c_T_m = [_marker_pose(v) for v in views]
     try:
         if name in HAND_EYE_METHODS:
             # G_T_B_i B_T_C C_T_M_i = G_T_M: OpenCV's eye-in-hand equation with the base
@@ -345,7 +368,7 @@ def eih_pnp(views: Sequence[MarkerView], guess: np.ndarray, marker_z: float | No
     marker's directions from the camera; with ``marker_z`` (the table's height) the
     marker's height is held, which a four-axis arm could not tell from the camera's."""
     guess = np.asarray(guess, dtype=float)
-    seen_from = [v.base_T_tool @ guess @ np.append(v.tvec, 1.0) for v in views]
+    seen_from = [v.base_T_tool @ guess @ np.append(_marker_position(v), 1.0) for v in views]
     marker0 = np.mean(seen_from, axis=0)[:3]
     tv = np.array([v.tvec for v in views], dtype=float)
     directions = tv[:, :2] / tv[:, 2:3]
@@ -353,7 +376,7 @@ def eih_pnp(views: Sequence[MarkerView], guess: np.ndarray, marker_z: float | No
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         pose = _pose(x[:3], x[3:6])
-        marker = np.array([x[6], x[7], x[8] if free_z else float(marker_z)])  # type: ignore[arg-type]
+        marker = np.array([x[6], x[7], x[8] if marker_z is None else float(marker_z)])
         return pose, marker
 
     def residuals(x: np.ndarray) -> np.ndarray:
@@ -380,7 +403,7 @@ def eih_pnp(views: Sequence[MarkerView], guess: np.ndarray, marker_z: float | No
 def eih_opencv(views: Sequence[MarkerView], name: str) -> HandEyeFit:
     """OpenCV's hand-eye (or robot-world) method ``name``, camera on the tool."""
     b_T_g = [np.asarray(v.base_T_tool, dtype=float) for v in views]
-    c_T_m = [_pose(v.rvec, v.tvec) for v in views]
+    c_T_m = [_marker_pose(v) for v in views]
     try:
         if name in HAND_EYE_METHODS:
             r, t = cv2.calibrateHandEye(
