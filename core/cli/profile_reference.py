@@ -9,8 +9,9 @@ Then the sections plugins register (``armtree_profile_sections``) and their plug
 ``python -m armtree.cli.profile_reference --update docs/profiles.md`` rewrites the
 part of that file between :data:`BEGIN` and :data:`END`, and each key table of a
 section declared in :data:`armtree.config.profile_spec.KEY_TABLES` between its
-own markers (:func:`table_markers`); a test fails while the file and the
-declarations disagree.
+own markers (:func:`table_markers`), and so the key tables of a section a plugin
+registers with its declaration (:func:`declared_tables`: the sim's ``world:``); a
+test fails while the file and the declarations disagree.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 from armtree.config.params import REQUIRED, Param
 from armtree.config.profile_sections import COMPONENT_SECTIONS
 from armtree.config.profile_spec import KEY_TABLES
-from armtree.config.spec import key_table
+from armtree.config.spec import Either, Items, MapOf, OneOf, Record, Spec, key_table
 from armtree.errors import ConfigError
 from armtree.hooks.plugin_manager import Registry, get_plugin_manager
 
@@ -90,11 +91,50 @@ def table_markers(section: str) -> tuple[str, str]:
     )
 
 
+def nested_records(spec: Spec, name: str) -> dict[str, Record]:
+    """Every record in ``spec`` by the dotted name its table goes under: ``spec`` itself,
+    a record's records (``world.table``), the entries of a mapping and the items of a
+    list under the mapping's or list's name (``world.objects``), a shape under its own
+    (``survey.ring``)."""
+    inner: list[tuple[Spec, str]] = []
+    if isinstance(spec, Record):
+        inner = [(item, f"{name}.{key}") for key, item in spec.fields.items()]
+    elif isinstance(spec, (MapOf, Items)):
+        inner = [(spec.value if isinstance(spec, MapOf) else spec.item, name)]
+    elif isinstance(spec, Either):
+        inner = [(option, name) for option in spec.options]
+    elif isinstance(spec, OneOf):
+        inner = [(shape, f"{name}.{key}") for key, shape in spec.shapes.items()]
+    out = {name: spec} if isinstance(spec, Record) else {}
+    for item, path in inner:
+        out |= {k: v for k, v in nested_records(item, path).items() if k not in out}
+    return out
+
+
+def declared_tables(registry: Registry) -> dict[str, tuple[Record, dict[str, str]]]:
+    """The key tables of the sections plugins register with their declaration
+    (``ProfileSection.spec``): the section's and each record's in it, by dotted
+    name. A key that is a record of its own defaults to its keys' defaults."""
+    out: dict[str, tuple[Record, dict[str, str]]] = {}
+    for section in registry.names("profile_section"):
+        spec = registry.get("profile_section", section).factory.spec
+        if spec is None:
+            continue
+        for name, record in nested_records(spec, section).items():
+            own = {
+                k: "its keys' defaults" for k, v in record.fields.items() if isinstance(v, Record)
+            }
+            out[name] = (record, own)
+    return out
+
+
 def replace_reference(text: str, where: str = "the document") -> str:
     """``text`` with the part between :data:`BEGIN` and :data:`END` regenerated, and the
-    key table of each declared section whose markers it has."""
-    text = replace_generated(text, BEGIN, END, component_reference(), where, "component reference")
-    for section, (spec, needed) in KEY_TABLES.items():
+    key table of each declared section (and plugin section's record) whose markers it has."""
+    registry = get_plugin_manager(autoload=False).registry
+    reference = component_reference(registry)
+    text = replace_generated(text, BEGIN, END, reference, where, "component reference")
+    for section, (spec, needed) in {**KEY_TABLES, **declared_tables(registry)}.items():
         begin, end = table_markers(section)
         if begin in text:
             text = replace_generated(text, begin, end, key_table(spec, needed), where, "key table")

@@ -16,6 +16,8 @@ from typing import Any
 
 from armtree.errors import ConfigError
 
+from .spec import Record
+
 #: Profile section -> component kind in the plugin registry.
 COMPONENT_SECTIONS: dict[str, str] = {
     "arm": "arm",
@@ -78,12 +80,15 @@ class ProfileSection:
     the section's problems (:meth:`armtree.loader.profile.Profile.error` places each at its
     file, line and column); it is called for every profile, with or without the
     section, after armtree's own checks, unless the section already has the wrong
-    type. It must not open ports or devices nor change the profile.
+    type. It must not open ports or devices nor change the profile. ``spec``, when the
+    section is declared with :mod:`armtree.config.spec`, is that declaration: docs/profiles.md's
+    key tables of the section are generated from it.
     """
 
     schema: dict[str, Any] = field(default_factory=dict)
     #: Called with the loaded :class:`~armtree.loader.profile.Profile`.
     check: Callable[[Any], list[ConfigError]] | None = None
+    spec: Record | None = None
 
     @property
     def summary(self) -> str:

@@ -2,8 +2,8 @@
 
 A profile section (``workcell:``, ``tags:``, ``watchdog:`` ...) is declared once as
 a tree of the nodes here: :class:`Number`, :class:`Items`, :class:`Record`,
-:class:`MapOf`, :class:`OneOf`, :class:`Either` and :class:`Ref`. From that one
-declaration come
+:class:`MapOf`, :class:`OneOf`, :class:`Either`, :class:`Ref`, :class:`Choice`,
+:class:`Boolean`, :class:`Text` and :class:`Anything`. From that one declaration come
 
 * the load-time checks: :meth:`Spec.check` appends a :class:`ConfigError` at the
   FILE:LINE:COL of every bad value (``--set`` values carry the option as their
@@ -139,10 +139,14 @@ class Number(Spec):
 
     def range_text(self) -> str:
         """The range in words: ``"> 0 and <= 5000"``; empty when unbounded."""
-        parts = [f"> {self.above:g}"] if self.above is not None else []
-        parts += [f">= {self.minimum:g}"] if self.minimum is not None else []
-        parts += [f"<= {self.maximum:g}"] if self.maximum is not None else []
-        return " and ".join(parts)
+        bounds = ((">", self.above), (">=", self.minimum), ("<=", self.maximum))
+        return " and ".join(
+            f"{sign} {self._bound(value)}" for sign, value in bounds if value is not None
+        )
+
+    def _bound(self, value: float) -> str:
+        # an integer's bound in full: 2**63 - 1 is not 9.22337e+18
+        return str(int(value)) if self.integer else f"{value:g}"
 
     def want(self) -> str:
         if self.wanted:
@@ -311,6 +315,9 @@ class Record(Spec):
     rule: Callable[[MarkedDict, str, Context], None] | None = None
     #: Keys of which exactly one must be given (``id`` or ``ids``).
     one_of: tuple[str, ...] = ()
+    #: Name an unknown key by its own path (``PATH.KEY: unknown key 'KEY'``) rather than
+    #: the mapping's: a section whose messages always name the offending entry (world:).
+    key_paths: bool = False
 
     def want(self) -> str:
         return self.wanted or self.brief()
@@ -327,8 +334,9 @@ class Record(Spec):
         for key, item in marked.items():
             spec = self.fields.get(key)
             if spec is None:
+                where = f"{path}.{key}" if self.key_paths else path
                 ctx.add(
-                    f"{path}: unknown key {shown(key)}{unknown_hint(key, self.fields)}",
+                    f"{where}: unknown key {shown(key)}{unknown_hint(key, self.fields)}",
                     marked.key_mark(key),
                 )
             elif item is not None or key in self.required:
@@ -536,6 +544,74 @@ class Text(Spec):
         return self._described({"type": "string"})
 
 
+def _word(value: Any) -> str:
+    """A value as a YAML file writes it: ``true``, ``wood``."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def _same(value: Any, option: Any) -> bool:
+    """``value == option`` without Python's ``0 == False``."""
+    return isinstance(value, bool) == isinstance(option, bool) and value == option
+
+
+@dataclass(frozen=True)
+class Choice(Spec):
+    """One of ``options`` (a texture, a shape, ``false``). ``advice`` adds a word of its
+    own to the error about a wrong value that deserves one."""
+
+    options: tuple[Any, ...] = ()
+    doc: str = ""
+    default: Any = None
+    wanted: str = ""
+    advice: Mapping[Any, str] = field(default_factory=dict)
+
+    def want(self) -> str:
+        if self.wanted:
+            return self.wanted
+        words = [_word(o) for o in self.options]
+        return " or ".join(words) if len(words) < 3 else f"{', '.join(words[:-1])} or {words[-1]}"
+
+    def brief(self) -> str:
+        return " / ".join(f"`{_word(o)}`" for o in self.options)
+
+    def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
+        if any(_same(value, o) for o in self.options):
+            return True
+        advice = self.advice.get(value) if isinstance(value, str) else None
+        names = [o for o in self.options if isinstance(o, str)]
+        hint = f"; {advice}" if advice else ""
+        if not hint and isinstance(value, str):
+            hint = did_you_mean(value, names, list_up_to=0)
+        ctx.add(f"{path}: expected {self.want()}, got {shown(value)}{hint}", at)
+        return False
+
+    def schema(self) -> dict[str, Any]:
+        return self._described({"enum": list(self.options)})
+
+
+@dataclass(frozen=True)
+class Boolean(Spec):
+    """``true`` or ``false``."""
+
+    doc: str = ""
+    default: Any = None
+
+    def want(self) -> str:
+        return "true or false"
+
+    def brief(self) -> str:
+        return "bool"
+
+    def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
+        if isinstance(value, bool):
+            return True
+        ctx.add(f"{path}: expected true or false, got {shown(value)}", at)
+        return False
+
+    def schema(self) -> dict[str, Any]:
+        return self._described({"type": "boolean"})
+
+
 @dataclass(frozen=True)
 class Anything(Spec):
     """Any value: a free-form part (what each calibration recorded)."""
@@ -578,6 +654,8 @@ def key_table(spec: Record, needed: Mapping[str, str] | None = None) -> str:
 
 
 def _table_default(value: Any) -> str:
+    if isinstance(value, bool):
+        return _word(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) + "]"
     if isinstance(value, float):
@@ -587,6 +665,8 @@ def _table_default(value: Any) -> str:
 
 __all__ = [
     "Anything",
+    "Boolean",
+    "Choice",
     "Context",
     "Either",
     "Items",

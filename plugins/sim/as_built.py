@@ -26,8 +26,6 @@ the simulator's truth plus a Gaussian reading error of ``noise_mm`` per axis (Sh
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -56,67 +54,6 @@ class AsBuilt:
         true[:3, :3] = true[:3, :3] @ rpy_matrix(*self.camera_rotation_deg)[:3, :3]
         true[:3, 3] += np.asarray(self.camera_offset_mm, dtype=float)
         return true
-
-
-def _vector3(
-    err: Any, path: tuple[Any, ...], value: Any, bound: float
-) -> tuple[float, float, float]:
-    ok = (
-        isinstance(value, Sequence)
-        and not isinstance(value, (str, bytes))
-        and len(value) == 3
-        and all(
-            isinstance(v, (int, float))
-            and not isinstance(v, bool)
-            and math.isfinite(v)
-            and abs(v) <= bound
-            for v in value
-        )
-    )
-    if not ok:
-        raise err(path, f"expected three numbers within +/-{bound:g}, got {value!r}")
-    return tuple(float(v) for v in value)  # type: ignore[return-value]
-
-
-def parse_as_built(err: Any, world: Mapping[str, Any]) -> AsBuilt:
-    """``world.as_built`` and ``world.reference``, validated (ConfigError at the entry)."""
-    spec = world.get("as_built") or {}
-    if not isinstance(spec, Mapping):
-        raise err(("world", "as_built"), "expected a mapping with camera and/or arm")
-    for key in spec:
-        if key not in ("camera", "arm"):
-            raise err(("world", "as_built", key), "unknown key; expected camera or arm")
-    camera = spec.get("camera") or {}
-    if not isinstance(camera, Mapping) or set(camera) - {"offset_mm", "rotation_deg"}:
-        raise err(
-            ("world", "as_built", "camera"),
-            "expected {offset_mm: [x, y, z], rotation_deg: [r, p, y]}",
-        )
-    offset = _vector3(
-        err, ("world", "as_built", "camera", "offset_mm"), camera.get("offset_mm", [0, 0, 0]), 200.0
-    )
-    rotation = _vector3(
-        err,
-        ("world", "as_built", "camera", "rotation_deg"),
-        camera.get("rotation_deg", [0, 0, 0]),
-        30.0,
-    )
-    arm = spec.get("arm") or {}
-    if not isinstance(arm, Mapping) or "type" in arm or "port" in arm:
-        raise err(
-            ("world", "as_built", "arm"),
-            "expected a mapping of the arm type's own keys (not type or port)",
-        )
-    reference = world.get("reference") or {}
-    if not isinstance(reference, Mapping) or set(reference) - {"noise_mm"}:
-        raise err(("world", "reference"), "expected {noise_mm: MM}")
-    noise = reference.get("noise_mm", DEFAULT_NOISE_MM)
-    if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not 0 <= noise <= 50:
-        raise err(
-            ("world", "reference", "noise_mm"),
-            f"expected a reading error of 0 to 50 mm, got {noise!r}",
-        )
-    return AsBuilt(offset, rotation, dict(arm), float(noise))
 
 
 class SimMeasuringDevice(MeasuringDevice):
@@ -172,4 +109,4 @@ class SimMeasuringDevice(MeasuringDevice):
         )
 
 
-__all__ = ["DEFAULT_NOISE_MM", "AsBuilt", "SimMeasuringDevice", "parse_as_built"]
+__all__ = ["DEFAULT_NOISE_MM", "AsBuilt", "SimMeasuringDevice"]

@@ -13,9 +13,10 @@ and ``armtree_world_inventory`` give the ``expect:`` predicates the world at the
 end of a run and the nominal world while a tree loads (with what ``parked`` and
 ``tool_within_mm`` read: the Duckybots' phases, the tool and the marker centres).
 The world lives in ``RigContext.shared`` only; the Rig never holds it.
-``armtree_profile_sections`` registers the ``world:`` section, whose check parses
-the world while the profile loads, so ``armtree check`` reports what building
-the world would refuse.
+``armtree_profile_sections`` registers the ``world:`` section, declared in
+``world_spec.WORLD`` (its JSON Schema and key tables come from there), whose check
+parses the world while the profile loads, so ``armtree check`` reports what
+building the world would refuse.
 """
 
 from __future__ import annotations
@@ -34,13 +35,14 @@ from .bodies import WorldEvent
 from .camera import sim_camera
 from .recording import Recorder, write_score
 from .rig_world import arm_factory, as_built_model, attach_world, uses_sim, world_stepper
-from .scene import BASE_FAULTS, parse_scene
+from .scene import parse_scene
 from .scene_spec import SceneSpec
 from .scoring import score_line
 from .serve import ServeSimCommand
 from .truth import scene_truth, world_truth
 from .view import scene_objects
 from .world import World
+from .world_spec import BASE_FAULTS, WORLD
 
 #: Profile sections the world is parsed from; when one is already invalid the world is not.
 _WORLD_INPUTS = frozenset({"world", "tags", "tracker", "obstacles", "table"})
@@ -75,17 +77,9 @@ def armtree_commands() -> dict[str, Any]:
 
 @armtree.hookimpl
 def armtree_profile_sections() -> dict[str, ProfileSection]:
-    """The ``world:`` section: the simulated table, objects, Duckybot and faults."""
-    return {
-        "world": ProfileSection(
-            schema={
-                "type": "object",
-                "description": "the simulated world: table, objects, Duckybot, faults "
-                "(simulation only; docs/sim.md)",
-            },
-            check=check_world,
-        )
-    }
+    """The ``world:`` section: the simulated table, objects, Duckybot and faults, its
+    schema and checks read from its declaration (``world_spec.WORLD``)."""
+    return {"world": ProfileSection(schema=WORLD.schema(), check=check_world, spec=WORLD)}
 
 
 def check_world(profile: Profile) -> list[armtree.ConfigError]:

@@ -1,18 +1,23 @@
-"""Small readers of a profile's ``world:`` entries that point errors at the entry.
+"""Pointing errors about a profile's ``world:`` at the entry.
 
-``_Errors(profile)(("world", "objects", name), message)`` is a ConfigError at
-that entry's file, line and column; :func:`_number`, :func:`_vector` and
-:func:`_mapping` read one value or refuse it there. The world section's parser
-and the randomize parser share them.
+:func:`check_section` checks a section against its declaration (``world_spec.WORLD``)
+with every value marked where the profile wrote it, so each problem names its
+file, line and column (or its ``--set`` option). ``_Errors(profile)(("world",
+"objects", name), message)`` is a ConfigError at that entry, for the checks that
+need the whole scene; :func:`_number`, :func:`_vector` and :func:`_mapping` read
+one value or refuse it there, for the randomize parser.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
-from armtree.config.profile_access import profile_error
-from armtree.errors import ConfigError, did_you_mean, shown
+from armtree.config.profile_access import profile_error, profile_section, profile_source
+from armtree.config.spec import Context, Spec
+from armtree.config.yamlio import MarkedDict, MarkedList, error_at
+from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.loader.profile import Profile
 
 
@@ -24,6 +29,60 @@ class _Errors:
 
     def __call__(self, path: tuple[Any, ...], message: str) -> ConfigError:
         return profile_error(self.profile, ".".join(str(p) for p in path), message)
+
+
+@dataclass
+class _ProfileContext(Context):
+    """A spec's context whose errors without a position still name the profile's file."""
+
+    file: str | None = None
+
+    def add(self, message: str, mark: Mark | None) -> None:
+        self.errors.append(error_at(message, mark, self.file))
+
+
+def check_section(profile: Any, name: str, spec: Spec) -> list[ConfigError]:
+    """Every problem ``spec`` finds in the profile's section ``name`` (none when it is
+    absent), each at the file, line and column the profile wrote it (a :class:`Profile`)
+    or naming no file (a plain mapping, as tests pass)."""
+    value = profile_section(profile, name)
+    if value is None:
+        return []
+    where = getattr(profile, "mark", None)
+    locate: Callable[[str], Mark | None] = (
+        where if callable(where) and not isinstance(profile, Mapping) else lambda path: None
+    )
+    data = getattr(profile, "data", profile)
+    file = profile_source(profile) or getattr(profile, "name", None)
+    ctx = _ProfileContext(data if isinstance(data, Mapping) else {}, file=file)
+    spec.check(_marked(value, name, locate), name, locate(name), ctx)
+    return ctx.errors
+
+
+def _marked(value: Any, path: str, locate: Callable[[str], Mark | None]) -> Any:
+    """``value`` as marked containers, each entry at ``locate(its dotted path)``: a loaded
+    profile keeps its marks by path, and the spec reads them from the containers."""
+    if isinstance(value, Mapping):
+        out = MarkedDict(mark=locate(path))
+        for key, item in value.items():
+            out[key] = _marked(item, f"{path}.{key}", locate)
+            mark = locate(f"{path}.{key}")
+            if mark is not None:
+                out.key_marks[key] = out.value_marks[key] = mark
+        return out
+    if isinstance(value, list):
+        items = MarkedList(
+            [_marked(v, f"{path}.{i}", locate) for i, v in enumerate(value)], mark=locate(path)
+        )
+        items.item_marks = [locate(f"{path}.{i}") for i in range(len(value))]
+        return items
+    return value
+
+
+def collected(errors: list[ConfigError]) -> ConfigError:
+    """One ConfigError carrying every one of ``errors`` (``str()`` lists them all)."""
+    first = errors[0]
+    return ConfigError(first.message, first.file, first.line, first.column, errors=errors)
 
 
 def _number(err: _Errors, path: tuple[Any, ...], value: Any, positive: bool = False) -> float:
