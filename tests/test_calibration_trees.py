@@ -122,7 +122,12 @@ def test_calibrate_needs_a_rig_or_offline_input(tmp_path):
 
 @pytest.mark.parametrize(
     "name",
-    ["calibrate_camera_offset", "calibrate_correction", "calibrate_hand_eye", "calibrate_kinematics"],
+    [
+        "calibrate_camera_offset",
+        "calibrate_correction",
+        "calibrate_hand_eye",
+        "calibrate_kinematics",
+    ],
 )
 def test_py_trees_visitors_see_every_node_of_a_calibration_tree(name):
     import py_trees

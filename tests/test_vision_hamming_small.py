@@ -10,8 +10,16 @@ import numpy as np
 import pytest
 
 from armtree.api.rig import Frame
+from armtree.plugins.trackers import synthetic as syn
 from armtree.plugins.trackers.hamming import HammingTracker
-from armtree.plugins.trackers.hamming_blur import hamming_blur_reader
+from armtree.plugins.trackers.hamming_blur import (
+    INSET_PX,
+    _own_terms,
+    _PixelFit,
+    _row_search,
+    hamming_blur_reader,
+)
+from armtree.plugins.trackers.hamming_code import CODEWORDS
 from armtree.plugins.trackers.markers import marker_image
 
 K = np.array([[810.0, 0, 320], [0, 810.0, 240], [0, 0, 1]])
@@ -62,7 +70,7 @@ def test_the_fit_reads_nothing_in_clutter():
         ],
         np.float32,
     )
-    ids, turns = hamming_blur_reader().read(image, quads)
+    ids, turns, _ = hamming_blur_reader().read(image, quads)
     assert (ids == -1).all() and (turns == -1).all()
 
 
@@ -82,7 +90,8 @@ def test_markers_of_14_px_with_blur_are_read_without_a_wrong_id(seed):
 
 def test_a_candidate_drawn_a_little_large_is_read_from_inside_it():
     """The candidate search's corners sit a few tenths of a pixel outside a blurred
-    border: the fit reads the marker from a quad grown by 0.3 px a side."""
+    border: the fit reads the marker from a quad grown by 0.3 px a side (the first
+    reading reads inside it, the pixel fit moves its corners onto the border)."""
     image = frame_with([IDS[1]], 16, 0.8, 1.0, seed=4)
     tracker = HammingTracker()
     quads = tracker.candidates(image)
@@ -92,8 +101,9 @@ def test_a_candidate_drawn_a_little_large_is_read_from_inside_it():
     centre = corners.mean(axis=0)
     side = float(np.linalg.norm(corners - np.roll(corners, 1, axis=0), axis=1).mean())
     grown = centre + (corners - centre) * (1 + 0.6 / side)
-    ids, _ = hamming_blur_reader().read(image, grown[None])
-    assert ids.tolist() == [IDS[1]]
+    ids, _, fitted = hamming_blur_reader().read(image, np.stack([grown, corners]))
+    assert ids.tolist() == [IDS[1]] * 2
+    assert np.abs(fitted[0] - fitted[1]).max() < 0.05, "the fit did not move the corners back"
     assert len(quads) >= 1
 
 
@@ -132,3 +142,71 @@ def test_a_ragged_small_square_is_a_candidate_from_its_hull_and_a_disc_is_not():
     disc = np.zeros((80, 80), np.uint8)
     cv2.circle(disc, (40, 40), 9, 255, -1)
     assert len(dark_quads(disc, 10.0, hull_fallback=True)) == 0
+
+
+def blurred_marker(marker_id: int, side_mm: float, blur_px: float, noise: float, seed: int):
+    """A frame of one marker, tilted, drawn exactly (:mod:`.synthetic`), and its corners."""
+    rvec, tvec = syn.look_at_pose(810.0 * side_mm / 16.0, 25.0, 30.0 + 40.0 * seed)
+    effects = syn.Effects(noise=noise, blur=blur_px, seed=seed)
+    image, truth = syn.render_markers(
+        "hamming", [syn.Placement(marker_id, side_mm, rvec, tvec)], K, effects=effects
+    )
+    return image, truth[marker_id]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_pixel_fit_puts_the_corners_on_the_border_and_fits_to_the_noise(seed):
+    """From corners 0.4 px off, the fit on the pixels finds them to a tenth of a pixel
+    and explains all but what noise of 3 grey levels leaves (against 190 of contrast)."""
+    image, corners = blurred_marker(IDS[0], 25.0, 0.8, 3.0, seed)
+    off = corners + np.random.default_rng(seed).uniform(-0.4, 0.4, corners.shape)
+    reader = hamming_blur_reader()
+    nibbles, turn, _ = reader.fit(reader.levels(image, off[None], INSET_PX))
+    printed = off[None, (turn[0] + np.arange(4)) % 4]
+    fit = _PixelFit(image, printed)
+    read, top, second, uneven = fit.read(nibbles)
+    assert int((read[0] << 4 * np.arange(6, -1, -1)).sum()) == IDS[0]
+    assert top[0] > 0.99, top
+    assert uneven[0] < 2.5, "the misfit is not noise"
+    assert (1 - second[0] ** 2) / (1 - top[0] ** 2) > 3.0, "another reading fits nearly as well"
+    true_printed = corners[(turn[0] + np.arange(4)) % 4]
+    assert np.abs(fit.corners()[0] - true_printed).max() < 0.12
+
+
+def test_the_row_search_finds_the_words_of_a_clean_prediction():
+    rng = np.random.default_rng(3)
+    cells = rng.normal(size=(300, 50))  # any 50 predictions, the last the print's rest
+    truth = rng.integers(0, 16, 7)
+    x = np.append(CODEWORDS[truth].ravel(), 1.0)
+    levels = cells @ x
+    levels /= np.linalg.norm(levels)
+    gram = cells.T @ cells
+    words, top, second = _row_search(cells.T @ levels, gram, _own_terms(gram), None, 4)
+    assert words.tolist() == truth.tolist()
+    assert top == pytest.approx(1.0) and second < 0.99
+
+
+def test_the_fine_search_keeps_a_thin_dark_ring_and_drops_lone_dark_pixels():
+    from armtree.plugins.trackers.hamming import FINE_MOST_LIGHT, _mostly_dark
+    from armtree.plugins.trackers.preprocess import dark_after_blur3
+
+    light = np.full((40, 40), 255, np.uint8)
+    light[10, 5:35] = 0  # a line one pixel thick
+    light[25, 20] = 0  # a pixel of noise
+    light[30, 10:12] = 0  # two
+    dark = _mostly_dark(light, FINE_MOST_LIGHT)
+    assert dark[10, 8:32].all() and not dark[25, 20] and not dark[30, 10:12].any()
+    assert not dark_after_blur3(light)[10].any(), "Showers 2016's blur keeps the line too"
+    noise = (np.random.default_rng(0).random((31, 47)) < 0.5).astype(np.uint8) * 255
+    assert np.array_equal(_mostly_dark(noise, 7), dark_after_blur3(noise))
+
+
+def test_a_batch_with_a_point_and_a_quad_off_the_frame_reads_only_the_marker():
+    """Degenerate candidates and ones hanging off the frame are refused, not failed on."""
+    image, corners = blurred_marker(IDS[2], 25.0, 0.7, 2.0, seed=5)
+    point = np.full((4, 2), 100.0)
+    off = np.array([[-8.0, -8.0], [9.0, -8.0], [9.0, 9.0], [-8.0, 9.0]])
+    quads = np.stack([point, off, corners, off + [630.0, 470.0]])
+    ids, turns, fitted = hamming_blur_reader().read(image, quads)
+    assert ids.tolist() == [-1, -1, IDS[2], -1]
+    assert turns[2] >= 0 and np.isfinite(fitted).all()

@@ -120,3 +120,19 @@ def test_grey_at_on_images_one_pixel_thin(shape):
         [bilinear(image, x, y) for x, y in zip(np.nan_to_num(xs, nan=0.0), ys, strict=True)],
         atol=1e-9,
     )
+
+
+@settings(max_examples=100, deadline=None)
+@given(quads_strategy)
+def test_unit_square_homographies_take_the_square_onto_the_quad(params):
+    quad = make_quad(*params)
+    homography, degenerate = kernels.unit_square_homographies(quad[None])
+    square = np.array([[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1.0]])
+    mapped = square @ homography[0].T
+    assert not degenerate[0]
+    assert np.allclose(mapped[:, :2] / mapped[:, 2:], quad, atol=1e-9)
+
+
+def test_a_quad_of_one_point_has_no_homography():
+    flat = np.array([[[30.0, 5.0]] * 4])
+    assert kernels.unit_square_homographies(flat)[1].tolist() == [True]

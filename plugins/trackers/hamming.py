@@ -49,15 +49,25 @@ MIN_ROW_GAP = 1.0
 #: Candidates up to this side (px) that the cell reading leaves unread are fitted with
 #: blurred code words (:mod:`.hamming_blur`); larger markers have cells to threshold.
 BLUR_FIT_MAX_SIDE_PX = 32.0
-#: ... and down to this side: below it (under 1.4 px a cell) a fit is too often of
-#: the wrong code word to keep.
-BLUR_FIT_MIN_SIDE_PX = 12.0
+#: ... and down to this side (the search's default ``min_side_px``): at 1.1-1.3 px a
+#: cell a fit is often of the wrong code word, but then of one that barely fits better
+#: than the next, which the fit refuses (in 20,000 benchmark frames the wrong readings of
+#: candidates under 12 px fitted at most 1.5 times better than the next, against 2.2
+#: asked, :data:`.hamming_blur.MIN_GAP`).
+BLUR_FIT_MIN_SIDE_PX = 10.0
 #: The shortest side (px) whose candidate's cells are read one by one; smaller ones
 #: (the search looks down to ``min_side_px``) go to the blur fit alone.
 CELLS_MIN_SIDE_PX = 12.0
 #: The fine search's local threshold: small markers' borders stand out of a 7 px
 #: neighbourhood where a threshold for the whole frame merges them with their cells.
-FINE_SEARCH: dict[str, Any] = {"adaptive": True, "block_px": 7, "offset": 7.0, "blur": 3}
+FINE_SEARCH: dict[str, Any] = {"adaptive": True, "block_px": 7, "offset": 7.0}
+#: ... then a pixel stays dark when at most this many of 16 around it are light, weighed
+#: as a 3x3 Gaussian blur weighs them (:func:`_mostly_dark`): a blurred 16 px marker's
+#: border thresholds to a ring 1-2 px wide, which Showers 2016's blur (at most 7) breaks
+#: where a white cell touches it, while lone dark pixels of noise still go (benchmark
+#: frames with noise and blur: 99 % of 16 px and 83 % of 14 px markers outlined, 96 % and
+#: 73 % at 7).
+FINE_MOST_LIGHT = 9
 #: Showers 2016's preprocessing: threshold at 40 % of full scale, slight Gaussian blur.
 SEED_PREPROCESS: dict[str, Any] = {"threshold": 0.4, "blur": 3}
 
@@ -250,7 +260,8 @@ class HammingTracker(Tracker):
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         quads = dark_quads(dark, self.min_side_px)
         if self.fine_search:
-            fine = dark_quads(self._fine.dark(gray), self.min_side_px, hull_fallback=True)
+            dark = _mostly_dark(self._fine.apply(gray), FINE_MOST_LIGHT)
+            fine = dark_quads(dark, self.min_side_px, hull_fallback=True)
             if len(quads) and len(fine):
                 fine = fine[~_same_squares(fine, quads)]  # one candidate per marker
             quads = np.concatenate([quads, fine])
@@ -320,21 +331,53 @@ class HammingTracker(Tracker):
     def _fit_small(
         self, gray: np.ndarray, quads: np.ndarray, read: np.ndarray, contrasted: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Printed-order corners ``(M, 4, 2)`` and ids ``(M,)`` of the small candidates
-        the cells left unread, with a white quiet zone around a dark border
-        (``contrasted``), that blurred code words fit (:mod:`.hamming_blur`)."""
+        """Printed-order corners ``(M, 4, 2)`` (as the fit refined them) and ids ``(M,)`` of
+        the small candidates the cells left unread, with a white quiet zone around a dark
+        border (``contrasted``), that blurred code words fit (:mod:`.hamming_blur`)."""
         sides = np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2).mean(axis=1)
         small = (sides >= BLUR_FIT_MIN_SIDE_PX) & (sides <= BLUR_FIT_MAX_SIDE_PX) & contrasted
         small[read] = False
         picked = np.flatnonzero(small)
         if len(picked) == 0:
             return np.zeros((0, 4, 2), quads.dtype), np.zeros(0, dtype=np.int64)
-        fit_ids, fit_turns = hamming_blur_reader().read(np.ascontiguousarray(gray), quads[picked])
+        fit_ids, _, fitted = hamming_blur_reader().read(gray, quads[picked])
         ok = fit_ids >= 0
         if self.only_registered:
             ok &= np.isin(fit_ids, np.array(sorted(self.roles.table), dtype=np.int64))
-        rows = picked[ok]
-        return quads[rows[:, None], _ROLLS[fit_turns[ok]]], fit_ids[ok].astype(np.int64)
+        return fitted[ok].astype(quads.dtype), fit_ids[ok].astype(np.int64)
+
+
+def _mostly_dark(binary: np.ndarray, most_light: int) -> np.ndarray:
+    """255 where at most ``most_light`` of 16 of the 3x3 neighbourhood of ``binary`` (a 0/255
+    ``uint8`` image, at least 2x2) is light, weighed as OpenCV's 3x3 Gaussian weighs it
+    ((1 2 1) x (1 2 1), borders mirrored without repeating the edge); else 0.
+
+    At 7 this is :func:`.preprocess.dark_after_blur3` (Showers 2016's blur, then half way):
+    a dark line one pixel wide (8 of 16 light) goes. From 8 up it stays, while a lone dark
+    pixel (12 of 16) or two side by side (10) still go.
+    """
+    h, w = binary.shape
+    _, ones = cv2.threshold(binary.reshape(1, -1), 127, 1, cv2.THRESH_BINARY)
+    flat = ones.reshape(-1)
+    # sums over the image as one row, shifted by a pixel and by a row (contiguous, and no
+    # OpenCV worker threads); where a shift ran from one row into the next is redone after
+    across = np.empty(h * w, np.uint8)  # 1 2 1 along each row
+    inner = across[1:-1]
+    np.add(flat[:-2], flat[2:], out=inner)
+    inner += flat[1:-1]
+    inner += flat[1:-1]
+    rows, grid = across.reshape(h, w), flat.reshape(h, w)
+    rows[:, 0] = 2 * (grid[:, 0] + grid[:, min(1, w - 1)])
+    rows[:, -1] = 2 * (grid[:, -1] + grid[:, max(w - 2, 0)])
+    total = flat  # then 1 2 1 down each column, over the no longer needed ones
+    inner = total[w:-w]
+    np.add(across[: -2 * w], across[2 * w :], out=inner)
+    inner += across[w:-w]
+    inner += across[w:-w]
+    grid[0] = 2 * (rows[0] + rows[min(1, h - 1)])
+    grid[-1] = 2 * (rows[-1] + rows[max(h - 2, 0)])
+    cv2.threshold(ones, most_light, 255, cv2.THRESH_BINARY_INV, dst=ones)
+    return grid
 
 
 def _same_squares(quads: np.ndarray, others: np.ndarray) -> np.ndarray:

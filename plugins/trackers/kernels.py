@@ -131,6 +131,28 @@ def refine_quads(
     return np.stack([current.real, current.imag], axis=-1)
 
 
+def unit_square_homographies(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The projective maps ``(N, 3, 3)`` of the unit square onto quads ``(N, 4, 2)``:
+    ``H @ (u, v, 1)`` is ``(x w, y w, w)``, (0,0), (1,0), (1,1), (0,1) going to corners
+    0 to 3, in closed form (Heckbert 1989, square to quadrilateral); and which quads are
+    degenerate ``(N,)`` (no such map: theirs is then not one of the quad)."""
+    quads = np.asarray(quads, dtype=np.float64)
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = (quads[:, k].T for k in range(4))
+    dx1, dx2, dx3 = x1 - x2, x3 - x2, x0 - x1 + x2 - x3
+    dy1, dy2, dy3 = y1 - y2, y3 - y2, y0 - y1 + y2 - y3
+    den = dx1 * dy2 - dx2 * dy1
+    degenerate = np.abs(den) < 1e-12
+    den = np.where(degenerate, 1.0, den)
+    g = (dx3 * dy2 - dx2 * dy3) / den
+    h = (dx1 * dy3 - dx3 * dy1) / den
+    columns = [
+        np.stack([x1 - x0 + g * x1, y1 - y0 + g * y1, g], axis=1),
+        np.stack([x3 - x0 + h * x3, y3 - y0 + h * y3, h], axis=1),
+        np.stack([x0, y0, np.ones_like(x0)], axis=1),
+    ]
+    return np.stack(columns, axis=2), degenerate
+
+
 def sample_cells(
     image: np.ndarray, quads: np.ndarray, cell_uv: np.ndarray, quiet_uv: np.ndarray
 ) -> np.ndarray:
@@ -138,28 +160,15 @@ def sample_cells(
 
     ``cell_uv (C, S, 2)`` are S points in each of C cells, ``quiet_uv (Q, 2)``
     single points, all on the unit square, which is mapped onto each quad
-    projectively, (0,0), (1,0), (1,1), (0,1) to its corners, in closed form
-    (Heckbert 1989, square to quadrilateral). A cell's level is the mean of
+    projectively (:func:`unit_square_homographies`). A cell's level is the mean of
     its points. A degenerate quad reads its first corner's level everywhere.
     """
     quads = np.asarray(quads, dtype=np.float64)
     n_cells, per_cell = cell_uv.shape[0], cell_uv.shape[1]
-    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = (quads[:, k].T[:, :, None] for k in range(4))
-    dx1, dx2, dx3 = x1 - x2, x3 - x2, x0 - x1 + x2 - x3
-    dy1, dy2, dy3 = y1 - y2, y3 - y2, y0 - y1 + y2 - y3
-    den = dx1 * dy2 - dx2 * dy1  # (N, 1)
-    degenerate = np.abs(den[:, 0]) < 1e-12
-    den = np.where(degenerate[:, None], 1.0, den)
-    g = (dx3 * dy2 - dx2 * dy3) / den
-    h = (dx1 * dy3 - dx3 * dy1) / den
-    homography = np.concatenate(
-        [x1 - x0 + g * x1, y1 - y0 + g * y1, g, x3 - x0 + h * x3, y3 - y0 + h * y3, h, x0, y0],
-        axis=1,
-    )  # (N, 8): the 3x3 matrix's columns, its last element 1
+    homography, degenerate = unit_square_homographies(quads)
     uv = np.concatenate([cell_uv.reshape(-1, 2), quiet_uv])
-    mapped = uv[:, 0, None] * homography[:, None, 0:3] + uv[:, 1, None] * homography[:, None, 3:6]
-    mapped[..., :2] += homography[:, None, 6:8]
-    mapped[..., 2] += 1.0  # (N, P, 3): x w, y w, w
+    mapped = uv[:, 0, None] * homography[:, None, :, 0] + uv[:, 1, None] * homography[:, None, :, 1]
+    mapped += homography[:, None, :, 2]  # (N, P, 3): x w, y w, w
     w = mapped[..., 2:]
     levels = grey_at(image, mapped[..., :2] / np.where(np.abs(w) < 1e-12, 1e-12, w))
     split = n_cells * per_cell
