@@ -25,7 +25,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 
@@ -522,26 +522,40 @@ class Either(Spec):
 
 
 @dataclass(frozen=True)
-class Text(Spec):
-    """A string."""
+class _Scalar(Spec):
+    """A value of one JSON type, told by its Python type (a subclass names both)."""
 
     doc: str = ""
     default: Any = None
+    python_type: ClassVar[type] = object
+    json_type: ClassVar[str] = ""
+    words: ClassVar[str] = ""
+    short: ClassVar[str] = ""
 
     def want(self) -> str:
-        return "a string"
+        return self.words
 
     def brief(self) -> str:
-        return "str"
+        return self.short
 
     def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
-        if isinstance(value, str):
+        if isinstance(value, self.python_type):
             return True
-        ctx.add(f"{path}: expected a string, got {shown(value)}", at)
+        ctx.add(f"{path}: expected {self.words}, got {shown(value)}", at)
         return False
 
     def schema(self) -> dict[str, Any]:
-        return self._described({"type": "string"})
+        return self._described({"type": self.json_type})
+
+
+@dataclass(frozen=True)
+class Text(_Scalar):
+    """A string."""
+
+    python_type: ClassVar[type] = str
+    json_type: ClassVar[str] = "string"
+    words: ClassVar[str] = "a string"
+    short: ClassVar[str] = "str"
 
 
 def _word(value: Any) -> str:
@@ -590,26 +604,13 @@ class Choice(Spec):
 
 
 @dataclass(frozen=True)
-class Boolean(Spec):
+class Boolean(_Scalar):
     """``true`` or ``false``."""
 
-    doc: str = ""
-    default: Any = None
-
-    def want(self) -> str:
-        return "true or false"
-
-    def brief(self) -> str:
-        return "bool"
-
-    def check(self, value: Any, path: str, at: Mark | None, ctx: Context) -> bool:
-        if isinstance(value, bool):
-            return True
-        ctx.add(f"{path}: expected true or false, got {shown(value)}", at)
-        return False
-
-    def schema(self) -> dict[str, Any]:
-        return self._described({"type": "boolean"})
+    python_type: ClassVar[type] = bool
+    json_type: ClassVar[str] = "boolean"
+    words: ClassVar[str] = "true or false"
+    short: ClassVar[str] = "bool"
 
 
 @dataclass(frozen=True)
