@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from armtree.plugins.trackers.preprocess import (
     Preprocessing,
     dark_after_blur3,
+    mostly_dark,
     threshold_image,
     to_gray,
 )
@@ -70,3 +71,18 @@ def test_row_wise_grey_and_threshold_equal_opencv():
     gray = to_gray(bgr)
     otsu = cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU
     assert np.array_equal(threshold_image(gray, 0, otsu), cv2.threshold(gray, 0, 255, otsu)[1])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 40), st.integers(2, 40), st.integers(0, 16), st.integers(0, 2**32 - 1))
+def test_mostly_dark_counts_light_neighbours_as_the_gaussian_weighs_them(
+    height, width, most_light, seed
+):
+    rng = np.random.default_rng(seed)
+    binary = (rng.random((height, width)) < 0.5).astype(np.uint8) * 255
+    kernel = np.outer([1, 2, 1], [1, 2, 1]).astype(np.float32)
+    light = cv2.filter2D(
+        (binary > 0).astype(np.float32), -1, kernel, borderType=cv2.BORDER_REFLECT_101
+    )
+    expected = np.where(np.rint(light) <= most_light, 255, 0).astype(np.uint8)
+    assert np.array_equal(mostly_dark(binary, most_light), expected)

@@ -22,13 +22,13 @@ first). Ids whose turns read as other ids are not valid markers at all
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol, cast
+from typing import Any, cast
 
 import cv2
 import numpy as np
 
+from armtree.api.component_factory import CheckedFactory
 from armtree.api.rig import Detection, Frame, RigContext, Tracker
 from armtree.config.component_config import check_config
 from armtree.config.params import Param
@@ -38,7 +38,7 @@ from .common import TagRoles, finish_detection, probe
 from .hamming_blur import hamming_blur_reader
 from .hamming_code import CODEWORDS, GRID
 from .kernels import apart_from, best_of_overlapping, read_markers, sample_cells
-from .preprocess import Preprocessing, dark_quads, threshold_image, to_gray
+from .preprocess import Preprocessing, dark_quads, mostly_dark, threshold_image, to_gray
 from .refine import refine_corners
 
 FAMILY = "hamming"
@@ -62,7 +62,7 @@ CELLS_MIN_SIDE_PX = 12.0
 #: neighbourhood where a threshold for the whole frame merges them with their cells.
 FINE_SEARCH: dict[str, Any] = {"adaptive": True, "block_px": 7, "offset": 7.0}
 #: ... then a pixel stays dark when at most this many of 16 around it are light, weighed
-#: as a 3x3 Gaussian blur weighs them (:func:`_mostly_dark`): a blurred 16 px marker's
+#: as a 3x3 Gaussian blur weighs them (:func:`.preprocess.mostly_dark`): a blurred 16 px marker's
 #: border thresholds to a ring 1-2 px wide, which Showers 2016's blur (at most 7) breaks
 #: where a white cell touches it, while lone dark pixels of noise still go (benchmark
 #: frames with noise and blur: 99 % of 16 px and 83 % of 14 px markers outlined, 96 % and
@@ -260,7 +260,7 @@ class HammingTracker(Tracker):
             dark = threshold_image(processed, 0, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
         quads = dark_quads(dark, self.min_side_px)
         if self.fine_search:
-            dark = _mostly_dark(self._fine.apply(gray), FINE_MOST_LIGHT)
+            dark = mostly_dark(self._fine.apply(gray), FINE_MOST_LIGHT)
             fine = dark_quads(dark, self.min_side_px, hull_fallback=True)
             if len(quads) and len(fine):
                 fine = fine[~_same_squares(fine, quads)]  # one candidate per marker
@@ -347,39 +347,6 @@ class HammingTracker(Tracker):
         return fitted[ok].astype(quads.dtype), fit_ids[ok].astype(np.int64)
 
 
-def _mostly_dark(binary: np.ndarray, most_light: int) -> np.ndarray:
-    """255 where at most ``most_light`` of 16 of the 3x3 neighbourhood of ``binary`` (a 0/255
-    ``uint8`` image, at least 2x2) is light, weighed as OpenCV's 3x3 Gaussian weighs it
-    ((1 2 1) x (1 2 1), borders mirrored without repeating the edge); else 0.
-
-    At 7 this is :func:`.preprocess.dark_after_blur3` (Showers 2016's blur, then half way):
-    a dark line one pixel wide (8 of 16 light) goes. From 8 up it stays, while a lone dark
-    pixel (12 of 16) or two side by side (10) still go.
-    """
-    h, w = binary.shape
-    _, ones = cv2.threshold(binary.reshape(1, -1), 127, 1, cv2.THRESH_BINARY)
-    flat = ones.reshape(-1)
-    # sums over the image as one row, shifted by a pixel and by a row (contiguous, and no
-    # OpenCV worker threads); where a shift ran from one row into the next is redone after
-    across = np.empty(h * w, np.uint8)  # 1 2 1 along each row
-    inner = across[1:-1]
-    np.add(flat[:-2], flat[2:], out=inner)
-    inner += flat[1:-1]
-    inner += flat[1:-1]
-    rows, grid = across.reshape(h, w), flat.reshape(h, w)
-    rows[:, 0] = 2 * (grid[:, 0] + grid[:, min(1, w - 1)])
-    rows[:, -1] = 2 * (grid[:, -1] + grid[:, max(w - 2, 0)])
-    total = flat  # then 1 2 1 down each column, over the no longer needed ones
-    inner = total[w:-w]
-    np.add(across[: -2 * w], across[2 * w :], out=inner)
-    inner += across[w:-w]
-    inner += across[w:-w]
-    grid[0] = 2 * (rows[0] + rows[min(1, h - 1)])
-    grid[-1] = 2 * (rows[-1] + rows[max(h - 2, 0)])
-    cv2.threshold(ones, most_light, 255, cv2.THRESH_BINARY_INV, dst=ones)
-    return grid
-
-
 def _same_squares(quads: np.ndarray, others: np.ndarray) -> np.ndarray:
     """Which of ``quads (N, 4, 2)`` outline a square of ``others (M, 4, 2)`` again: centres
     within a quarter side and sides within 30 % (a marker inside a dark sheet is not its
@@ -413,15 +380,6 @@ def _tracker(values: dict[str, Any], where: Any) -> HammingTracker:
     )
 
 
-class _HammingFactory(Protocol):
-    """:func:`hamming_factory` with the members the loader reads off it."""
-
-    PARAMS: tuple[Param, ...]
-    validate: Callable[[dict[str, Any], Profile], None]
-
-    def __call__(self, config: dict[str, Any], context: RigContext) -> HammingTracker: ...
-
-
 def hamming_factory(config: dict[str, Any], context: RigContext) -> HammingTracker:
     """Hampy-format Hamming markers (9x9, 28-bit ids), Showers 2016's preprocessing by default."""
     values = check_config(config, _PARAMS, "tracker", context.profile)
@@ -435,8 +393,8 @@ def _validate(config: dict[str, Any], profile: Profile) -> None:
 
 
 # mypy types a def as a plain callable, which has no attributes to set: the same function,
-# typed as what it is once the members below are set.
-hamming_factory = cast(_HammingFactory, hamming_factory)
+# typed as what it is once its members are set.
+hamming_factory = cast(CheckedFactory[HammingTracker], hamming_factory)
 hamming_factory.validate = _validate
 _PARAMS: tuple[Param, ...] = (
     Param("preprocess", "dict", SEED_PREPROCESS, doc="threshold, adaptive, block_px, offset, blur"),

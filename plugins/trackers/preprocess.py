@@ -159,36 +159,48 @@ def dark_after_blur3(image: np.ndarray, level: float = 127.0) -> np.ndarray:
 
     With ``binary = threshold(image, level, 255, THRESH_BINARY)``, exactly
     ``threshold(GaussianBlur(binary, (3, 3), 0), 127, 255, THRESH_BINARY_INV)``
-    for images of at least 3x3 (a 0/255 image binarises to itself at 127): the blur's kernel is (1 2 1) x (1 2 1) / 16, so a
-    pixel ends up dark when the weighted count of white pixels around it is at
-    most 7 of 16 (8 rounds to 128), borders mirrored without repeating the edge
-    (OpenCV's default). The sums are in-place additions of the image shifted by
-    one pixel and by one row: no worker threads and two frame buffers, where
-    the blur costs more CPU time in its threads than in its arithmetic.
+    for images of at least 3x3 (a 0/255 image binarises to itself at 127): the
+    blur's kernel is (1 2 1) x (1 2 1) / 16, so a pixel ends up dark when the
+    weighted count of white pixels around it is at most 7 of 16 (8 rounds to 128).
+    """
+    return mostly_dark(image, 7, level)
+
+
+def mostly_dark(image: np.ndarray, most_light: int, level: float = 127.0) -> np.ndarray:
+    """255 where at most ``most_light`` of 16 of the 3x3 neighbourhood of ``image``
+    binarised at ``level`` (a ``uint8`` image, at least 2x2) is light, weighed as
+    OpenCV's 3x3 Gaussian weighs it ((1 2 1) x (1 2 1), borders mirrored without
+    repeating the edge, OpenCV's default); else 0.
+
+    At 7 this is :func:`dark_after_blur3` (Showers 2016's blur, then half way): a dark
+    line one pixel wide (8 of 16 light) goes. From 8 up it stays, while a lone dark
+    pixel (12 of 16) or two side by side (10) still go. The sums are in-place
+    additions of the image shifted by one pixel and by one row: no worker threads
+    and two frame buffers, where the blur costs more CPU time in its threads than in
+    its arithmetic.
     """
     h, w = image.shape
     _, ones = cv2.threshold(image.reshape(1, -1), level, 1, cv2.THRESH_BINARY)
     flat = ones.reshape(-1)
-    grid = flat.reshape(h, w)
+    # where a shift ran from one row into the next (the first and last columns and
+    # rows) is redone after
     across = np.empty(h * w, np.uint8)  # 1 2 1 along each row
     inner = across[1:-1]
     np.add(flat[:-2], flat[2:], out=inner)
     inner += flat[1:-1]
     inner += flat[1:-1]
-    across2 = across.reshape(h, w)
-    # the first and last columns (also where the shifted rows ran into each other)
-    across2[:, 0] = 2 * (grid[:, 0] + grid[:, 1])
-    across2[:, -1] = 2 * (grid[:, -1] + grid[:, -2])
+    rows, grid = across.reshape(h, w), flat.reshape(h, w)
+    rows[:, 0] = 2 * (grid[:, 0] + grid[:, min(1, w - 1)])
+    rows[:, -1] = 2 * (grid[:, -1] + grid[:, max(w - 2, 0)])
     total = flat  # then 1 2 1 down each column, over the no longer needed ones
     inner = total[w:-w]
     np.add(across[: -2 * w], across[2 * w :], out=inner)
     inner += across[w:-w]
     inner += across[w:-w]
-    total2 = total.reshape(h, w)
-    total2[0] = 2 * (across2[0] + across2[1])
-    total2[-1] = 2 * (across2[-1] + across2[-2])
-    cv2.threshold(ones, 7, 255, cv2.THRESH_BINARY_INV, dst=ones)
-    return total2
+    grid[0] = 2 * (rows[0] + rows[min(1, h - 1)])
+    grid[-1] = 2 * (rows[-1] + rows[max(h - 2, 0)])
+    cv2.threshold(ones, most_light, 255, cv2.THRESH_BINARY_INV, dst=ones)
+    return grid
 
 
 #: Corners of a simplified outline that :func:`dark_quads` still tries as a ragged square.
