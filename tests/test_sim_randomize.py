@@ -235,6 +235,13 @@ def profile_with(tmp_path, randomize):
         ({"camera": {"drop_rate": [0, 1.5]}}, "a drop rate is below 1"),
         ({"light": {"ambient": [0.2, 1.4]}}, "between 0 and 1"),
         ({"colour": 1}, "unknown key 'colour'"),
+        ({"objects": {"trash": {"ring": {"angle": [0, 10]}}}}, "needs r"),
+        ({"objects": {"trash": {"ring": {"r": [-5, 10]}}}}, "must be at least 0, got -5"),
+        ({"objects": {"trash": {"count": [1.5, 2], "on": "spot"}}}, "expected whole numbers"),
+        ({"objects": {"ducky": {"on": "spot", "yaw": "any"}}}, "expected a range [MIN, MAX]"),
+        ({"duckybots": {"duckybot": {}}}, "needs park"),
+        ({"faults": {"missed_steps": {"rate_per_s": [0, 0.1], "joints": [1.5]}}}, "joints"),
+        ({"gap_mm": "wide"}, "gap_mm: expected a number"),
     ],
 )
 def test_bad_ranges_are_errors_at_their_entry(tmp_path, randomize, message):
@@ -310,3 +317,22 @@ def test_a_count_past_its_minimum_leaves_out_what_finds_no_room(tmp_path):
         trash = [o for o in draw_scene(scene, seed, _Errors(profile)).objects if o.kind == "trash"]
         assert len(trash) == 1
         assert np.allclose(trash[0].position[:2], [150.0, 150.0])
+
+
+def test_a_set_override_of_a_draw_is_checked_at_the_option(tmp_path):
+    path = profile_with(tmp_path, {"camera": {"drop_rate": [0, 0.04]}})
+    option = "world.randomize.camera.drop_rate=[0, 2]"
+    with pytest.raises(ConfigError) as info:
+        load_profile(path, [option])
+    error = info.value.errors[0]
+    assert "a drop rate is below 1" in error.message and error.file == f"--set {option}"
+
+
+def test_drawn_worlds_do_not_depend_on_the_order_ranges_are_written_in(tmp_path):
+    light = {"x": [0, 300], "ambient": [0.45, 0.7], "z": [700, 1100]}
+    worlds = []
+    for order in (light, dict(reversed(list(light.items())))):
+        profile = load_profile(profile_with(tmp_path, {"light": order}))
+        worlds.append(draw_scene(parse_scene(profile), 5, _Errors(profile)).light)
+    assert worlds[0] == worlds[1]
+    assert not math.isclose(worlds[0].ambient, 0.55)

@@ -122,7 +122,9 @@ def declared_tables(registry: Registry) -> dict[str, tuple[Record, dict[str, str
             continue
         for name, record in nested_records(spec, section).items():
             own = {
-                k: "its keys' defaults" for k, v in record.fields.items() if isinstance(v, Record)
+                k: v.absent or "its keys' defaults"
+                for k, v in record.fields.items()
+                if isinstance(v, Record)
             }
             out[name] = (record, own)
     return out

@@ -318,6 +318,9 @@ class Record(Spec):
     #: Name an unknown key by its own path (``PATH.KEY: unknown key 'KEY'``) rather than
     #: the mapping's: a section whose messages always name the offending entry (world:).
     key_paths: bool = False
+    #: What leaving the whole record out means, for a key table's default column (its
+    #: keys' defaults unless given: ``world.randomize`` left out draws nothing).
+    absent: str = ""
 
     def want(self) -> str:
         return self.wanted or self.brief()

@@ -135,7 +135,9 @@ class SlipWatch:
             run = range(start, min(start + every, len(poses)))
             records = []
             for k in run:
-                records.append((yield from self.skill.visit_pose(k, poses[k], self.role, len(poses))))
+                records.append(
+                    (yield from self.skill.visit_pose(k, poses[k], self.role, len(poses)))
+                )
             now = yield from self._look(check, len(poses))
             self.checks += 1
             if moved(now, reference) <= self.slip:

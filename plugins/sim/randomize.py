@@ -49,17 +49,15 @@ from typing import Any
 
 import numpy as np
 
+from armtree.errors import did_you_mean
+
 from .duckybot import RouteSpec
 from .geometry import footprint_overlap, point_in_polygon
 from .scene_spec import DuckybotSpec, LightSpec, ObjectSpec, SceneSpec, SlipSpec
-from .world_parsing import _Errors, _mapping, _number
+from .world_parsing import _Errors
 
 #: Attempts to place one body before the profile is refused.
 TRIES = 400
-_OBJECT_KEYS = ("on", "ring", "region", "yaw", "count")
-_REGION_KEYS = ("on", "ring", "region")
-_CAMERA_KEYS = ("noise", "blur", "drop_rate")
-_KEYS = ("objects", "duckybots", "light", "camera", "faults", "gap_mm")
 
 Range = tuple[float, float]
 
@@ -113,132 +111,76 @@ class RandomizeSpec:
 # ---------------------------------------------------------------------------
 
 
-def _range(err: _Errors, path: tuple[Any, ...], value: Any, low: float | None = None) -> Range:
-    """``[MIN, MAX]`` or one number; ``low`` is the least allowed value."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        pair = (float(value), float(value))
-    elif isinstance(value, Sequence) and not isinstance(value, (str, bytes)) and len(value) == 2:
-        pair = (_number(err, path, value[0]), _number(err, path, value[1]))
-    else:
-        raise err(path, f"expected a range [MIN, MAX] or a number, got {value!r}")
-    if pair[0] > pair[1]:
-        raise err(path, f"the range {list(value)} has MIN > MAX; write [{pair[1]:g}, {pair[0]:g}]")
-    if low is not None and pair[0] < low:
-        raise err(path, f"must be at least {low:g}, got {pair[0]:g}")
-    return pair
+def _region(value: Mapping[str, Any]) -> Region:
+    """The one region of a checked draw (:data:`.randomize_spec.OBJECT_DRAW`, ``PARK``)."""
+    if value.get("on") is not None:
+        return Region("on", spot=str(value["on"]))
+    if value.get("ring") is not None:
+        return Region("ring", value["ring"]["r"], value["ring"]["angle"])
+    return Region("region", value["region"]["x"], value["region"]["y"])
 
 
-def _region(
-    err: _Errors, path: tuple[Any, ...], entry: Mapping[str, Any], spots: set[str], allow_on: bool
-) -> Region:
-    keys = [k for k in _REGION_KEYS if k in entry and (allow_on or k != "on")]
-    choices = " or ".join(_REGION_KEYS if allow_on else _REGION_KEYS[1:])
-    if len(keys) != 1:
-        raise err(path, f"give exactly one region: {choices}")
-    key = keys[0]
-    value = entry[key]
-    if key == "on":
-        if value not in spots:
-            raise err((*path, "on"), f"no spot {value!r} in world.objects (kind: spot)")
-        return Region("on", spot=str(value))
-    if key == "ring":
-        ring = _mapping(err, (*path, "ring"), value, ("r", "angle"))
-        r = _range(err, (*path, "ring", "r"), ring.get("r"), low=0.0)
-        angle = _range(err, (*path, "ring", "angle"), ring.get("angle", [-180, 180]))
-        return Region("ring", r, angle)
-    box = _mapping(err, (*path, "region"), value, ("x", "y"))
-    return Region(
-        "region",
-        _range(err, (*path, "region", "x"), box.get("x")),
-        _range(err, (*path, "region", "y"), box.get("y")),
-    )
+def _named(err: _Errors, path: tuple[Any, ...], name: Any, known: Sequence[str], noun: str) -> None:
+    if name not in known:
+        hint = did_you_mean(str(name), list(known), list_up_to=len(known))
+        raise err((*path, name), f"unknown {noun} {name!r}{hint}")
 
 
 def parse_randomize(
     err: _Errors,
-    value: Any,
+    value: Mapping[str, Any] | None,
     objects: list[ObjectSpec],
     duckybots: list[DuckybotSpec],
     spare: Any,
 ) -> RandomizeSpec | None:
-    """Read ``world.randomize``; ``spare(kind, name, index)`` parses an extra body of a kind."""
+    """``world.randomize`` as :data:`.randomize_spec.RANDOMIZE` parsed it, checked against
+    the world's bodies; ``spare(kind, name, path, index)`` parses an extra body of a kind."""
     if value is None:
         return None
     root = ("world", "randomize")
-    spec = _mapping(err, root, value, _KEYS)
     out = RandomizeSpec()
     names = {o.name: o for o in objects}
-    kinds = {o.kind for o in objects}
+    kinds = sorted({o.kind for o in objects})
     spots = {o.name for o in objects if o.kind == "spot"}
-    for target, entry in _mapping(
-        err, (*root, "objects"), spec.get("objects"), [*names, *kinds]
-    ).items():
+    for target, entry in value["objects"].items():
         path = (*root, "objects", target)
-        if isinstance(entry, Mapping) and True in entry:  # YAML 1.1 reads a bare `on` as true
-            entry = {("on" if k is True else k): v for k, v in entry.items()}
-        entry = _mapping(err, path, entry, _OBJECT_KEYS)
-        is_kind = target not in names
-        region = _region(err, path, entry, spots, allow_on=True)
+        _named(err, (*root, "objects"), target, [*names, *kinds], "body or kind")
+        region = _region(entry)
+        if region.kind == "on" and region.spot not in spots:
+            raise err((*path, "on"), f"no spot {region.spot!r} in world.objects (kind: spot)")
         count = None
-        if "count" in entry:
-            if not is_kind:
+        if entry["count"] is not None:
+            if target in names:
                 raise err(
                     (*path, "count"), f"count is for a kind (e.g. trash), not the body {target!r}"
                 )
-            low, high = _range(err, (*path, "count"), entry["count"], low=0.0)
-            if low != int(low) or high != int(high):
-                raise err((*path, "count"), f"expected whole numbers, got {entry['count']!r}")
-            count = (int(low), int(high))
+            count = (int(entry["count"][0]), int(entry["count"][1]))
             have = [o for o in objects if o.kind == target]
             out.spares[target] = [
                 spare(target, _spare_name(target, names, i), (*path, "count"), len(have) + i)
                 for i in range(max(0, count[1] - len(have)))
             ]
-        yaw = _range(err, (*path, "yaw"), entry["yaw"]) if "yaw" in entry else None
-        out.objects.append(ObjectDraw(str(target), region, yaw, count, path))
-    bots = {b.body.name for b in duckybots}
-    for name, entry in _mapping(
-        err, (*root, "duckybots"), spec.get("duckybots"), sorted(bots)
-    ).items():
+        out.objects.append(ObjectDraw(str(target), region, entry["yaw"], count, path))
+    bots = sorted(b.body.name for b in duckybots)
+    for name, entry in value["duckybots"].items():
         path = (*root, "duckybots", name)
-        park = _mapping(err, path, entry, ("park",)).get("park")
-        if park is None:
-            raise err(path, "expected park: {ring: ... or region: ..., heading: [MIN, MAX]}")
-        park = _mapping(err, (*path, "park"), park, ("ring", "region", "heading"))
+        _named(err, (*root, "duckybots"), name, bots, "Duckybot")
         if not any(
             leg.kind == "park" for b in duckybots if b.body.name == name for leg in b.route.legs
         ):
             raise err(path, f"the Duckybot {name!r} has no park leg in its route to move")
-        out.parks.append(
-            ParkDraw(
-                str(name),
-                _region(err, (*path, "park"), park, spots, allow_on=False),
-                _range(err, (*path, "park", "heading"), park.get("heading", 0.0)),
-                path,
-            )
-        )
-    light = _mapping(err, (*root, "light"), spec.get("light"), ("x", "y", "z", "ambient"))
-    for key, v in light.items():
-        out.light[key] = _range(err, (*root, "light", key), v)
-    if "ambient" in out.light and not 0 <= out.light["ambient"][0] <= out.light["ambient"][1] <= 1:
-        raise err((*root, "light", "ambient"), "ambient light is between 0 and 1")
-    camera = _mapping(err, (*root, "camera"), spec.get("camera"), _CAMERA_KEYS)
-    for key, v in camera.items():
-        out.camera[key] = _range(err, (*root, "camera", key), v, low=0.0)
-    if "drop_rate" in out.camera and out.camera["drop_rate"][1] >= 1:
-        raise err((*root, "camera", "drop_rate"), "a drop rate is below 1")
-    faults = _mapping(err, (*root, "faults"), spec.get("faults"), ("missed_steps",))
-    if faults.get("missed_steps") is not None:
-        path = (*root, "faults", "missed_steps")
-        slips = _mapping(err, path, faults["missed_steps"], ("rate_per_s", "max_amount", "joints"))
+        park = entry["park"]
+        out.parks.append(ParkDraw(str(name), _region(park), park["heading"], path))
+    out.light = {k: v for k, v in (value["light"] or {}).items() if v is not None}
+    out.camera = {k: v for k, v in (value["camera"] or {}).items() if v is not None}
+    slips = (value["faults"] or {}).get("missed_steps")
+    if slips is not None:
         out.slips = {
-            "rate": _range(err, (*path, "rate_per_s"), slips.get("rate_per_s"), low=0.0),
-            "max_amount": _number(
-                err, (*path, "max_amount"), slips.get("max_amount", 1.0), positive=True
-            ),
-            "joints": tuple(int(j) for j in slips.get("joints", ()) or ()),
+            "rate": slips["rate_per_s"],
+            "max_amount": slips["max_amount"],
+            "joints": tuple(int(j) for j in slips["joints"] or ()),
         }
-    out.gap_mm = _number(err, (*root, "gap_mm"), spec.get("gap_mm", 5.0))
+    out.gap_mm = value["gap_mm"]
     return out
 
 

@@ -362,7 +362,7 @@ def parse_scene(profile: Profile) -> SceneSpec:
         }
         return _parse_body(err, path, name, OBJECT.parse(entry), kind, tags, auto_index, table)
 
-    randomize = parse_randomize(err, raw.get("randomize"), objects, duckybots, spare)
+    randomize = parse_randomize(err, world["randomize"], objects, duckybots, spare)
     objects += _profile_obstacles(err, profile, table)
     _check_layout(err, table, objects + [b.body for b in duckybots])
     faults, slips = _parse_faults(raw.get("faults"))

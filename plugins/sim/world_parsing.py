@@ -4,8 +4,8 @@
 with every value marked where the profile wrote it, so each problem names its
 file, line and column (or its ``--set`` option). ``_Errors(profile)(("world",
 "objects", name), message)`` is a ConfigError at that entry, for the checks that
-need the whole scene; :func:`_number`, :func:`_vector` and :func:`_mapping` read
-one value or refuse it there, for the randomize parser.
+need the whole scene; :func:`_vector` reads a point of the profile's
+``obstacles:`` or refuses it there.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 from armtree.config.profile_access import profile_error, profile_section, profile_source
 from armtree.config.spec import Context, Spec
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
-from armtree.errors import ConfigError, Mark, did_you_mean, shown
+from armtree.errors import ConfigError, Mark, shown
 from armtree.loader.profile import Profile
 
 
@@ -104,17 +104,3 @@ def _vector(
         want = " or ".join(str(n) for n in lengths)
         raise err(path, f"expected a list of {want} numbers, got {value!r}")
     return [_number(err, path, v) for v in value]
-
-
-def _mapping(
-    err: _Errors, path: tuple[Any, ...], value: Any, keys: Sequence[str]
-) -> Mapping[str, Any]:
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise err(path, f"expected a mapping, got {value!r}")
-    for key in value:
-        if key not in keys:
-            hint = did_you_mean(str(key), keys, list_up_to=len(keys))
-            raise err((*path, key), f"unknown key {key!r}{hint}")
-    return value

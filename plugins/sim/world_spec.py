@@ -12,8 +12,8 @@ A rule that spans the keys of one entry (a cylinder's size, a bin's wall, which
 keys missed steps take) is a :class:`Record`'s ``rule`` here. What needs the rest
 of the profile (``tags:``, ``tracker:``, ``obstacles:``) or every body at once
 (bodies off the table or inside each other, marker ids, routes off the table) is
-checked by ``scene.py`` once this declaration has passed; ``randomize:`` is read
-and checked by ``randomize.py``, since what it may name depends on the objects.
+checked by ``scene.py`` once this declaration has passed; what ``randomize:``
+(declared in ``randomize_spec.py``) may name is checked by ``randomize.py``.
 
 Lengths are millimetres and angles degrees in the robot's base frame (z up);
 colours are BGR, 0 to 255.
@@ -43,6 +43,7 @@ from armtree.errors import shown
 
 from .as_built import DEFAULT_NOISE_MM
 from .duckybot import DuckybotParams, Leg
+from .randomize_spec import RANDOMIZE
 from .scene_spec import LightSpec, PhysicsSpec, SlipSpec, TableSpec
 
 #: Object kinds, their default size (mm), colour (BGR) and tag role.
@@ -568,10 +569,7 @@ WORLD = Record(
         "physics": PHYSICS,
         "light": LIGHT,
         "tool_marker": TOOL_MARKER,
-        "randomize": Anything(
-            "what --seed N > 0 draws: where objects lie, the Duckybot's parking, the light, "
-            "the camera's noise, missed steps (docs/sim.md; checked against the objects)"
-        ),
+        "randomize": RANDOMIZE,
         "as_built": AS_BUILT,
         "reference": REFERENCE,
     },
