@@ -123,3 +123,15 @@ def test_a_rig_built_with_an_arm_gets_the_arms_own_tool():
 
     rig = Rig(profile=None, clock=VirtualClock(), arm=Arm())  # type: ignore[arg-type]
     assert isinstance(rig.tool, ArmTool) and rig.tool.kind == "gripper"
+
+
+def test_a_step_on_a_rig_without_the_part_it_drives_names_the_part_and_the_fix():
+    """A plugin skill that forgot ``NEEDS = ("arm",)`` is told so, rather than failing
+    on ``None`` somewhere inside a step."""
+    from armtree.api.skill.actions import ArmHome
+
+    home = ArmHome(Rig(profile=None, clock=VirtualClock()))  # type: ignore[arg-type]
+    with pytest.raises(
+        RuntimeError, match="this rig has no arm: a skill that uses it lists it in NEEDS"
+    ):
+        home.start()

@@ -27,7 +27,7 @@ import yaml
 
 from armtree.config.component_config import config_error
 from armtree.config.params import Param
-from armtree.config.profile_access import profile_source
+from armtree.config.profile_access import AnyProfile, profile_source
 from armtree.errors import ConfigError
 
 #: The keys every camera type accepts for its intrinsics and mounting.
@@ -175,7 +175,9 @@ def save_calibration(path: str | Path, intrinsics: Intrinsics, **extra: Any) -> 
     Path(path).write_text(header + yaml.safe_dump(data, sort_keys=False))
 
 
-def intrinsics_from_config(config: Mapping[str, Any], profile: Any) -> Intrinsics | None:
+def intrinsics_from_config(
+    config: Mapping[str, Any], profile: AnyProfile | None
+) -> Intrinsics | None:
     """The intrinsics a camera section gives (a calibration file or inline values), or None."""
     calibration = config.get("calibration")
     source = profile_source(profile)

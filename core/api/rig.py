@@ -14,7 +14,7 @@ import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -498,6 +498,17 @@ class RigContext:
     steppers: list[Callable[[float], None]] = field(default_factory=list)
     #: Called when the rig closes, newest first.
     closers: list[Callable[[], None]] = field(default_factory=list)
+
+
+PartT = TypeVar("PartT")
+
+
+def needed(part: PartT | None, name: str) -> PartT:
+    """``part`` of a rig (its arm, camera, tracker) where a skill's ``NEEDS`` made sure the
+    rig has it before any step ran; a RuntimeError naming it (and the fix) if not."""
+    if part is None:
+        raise RuntimeError(f"this rig has no {name}: a skill that uses it lists it in NEEDS")
+    return part
 
 
 #: The order a rig starts its components in (:meth:`Rig.start`); they are closed in reverse.

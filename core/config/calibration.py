@@ -33,7 +33,7 @@ import yaml
 from armtree.errors import ConfigError
 from armtree.maths.perception.frames import LinearCorrection
 
-from .profile_access import profile_section
+from .profile_access import AnyProfile, profile_section
 from .spec import Anything, MapOf, Number, Record
 
 #: The coefficients of a linear correction (Durovic 2017, eq. 8).
@@ -93,7 +93,7 @@ def _correction(value: Any) -> LinearCorrection | None:
     return LinearCorrection(*(float(value[k]) for k in CORRECTION_KEYS))
 
 
-def calibration_of(profile: Any) -> Calibration:
+def calibration_of(profile: AnyProfile | None) -> Calibration:
     """The :class:`Calibration` of a profile (a :class:`~armtree.loader.profile.Profile` or mapping)."""
     section = profile_section(profile, "calibration") or {}
     if not isinstance(section, Mapping):

@@ -9,12 +9,33 @@ loads one.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from pathlib import Path
+from typing import Any, Protocol
 
 from armtree.errors import ConfigError
 
 
-def profile_section(profile: Any, key: str, default: Any = None) -> Any:
+class LoadedProfile(Protocol):
+    """What these accessors read of a loaded :class:`~armtree.loader.profile.Profile`
+    (a layer above this one): its data, its file, errors at a value's position, and a
+    component's section with its declared defaults."""
+
+    @property
+    def data(self) -> Mapping[str, Any]: ...
+
+    @property
+    def source(self) -> Path | None: ...
+
+    def error(self, path: str, message: str) -> ConfigError: ...
+
+    def component(self, key: str) -> Any: ...
+
+
+#: A profile as its readers take it: loaded, or a plain mapping (tests, embedding code).
+AnyProfile = LoadedProfile | Mapping[str, Any]
+
+
+def profile_section(profile: AnyProfile | None, key: str, default: Any = None) -> Any:
     """Top-level section ``key`` of a :class:`Profile` or of a plain profile mapping.
 
     Components receive the Profile; tests and embedding code may pass a mapping
@@ -28,7 +49,7 @@ def profile_section(profile: Any, key: str, default: Any = None) -> Any:
     return getattr(profile, key, default)
 
 
-def profile_source(profile: Any) -> str | None:
+def profile_source(profile: AnyProfile | None) -> str | None:
     """The file a :class:`Profile` was loaded from, as a string; ``None`` when unknown.
 
     Plain profile mappings (tests, embedding code) have no file.
@@ -37,7 +58,7 @@ def profile_source(profile: Any) -> str | None:
     return str(source) if source else None
 
 
-def profile_error(profile: Any, path: str, message: str) -> ConfigError:
+def profile_error(profile: AnyProfile | None, path: str, message: str) -> ConfigError:
     """A :class:`ConfigError` ``"PATH: MESSAGE"`` about the value at dotted ``path``.
 
     A :class:`~armtree.loader.profile.Profile` places it at the value's file, line and column
@@ -49,7 +70,7 @@ def profile_error(profile: Any, path: str, message: str) -> ConfigError:
     return ConfigError(f"{path}: {message}", file=profile_source(profile))
 
 
-def component_config(profile: Any, key: str) -> Any:
+def component_config(profile: AnyProfile | None, key: str) -> Any:
     """A component's config with declared defaults filled in when the Profile offers that."""
     component = getattr(profile, "component", None)
     if callable(component):

@@ -37,7 +37,7 @@ from typing import Any
 
 from armtree.errors import ConfigError
 
-from .profile_access import profile_section
+from .profile_access import AnyProfile, profile_section
 from .spec import Context, Either, Items, MapOf, Number, OneOf, Record, Ref
 from .yamlio import MarkedDict
 
@@ -348,7 +348,7 @@ def parse_workcell(section: Mapping[str, Any] | None, table_z: float | None = No
     return cell
 
 
-def workcell_of(profile: Any) -> Workcell:
+def workcell_of(profile: AnyProfile | None) -> Workcell:
     """The :class:`Workcell` of a profile (a :class:`~armtree.loader.profile.Profile` or a plain mapping)."""
     table = profile_section(profile, "table")
     table_z = table.get("z") if isinstance(table, Mapping) else table

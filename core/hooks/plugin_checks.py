@@ -37,6 +37,7 @@ from packaging.version import InvalidVersion, Version
 from armtree.api.factories import COMPOSITE, DECORATOR, LEAF, construct, node_kind
 from armtree.config.constructor_params import declared_params, name_argument, takes_signature_params
 from armtree.config.params import Param
+from armtree.config.profile_access import AnyProfile
 from armtree.config.profile_sections import PROFILE_KEYS, ProfileSection
 from armtree.errors import ConfigError, did_you_mean
 from armtree.maths.motion.kinematics import KinematicModel
@@ -558,7 +559,7 @@ def model_member(model: Any, member: str) -> Any:
     return type(model).__init__ if "__init__" in vars(type(model)) else type(model)
 
 
-def rig_problems(profile: Any) -> list[ConfigError]:
+def rig_problems(profile: AnyProfile) -> list[ConfigError]:
     """``armtree plugins --check``'s checks on the arm ``profile`` names, its kinematic
     model built from the profile's own ``arm:`` section (limits, home, link frames and
     boxes, the inverse kinematics' round trip, the workspace it describes).

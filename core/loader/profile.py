@@ -41,7 +41,7 @@ from typing import Any
 
 from armtree.api.rig import TagSpec
 from armtree.config.params import check_value
-from armtree.config.profile_access import component_config
+from armtree.config.profile_access import AnyProfile, component_config
 from armtree.config.profile_include import apply_includes
 from armtree.config.profile_sections import COMPONENT_SECTIONS, PROFILE_KEYS
 from armtree.config.profile_spec import check_sections
@@ -732,7 +732,7 @@ def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
     return data
 
 
-def arm_grips(registry: Any, profile: Any) -> str | bool | None:
+def arm_grips(registry: Any, profile: AnyProfile) -> str | bool | None:
     """What the profile's arm holds things with (its factory's ``grips_with(config)``):
     ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
     config = component_config(profile, "arm")

@@ -32,7 +32,7 @@ from armtree.config.workcell import workcell_of
 from armtree.config.yamlio import error_at
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 
-from .profile import arm_grips
+from .profile import Profile, arm_grips
 
 #: A string that is written like a ``{key}`` binding, whatever is between the braces.
 LOOKS_BOUND = re.compile(r"^\s*\{.*\}\s*$", re.S)
@@ -41,7 +41,7 @@ LOOKS_BOUND = re.compile(r"^\s*\{.*\}\s*$", re.S)
 class RigChecks:
     """Resolves one tree's names and positions against its profile; see the module docstring."""
 
-    def __init__(self, profile: Any) -> None:
+    def __init__(self, profile: Profile) -> None:
         self.profile = profile
         self.places: dict[str, list[float]] = profile.places()
         self.tags: set[str] = set(profile.tags())

@@ -28,6 +28,8 @@ from armtree.config.params import check_value
 from armtree.errors import ConfigError
 from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
+from armtree.runtime.run_end import RunResult
+from armtree.runtime.runner import Run
 
 from .fit import swap_misfits
 
@@ -147,7 +149,7 @@ def armtree_validate_profile(profile: Profile) -> list[ConfigError]:
     return swap_misfits(profile)
 
 
-def _report_pauses(run: Any) -> None:
+def _report_pauses(run: Run) -> None:
     """Write each pause of the process the arm's driver noticed to the run log (a
     ``process_paused`` event, in the summary too), once."""
     take_pauses = getattr(getattr(getattr(run, "rig", None), "arm", None), "take_pauses", None)
@@ -164,13 +166,13 @@ def _report_pauses(run: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_tick(run: Any) -> None:
+def armtree_tick(run: Run) -> None:
     """Report the pauses the arm's driver noticed since the last tick."""
     _report_pauses(run)
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: RunResult) -> None:
     """Report a pause noticed after the last tick."""
     _report_pauses(run)
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from armtree.config.profile_access import profile_error, profile_section, profile_source
+from armtree.config.profile_access import AnyProfile, profile_error, profile_section, profile_source
 from armtree.config.spec import Context, Spec
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
 from armtree.errors import ConfigError, Mark, shown
@@ -41,7 +41,7 @@ class _ProfileContext(Context):
         self.errors.append(error_at(message, mark, self.file))
 
 
-def check_section(profile: Any, name: str, spec: Spec) -> list[ConfigError]:
+def check_section(profile: AnyProfile, name: str, spec: Spec) -> list[ConfigError]:
     """Every problem ``spec`` finds in the profile's section ``name`` (none when it is
     absent), each at the file, line and column the profile wrote it (a :class:`Profile`)
     or naming no file (a plain mapping, as tests pass)."""

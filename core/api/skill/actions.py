@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.api.rig import MotionHandle, MotionStatus
+from armtree.api.rig import MotionHandle, MotionStatus, Rig, needed
 from armtree.config.calibration import calibration_of
 from armtree.errors import PlanningError, Unreachable
 
@@ -82,7 +82,7 @@ class Move(Action):
 
     def __init__(
         self,
-        rig: Any,
+        rig: Rig,
         xyz: np.ndarray | None = None,
         *,
         joints: np.ndarray | None = None,
@@ -116,7 +116,7 @@ class Move(Action):
         return self.joints
 
     def start(self) -> None:
-        arm, planner = self.rig.arm, self.rig.planner
+        arm, planner = needed(self.rig.arm, "arm"), self.rig.planner
         self.message = ""
         if self.xyz is not None and self.corrected:
             # where to send the tool so that it really arrives at xyz
@@ -136,7 +136,7 @@ class Move(Action):
             if self.xyz is not None:
                 path = planner.plan_to(q0, self.xyz)
             else:
-                path = planner.plan(q0, self.joints)
+                path = planner.plan(q0, self._joint_goal())
         except (Unreachable, PlanningError) as exc:
             self.message = f"{self.describe()} refused: {exc}"
             return
@@ -159,11 +159,11 @@ class Move(Action):
     def _next(self) -> None:
         goal = self._waypoints.pop(0)
         self._allow(goal)
-        self._handle = self.rig.arm.move_joints(goal, self.speed)
+        self._handle = needed(self.rig.arm, "arm").move_joints(goal, self.speed)
 
     def _allow(self, *goals: np.ndarray) -> None:
         """Set the deadline of the motion through joints ``goals`` starting now."""
-        arm = self.rig.arm
+        arm = needed(self.rig.arm, "arm")
         speeds = np.array([j.max_speed for j in arm.model.joints], dtype=float)
         points = np.vstack([np.asarray(arm.joints(), dtype=float), *goals])
         delta = np.abs(np.diff(points, axis=0))
@@ -203,7 +203,7 @@ class Move(Action):
     def stop(self) -> None:
         self._waypoints = []
         if self._handle is not None and not self._handle.done:
-            self.rig.arm.stop()
+            needed(self.rig.arm, "arm").stop()
 
 
 class ArmHome(Action):
@@ -219,7 +219,7 @@ class ArmHome(Action):
     #: Homings tried before the step fails.
     TRIES = 3
 
-    def __init__(self, rig: Any) -> None:
+    def __init__(self, rig: Rig) -> None:
         self.rig = rig
         self.handle: MotionHandle | None = None
         self._deadline = 0.0
@@ -232,7 +232,7 @@ class ArmHome(Action):
     def start(self) -> None:
         self._tries += 1
         self._deadline = self.rig.clock.now() + self.TIMEOUT
-        self.handle = self.rig.arm.home()
+        self.handle = needed(self.rig.arm, "arm").home()
 
     def poll(self) -> State:
         assert self.handle is not None
@@ -254,14 +254,14 @@ class ArmHome(Action):
 
     def stop(self) -> None:
         if self.handle is not None and not self.handle.done:
-            self.rig.arm.stop()
+            needed(self.rig.arm, "arm").stop()
 
 
 class Grip(Action):
     """Take hold (``on``) or let go with the rig's tool (``rig.tool``, whatever it is:
     a suction cup, a gripper, a plugin's); done when the tool reports it."""
 
-    def __init__(self, rig: Any, on: bool) -> None:
+    def __init__(self, rig: Rig, on: bool) -> None:
         self.rig = rig
         self.on = on
         self._handle: MotionHandle | None = None
@@ -316,7 +316,7 @@ class Look(Action):
 
     def __init__(
         self,
-        rig: Any,
+        rig: Rig,
         clock: Any,
         want: str | None = None,
         frames: int = 3,
@@ -375,7 +375,7 @@ class Look(Action):
 
     def _settled(self) -> bool:
         """True once the camera's newest frame is stamped at or after the settle time."""
-        return self.rig.camera.stamp_due(self.clock.now()) >= self._t0 - 1e-9
+        return needed(self.rig.camera, "camera").stamp_due(self.clock.now()) >= self._t0 - 1e-9
 
     def _averaged(self, sighting: Sighting) -> Sighting:
         positions = self._all[sighting.id]

@@ -18,7 +18,7 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree.api.behaviour import Behaviour
-from armtree.api.rig import MotionHandle
+from armtree.api.rig import MotionHandle, Rig
 from armtree.config.params import Binding
 from armtree.config.profile_access import profile_source
 from armtree.config.workcell import Workcell, workcell_of
@@ -280,7 +280,7 @@ def _describe(action: Action) -> str:
     return describe() if callable(describe) else type(action).__name__.lower()
 
 
-def resolve_point(value: Any, rig: Any, what: str) -> np.ndarray:
+def resolve_point(value: Any, rig: Rig, what: str) -> np.ndarray:
     """Turn a place name, a list, a 4x4 pose or a mapping into a position (mm, base frame).
 
     Raises :class:`SkillFailure` naming ``what`` when the value is none of these.

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.api.rig import Detection
+from armtree.api.rig import Detection, Rig, needed
 from armtree.config.calibration import calibration_of
 from armtree.config.workcell import workcell_of
 from armtree.maths.perception.frames import camera_in_base, marker_in_base
@@ -86,7 +86,7 @@ class Eye:
     :data:`PLANE_TOLERANCE_MM` of it, it is put at that height along its ray.
     """
 
-    def __init__(self, rig: Any) -> None:
+    def __init__(self, rig: Rig) -> None:
         self.rig = rig
         self.last: View | None = None
         self.frames = 0
@@ -105,14 +105,15 @@ class Eye:
     def newest(self) -> View | None:
         """The view of a frame that arrived since the last read, else the last view (or None)."""
         rig = self.rig
-        frame = rig.camera.read()
+        camera, tracker = needed(rig.camera, "camera"), needed(rig.tracker, "tracker")
+        frame = camera.read()
         if frame is None:
             return self.last
         self.frames += 1
         tool = rig.arm.pose() if rig.arm is not None else np.eye(4)
-        base_T_camera = camera_in_base(rig.camera.mount, rig.camera.extrinsics, tool)
+        base_T_camera = camera_in_base(camera.mount, camera.extrinsics, tool)
         seen: dict[int, Sighting] = {}
-        for det in rig.tracker.detect(frame):
+        for det in tracker.detect(frame):
             if det.tvec is None:
                 continue
             role = det.role
@@ -205,7 +206,7 @@ class Tally:
         return f"no marker in any of {self.frames} frames"
 
 
-def eye_of(rig: Any) -> Eye:
+def eye_of(rig: Rig) -> Eye:
     """The rig's :class:`Eye` (:attr:`Rig.eye <armtree.api.rig.Rig.eye>`), made on first use."""
     eye = getattr(rig, "eye", None)
     if eye is None or eye.rig is not rig:

@@ -23,6 +23,8 @@ from armtree.maths.motion.urdf import UrdfModel
 from armtree.plugins.arms.common import driver_port, on_emulator
 from armtree.plugins.arms.common.factory import ArmFactory
 from armtree.plugins.arms.common.pty_emulator import FAULTS
+from armtree.runtime.run_end import RunResult
+from armtree.runtime.runner import Run
 
 from .calibrate import calibrate_servos
 from .calibration import MIDDLE
@@ -355,14 +357,14 @@ def armtree_arms() -> dict[str, Any]:
 
 
 @armtree.hookimpl
-def armtree_run_finished(run: Any, result: Any) -> None:
+def armtree_run_finished(run: Run, result: RunResult) -> None:
     """A run on a bus-servo arm records how its bus went: the status packets lost (each
     asked again) in the log (a ``servo_bus`` event) and in the summary (``servo bus:``)."""
     arm = getattr(getattr(run, "rig", None), "arm", None)
     if not isinstance(arm, BusServoDriver):
         return
     facts = arm.bus_facts()
-    run.report_event("servo_bus", **facts)
+    run.report_event("servo_bus", None, **facts)
     details = getattr(result, "details", None)
     if isinstance(details, dict):
         details["servo bus"] = (
