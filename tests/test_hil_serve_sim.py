@@ -14,6 +14,8 @@ on either run exits 130 without adding to its dataset.
 
 import json
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -84,6 +86,38 @@ def start_run(
     )
 
 
+#: Tick overruns past which a wall-clock run did not get the real time it asks for: on
+#: an idle machine these runs overrun a few ticks at most.
+OVERRUN_LIMIT = 10
+
+
+def overruns(out: str) -> int:
+    """The overruns a run's summary reports (``... overruns: 31``)."""
+    match = re.search(r"overruns: (\d+)", out)
+    return int(match.group(1)) if match else 0
+
+
+def run_on_a_fresh_bench(
+    sim: str, cwd: Path, real: str, *extra: str, bench_args: tuple[str, ...] = ()
+) -> tuple[Bench, subprocess.Popen, str, str]:
+    """load_ducky through ``real``'s hardware path against ``armtree serve-sim sim``.
+
+    A run that failed while the machine starved it of time (more than
+    :data:`OVERRUN_LIMIT` overruns: the suite's other worker, the served world and the
+    run share two cores) is run once more on a fresh world, its record and dataset
+    removed; any other failure, or a second one, is the test's."""
+    for attempt in range(2):
+        bench = Bench(sim, cwd, *bench_args)
+        run = start_run(bench, "load_ducky.yaml", real, cwd / "ok", cwd, *extra)
+        out, err = run.communicate(timeout=150)
+        if run.returncode == 0 or overruns(out) <= OVERRUN_LIMIT or attempt == 1:
+            return bench, run, out, err
+        bench.kill()
+        for folder in (cwd / "ok", cwd / "ds"):
+            shutil.rmtree(folder, ignore_errors=True)
+    raise AssertionError("unreachable")
+
+
 def wait_for_ticks(record: Path, proc: subprocess.Popen, timeout: float = 60.0) -> None:
     """Until the run log shows the tree running (the rig is built and ticks are going)."""
     log = record / "run.jsonl"
@@ -102,20 +136,17 @@ def result_record(record: Path) -> dict:
 
 
 @pytest.mark.slow
-@pytest.mark.timeout(400)  # three runs in real time: ~60 s on an idle machine, more when busy
+@pytest.mark.timeout(500)  # three or four runs in real time: ~60 s on an idle machine
 @pytest.mark.parametrize(
     ("sim", "real"), [("sim_dobot", "dobot_v1.yaml"), ("sim_so101", "so101.yaml")]
 )
 def test_load_ducky_on_a_real_profile_against_its_served_sim_world(tmp_path, sim, real):
-    bench = Bench(sim, tmp_path)
+    # 1. The whole task through the hardware code path.
+    bench, run, out, err = run_on_a_fresh_bench(sim, tmp_path, real)
     try:
         assert bench.port.startswith("/dev/pts/")
         assert bench.url.startswith("http://127.0.0.1:") and bench.url.endswith("/camera.mjpg")
         assert f"--rig {real}" in bench.hint
-
-        # 1. The whole task through the hardware code path.
-        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path)
-        out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
         assert "result: SUCCESS" in out
         result = result_record(tmp_path / "ok")
@@ -164,19 +195,19 @@ def test_serve_sim_refuses_a_real_hardware_profile(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.timeout(300)  # a whole run in real time
+@pytest.mark.timeout(420)  # two or three runs in real time
 @pytest.mark.parametrize(
     ("sim", "real"), [("sim_magician", "dobot_magician.yaml"), ("sim_koch", "koch.yaml")]
 )
 def test_load_ducky_on_a_real_profile_scored_by_its_served_world(tmp_path, sim, real):
     """... and the run on the bench becomes a dataset episode (issue 28), through the
     hardware path: the real profile's driver, the streamed camera, the wall clock."""
-    bench = Bench(sim, tmp_path, "--tree", "load_ducky.yaml")
+    dataset = ("--dataset", "ds", "--dataset-keep", "all")
+    bench, run, out, err = run_on_a_fresh_bench(
+        sim, tmp_path, real, *dataset, bench_args=("--tree", "load_ducky.yaml")
+    )
     try:
         assert bench.hint.startswith(f"run-tree load_ducky.yaml --rig {real}")
-        dataset = ("--dataset", "ds", "--dataset-keep", "all")
-        run = start_run(bench, "load_ducky.yaml", real, tmp_path / "ok", tmp_path, *dataset)
-        out, err = run.communicate(timeout=150)
         assert run.returncode == 0, out + err
         assert result_record(tmp_path / "ok")["status"] == "SUCCESS"
         check = subprocess.run(
