@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.errors import did_you_mean
+from armtree.config.spec import unknown_hint
 
 from .duckybot import RouteSpec
 from .geometry import footprint_overlap, point_in_polygon
@@ -122,8 +122,7 @@ def _region(value: Mapping[str, Any]) -> Region:
 
 def _named(err: _Errors, path: tuple[Any, ...], name: Any, known: Sequence[str], noun: str) -> None:
     if name not in known:
-        hint = did_you_mean(str(name), list(known), list_up_to=len(known))
-        raise err((*path, name), f"unknown {noun} {name!r}{hint}")
+        raise err((*path, name), f"unknown {noun} {name!r}{unknown_hint(name, tuple(known))}")
 
 
 def parse_randomize(

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from armtree.config.spec import Context, Items, MapOf, Number, Record, Spec, Text
+from armtree.config.spec import Context, Items, MapOf, Number, Record, Spec, Text, finite_number
 from armtree.config.yamlio import MarkedDict
 from armtree.errors import Mark, shown
 
@@ -37,14 +37,9 @@ class Range(Spec):
         return f"[MIN, MAX] {self.unit}" if self.unit else "[MIN, MAX]"
 
     def _pair(self, value: Any) -> tuple[float, float] | None:
-        number = Number()
-        if number.accepts(value, Context({})):
+        if finite_number(value):
             return float(value), float(value)
-        if (
-            isinstance(value, (list, tuple))
-            and len(value) == 2
-            and all(number.accepts(v, Context({})) for v in value)
-        ):
+        if isinstance(value, (list, tuple)) and len(value) == 2 and all(map(finite_number, value)):
             return float(value[0]), float(value[1])
         return None
 
