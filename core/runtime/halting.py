@@ -2,10 +2,34 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Protocol
 
 import py_trees
 from py_trees.common import Status
+
+from armtree.api.clock import Clock
+from armtree.api.rig import Rig
+from armtree.runtime.interrupts import Interrupts
+
+
+class HaltedRun(Protocol):
+    """What :class:`Halter` reads of its run: the tree, the clock and rig it steps, and
+    how long it may wait (seconds)."""
+
+    root: py_trees.behaviour.Behaviour
+    clock: Clock
+    rig: Rig | None
+    interrupts: Interrupts
+    period: float
+    stop_timeout: float
+
+    def path_of(self, behaviour: py_trees.behaviour.Behaviour) -> str:
+        """The node's path from the root."""
+        ...
+
+    def where(self, behaviour: py_trees.behaviour.Behaviour) -> str:
+        """``"path (file:line)"`` of a node, for a message."""
+        ...
 
 
 class Halter:
@@ -18,7 +42,7 @@ class Halter:
     so it serves a replaced tree as well.
     """
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: HaltedRun) -> None:
         self._run = run
         #: The behaviour whose tick raised (or hung): halted even when not RUNNING.
         self.raiser: py_trees.behaviour.Behaviour | None = None

@@ -3,9 +3,19 @@
 from __future__ import annotations
 
 import sys
-from typing import Any
+from typing import Any, Protocol
 
 from armtree.hooks.hook_calls import call_isolated, has_implementations
+from armtree.hooks.plugin_manager import PluginManager
+from armtree.runtime.display import NullView
+from armtree.runtime.runlog import LoggedRun
+
+
+class HookedRun(LoggedRun, Protocol):
+    """What :class:`RunHooks` reads of its run: the plugin manager, and where to report."""
+
+    manager: PluginManager | None
+    view: NullView
 
 
 class RunHooks:
@@ -17,7 +27,7 @@ class RunHooks:
     The run's plugin manager is looked up at each call: a run may build it late.
     """
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: HookedRun) -> None:
         self._run = run
         self._told: set[tuple[str, str]] = set()
 

@@ -24,7 +24,9 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from itertools import compress
 from operator import ne
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, Protocol
+
+from armtree.api.clock import Clock
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 #: Whole-tick status transitions remembered by :meth:`RunLog.status_diff`; when that
@@ -229,6 +231,14 @@ class RunLog:
                 file.flush()
             finally:
                 file.close()
+
+
+class LoggedRun(Protocol):
+    """What a run's helpers read to write a record: the log, the tick and the clock."""
+
+    log: RunLog
+    tick_count: int
+    clock: Clock
 
 
 def _name(status: Any) -> str:

@@ -5,12 +5,27 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import py_trees
 from py_trees.common import Status
 
+from armtree.api.outcomes.failures import FailureLog
+from armtree.runtime.feedback_log import FeedbackLog
+from armtree.runtime.runlog import LoggedRun
+
 _FAILURE = Status.FAILURE._value_
+
+
+class TrackedRun(LoggedRun, Protocol):
+    """What :class:`StatusTracker` reads of its run: node paths, and the logs it writes."""
+
+    feedback: FeedbackLog
+    failures: FailureLog
+
+    def path_of(self, behaviour: py_trees.behaviour.Behaviour) -> str:
+        """The node's path from the root."""
+        ...
 
 
 class StatusTracker:
@@ -23,7 +38,7 @@ class StatusTracker:
     feedback log, failure log and tick count as they are at the call.
     """
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: TrackedRun) -> None:
         self._run = run
         #: Every node of the tree, depth first from the root.
         self.nodes: list[py_trees.behaviour.Behaviour] = []

@@ -2,12 +2,37 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Protocol
 
 import py_trees
 from py_trees.blackboard import Blackboard
 
+from armtree.api.rig import Rig
 from armtree.loader.tree import Tree
+from armtree.runtime.display import NullView
+from armtree.runtime.halting import Halter
+from armtree.runtime.resources import Resources
+from armtree.runtime.run_hooks import RunHooks
+from armtree.runtime.runlog import LoggedRun
+
+
+class ReplaceableRun(LoggedRun, Protocol):
+    """What :class:`TreeReplacement` reads of its run, and the two calls that swap its tree."""
+
+    tree: Tree
+    rig: Rig | None
+    view: NullView
+    halter: Halter
+    hooks: RunHooks
+    resources: Resources
+
+    def install_tree(self, tree: Tree) -> None:
+        """Make ``tree`` the run's tree: set it up and track its nodes."""
+        ...
+
+    def note_statuses(self, now: float) -> None:
+        """Log the statuses the nodes have now (run seconds)."""
+        ...
 
 
 class TreeReplacement:
@@ -21,9 +46,9 @@ class TreeReplacement:
     commands the tool (a place or a release).
     """
 
-    def __init__(self, run: Any) -> None:
+    def __init__(self, run: ReplaceableRun) -> None:
         self._run = run
-        self._waiting: Any = None
+        self._waiting: Tree | None = None
 
     def offer(self, tree: Tree) -> None:
         """Swap ``tree`` in at the next safe point; a later offer replaces one still waiting."""
@@ -59,6 +84,8 @@ class TreeReplacement:
         """Halt the old tree, set the new one up, carry on (on the tick thread)."""
         run = self._run
         tree, self._waiting = self._waiting, None
+        if tree is None:
+            return
         now = run.clock.now()
         errors = run.halter.halt()
         run.halter.settle()
