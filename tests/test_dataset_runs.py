@@ -399,9 +399,11 @@ def test_ctrl_c_on_a_sweep_keeps_the_episodes_before_it_and_the_dataset_valid(tm
         stderr=subprocess.PIPE,
         text=True,
     )
-    first = tmp_path / "out" / "runs" / "seed-1" / "outcome.json"
+    # A worker writes a run's outcome.json before the sweep collects the run, so the
+    # signal waits for the second run's: by then the sweep has handed the first one on.
+    second = tmp_path / "out" / "runs" / "seed-2" / "outcome.json"
     deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None and not first.exists():
+    while time.monotonic() < deadline and proc.poll() is None and not second.exists():
         time.sleep(0.2)
     assert proc.poll() is None, proc.communicate()
     proc.send_signal(signal.SIGINT)
