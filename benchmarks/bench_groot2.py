@@ -23,7 +23,7 @@ import time
 
 from bench_monitor import TickTimes, execute_paced, print_cost
 
-from armtree.cli.commandline import plugin_manager_for
+from armtree.cli.run_command import plugin_manager_for
 from armtree.loader.tree_loader import load_tree
 from armtree.runtime.runner import Run
 

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import armtree
-from armtree.cli.commandline import plugin_manager_for
+from armtree.cli.run_command import plugin_manager_for
 from armtree.loader.tree_loader import load_tree
 from armtree.plugins.monitor.chromium import CHROMIUM
 from armtree.runtime.runner import Run

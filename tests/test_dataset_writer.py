@@ -258,7 +258,7 @@ def test_a_sweep_appends_episodes_in_seed_order_whatever_order_runs_end_in(tmp_p
         seeds=seeds,
         settings={"dataset": str(tmp_path / "ds")},
     )
-    appender = session.SweepDataset(sweep, manager=None)
+    appender = session.SweepDataset(sweep)
     try:
         assert sweep.settings["dataset_fps"] == layout.DEFAULT_FPS
         for seed in (14, 11, 15, 13, 12):

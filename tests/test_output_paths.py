@@ -10,6 +10,7 @@ import pytest
 from armtree.api import output_paths
 from armtree.api.output_paths import output_file, output_folder, path_kind
 from armtree.cli import commandline as cli
+from armtree.cli.run_command import claim_record_folder
 from armtree.errors import ConfigError
 
 TREE = "rig: sim_dobot\nroot: {success: {}}\n"
@@ -61,7 +62,7 @@ def test_a_second_run_into_a_folder_being_recorded_is_refused(
 ) -> None:
     monkeypatch.chdir(tmp_path)
     (tmp_path / "t.yaml").write_text(TREE)
-    held = cli.claim_record_folder("rec", overwrite=False)  # the first run, still writing
+    held = claim_record_folder("rec", overwrite=False)  # the first run, still writing
     try:
         code = cli.main(["run", "t.yaml", "--quiet", "--record", "rec"])
     finally:

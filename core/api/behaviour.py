@@ -30,6 +30,8 @@ from py_trees.common import Access
 
 from armtree.config.params import Binding, Param
 
+from .rig import Rig
+
 
 class Behaviour(py_trees.behaviour.Behaviour):
     """Base for armtree leaves: parameters from the tree, blackboard bindings, rig access."""
@@ -45,7 +47,7 @@ class Behaviour(py_trees.behaviour.Behaviour):
     def __init__(self, name: str, **params: Any) -> None:
         super().__init__(name)
         self.params = params
-        self.rig: Any = None
+        self._rig: Rig | None = None
         self.clock: Any = None
         self.runtime: Any = None
         self.bb = self.attach_blackboard_client(name=name)
@@ -60,9 +62,28 @@ class Behaviour(py_trees.behaviour.Behaviour):
 
     def setup(self, **kwargs: Any) -> None:
         """Take the rig, clock and runtime the runtime hands every behaviour."""
-        self.rig = kwargs.get("rig", self.rig)
+        self._rig = kwargs.get("rig", self._rig)
         self.clock = kwargs.get("clock", self.clock)
         self.runtime = kwargs.get("runtime", self.runtime)
+
+    @property
+    def rig(self) -> Rig:
+        """The rig the runtime handed :meth:`setup`; a RuntimeError before it has."""
+        if self._rig is None:
+            raise RuntimeError(
+                f"{self.name}: no rig yet: the runtime hands it to setup(rig=...) before "
+                "the first tick (a tree run without a profile has none)"
+            )
+        return self._rig
+
+    @rig.setter
+    def rig(self, rig: Rig | None) -> None:
+        self._rig = rig
+
+    @property
+    def has_rig(self) -> bool:
+        """True once :meth:`setup` has been handed a rig."""
+        return self._rig is not None
 
     def param(self, name: str) -> Any:
         """A parameter's value; a bound one is read from the blackboard now."""

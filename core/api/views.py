@@ -8,12 +8,41 @@ the class.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, Protocol
 
 import py_trees
 
 from armtree.errors import ConfigError, Mark
+
+
+class RegisteredComponent(Protocol):
+    """One component a plugin registered: its ``factory`` is the plugin's own class or
+    function (an arm, camera, tracker, planner, predicate or command), so it is typed by
+    nothing more than what its kind's hook specification asks of it."""
+
+    @property
+    def factory(self) -> Any:
+        """The registered class or function."""
+        ...
+
+
+class ComponentLookup(Protocol):
+    """The registered components as the layers below the plugin manager look them up
+    (:class:`armtree.hooks.plugin_manager.Registry` satisfies it)."""
+
+    def has(self, kind: str, name: str) -> bool:
+        """True when a component of ``kind`` is registered as ``name``."""
+        ...
+
+    def get(self, kind: str, name: str, where: Mark | None = None) -> RegisteredComponent:
+        """The component ``name`` of ``kind``; a :class:`ConfigError` at ``where`` if none."""
+        ...
+
+    def instances(self, kind: str, reserved: Iterable[str] = ()) -> dict[str, Any]:
+        """Every registered ``kind`` by name; a name in ``reserved`` is refused."""
+        ...
 
 
 class ProfileView(Protocol):
@@ -26,8 +55,11 @@ class ProfileView(Protocol):
     name: str
     source: Path | None
     data: dict[str, Any]
-    #: The plugin manager it was loaded with (:mod:`armtree.hooks`, a layer above this one).
-    manager: Any
+
+    @property
+    def registry(self) -> ComponentLookup:
+        """The components of the plugins it was loaded with."""
+        ...
 
     def mark(self, path: str) -> Mark | None:
         """Where a dotted key (``"arm.port"``) was written, if known."""
@@ -58,4 +90,9 @@ class TreeView(Protocol):
     @property
     def profile(self) -> ProfileView | None:
         """The profile the tree was loaded against."""
+        ...
+
+    @property
+    def registry(self) -> ComponentLookup:
+        """The components of the plugins it was loaded with."""
         ...

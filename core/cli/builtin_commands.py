@@ -29,8 +29,8 @@ from armtree.loader.schema import build_schema
 from armtree.loader.tree import Tree
 from armtree.loader.tree_loader import load_tree
 
-from .commandline import add_tree_arguments
 from .hook_reference import HooksCommand
+from .options import add_tree_arguments
 from .scaffold import NewPluginCommand
 
 

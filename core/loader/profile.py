@@ -51,7 +51,7 @@ from armtree.config.yamlio import MarkedDict, MarkedList, error_at, load_yaml, l
 from armtree.errors import ConfigError, Mark, did_you_mean, shown
 from armtree.hooks.hook_calls import call_isolated, plugin_of
 from armtree.hooks.plugin_checks import rig_problems
-from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
+from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
 from armtree.maths.motion.scene import Scene
 
 #: Sections a profile must have.
@@ -205,9 +205,14 @@ class Profile:
     data: dict[str, Any]
     marks: dict[str, Mark] = field(default_factory=dict)
     plugins: list[str] = field(default_factory=list)
-    manager: Any = None
+    manager: PluginManager | None = None
     invalid: frozenset[str] = frozenset()
     swaps: dict[str, Swap] = field(default_factory=dict)
+
+    @property
+    def registry(self) -> Registry:
+        """The components of the plugins it was loaded with (the process's, without)."""
+        return (self.manager or get_plugin_manager()).registry
 
     @property
     def description(self) -> str:
@@ -240,7 +245,7 @@ class Profile:
         if config is None:
             return None
         out = dict(config)
-        registry = (self.manager or get_plugin_manager()).registry
+        registry = self.registry
         kind = COMPONENT_SECTIONS[section]
         if registry.has(kind, out.get("type", "")):
             for param in registry.get(kind, out["type"]).params:
@@ -611,7 +616,7 @@ def _validate(data: MarkedDict, manager: PluginManager, errors: list[ConfigError
 
 
 def _check_component(
-    data: MarkedDict, section: str, kind: str, registry: Any, errors: list[ConfigError]
+    data: MarkedDict, section: str, kind: str, registry: Registry, errors: list[ConfigError]
 ) -> None:
     config = data[section]
     if not isinstance(config, MarkedDict):
@@ -732,7 +737,7 @@ def _remark(data: Any, marks: Mapping[str, Mark], prefix: str) -> Any:
     return data
 
 
-def arm_grips(registry: Any, profile: AnyProfile) -> str | bool | None:
+def arm_grips(registry: Registry, profile: AnyProfile) -> str | bool | None:
     """What the profile's arm holds things with (its factory's ``grips_with(config)``):
     ``"suction"``, ``"gripper"``, None for nothing, True when the arm plugin does not say."""
     config = component_config(profile, "arm")

@@ -11,6 +11,7 @@ import py_trees
 
 from armtree.api.views import ProfileView
 from armtree.errors import Mark
+from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
 
 
 @dataclass(frozen=True)
@@ -48,9 +49,14 @@ class Tree:
     nodes: dict[uuid.UUID, NodeInfo] = field(default_factory=dict)
     profile: ProfileView | None = None
     plugins: list[str] = field(default_factory=list)
-    manager: Any = None
+    manager: PluginManager | None = None
     expect: list[Any] = field(default_factory=list)
     task: str = ""
+
+    @property
+    def registry(self) -> Registry:
+        """The components of the plugins it was loaded with (its ``plugins:``' without)."""
+        return (self.manager or get_plugin_manager(self.plugins)).registry
 
     def info(self, behaviour: py_trees.behaviour.Behaviour) -> NodeInfo | None:
         """The source information of one behaviour of this tree."""

@@ -99,7 +99,7 @@ class TreeKeys:
         self,
         data: MarkedDict,
         ctx: LoadContext,
-        rig: Any,
+        rig: str | Path | Profile | None,
         overrides: list[Override],
         manager: PluginManager,
     ) -> Profile | None:
@@ -144,7 +144,7 @@ class TreeKeys:
         if data.get("expect") is None:
             return []
         try:
-            predicates = predicates_for(manager)
+            predicates = predicates_for(manager.registry)
         except ConfigError as exc:
             self._errors.extend(exc.errors)
             return []

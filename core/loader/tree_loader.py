@@ -157,7 +157,7 @@ class _Loader:
         """One error listing all, ordered by file (as loaded), line and column."""
         return self.errors.fail(self.files.order())
 
-    def load(self, path: Path, rig: Any, overrides: list[str]) -> Tree:
+    def load(self, path: Path, rig: str | Path | Profile | None, overrides: list[str]) -> Tree:
         data = self.files.parse(path)
         if data is None and not self.errors:
             self.errors.error(

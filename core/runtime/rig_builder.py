@@ -26,7 +26,7 @@ from armtree.api.views import ProfileView
 from armtree.config.profile_access import component_config, profile_section, profile_source
 from armtree.errors import ConfigError, HardwareFault
 from armtree.hooks.hook_calls import plugin_failure
-from armtree.hooks.plugin_manager import get_plugin_manager
+from armtree.hooks.plugin_manager import PluginManager, Registry, get_plugin_manager
 from armtree.loader.profile import arm_grips, tag_spec
 
 #: Profile sections that name a component, in build order.
@@ -35,7 +35,7 @@ COMPONENT_SECTIONS: tuple[str, ...] = ("arm", "camera", "tracker")
 DEVICE_SECTIONS: tuple[str, ...] = ("arm", "camera")
 
 
-def uses_real_hardware(profile: ProfileView, registry: Any = None) -> bool:
+def uses_real_hardware(profile: ProfileView, registry: Registry | None = None) -> bool:
     """True when the profile drives a physical device, so the run must keep the wall clock.
 
     Each arm or camera factory says so itself: ``factory.simulated(config)`` is
@@ -51,8 +51,8 @@ def uses_real_hardware(profile: ProfileView, registry: Any = None) -> bool:
         if not isinstance(section, Mapping) or not section:
             continue
         kind = key
-        name = section.get("type")
-        factory = registry.get(kind, name).factory if registry.has(kind, name or "") else None
+        name = str(section.get("type") or "")
+        factory = registry.get(kind, name).factory if registry.has(kind, name) else None
         simulated = getattr(factory, "simulated", None)
         if callable(simulated):
             if not simulated(dict(section)):
@@ -93,7 +93,7 @@ def parse_tags(tags: Any, file: str | None = None, family: str | None = None) ->
 
 def build_rig(
     profile: ProfileView,
-    manager: Any,
+    manager: PluginManager,
     clock: Clock,
     *,
     seed: int = 0,
@@ -147,7 +147,7 @@ def build_rig(
     return rig
 
 
-def _component(registry: Any, kind: str, config: Any, file: str | None) -> Any:
+def _component(registry: Registry, kind: str, config: Any, file: str | None) -> Any:
     if not isinstance(config, Mapping) or "type" not in config:
         raise ConfigError(f"{kind}: a mapping with a 'type' is required", file=file)
     return registry.get(kind, config["type"])

@@ -16,6 +16,7 @@ from armtree.api.clock import Clock
 from armtree.api.outcomes.expect import judge, predicates_for, verdict
 from armtree.api.outcomes.failures import FailureLog
 from armtree.api.rig import Rig
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.tree import Tree
 
 from .blackboard_log import BlackboardLog
@@ -171,7 +172,11 @@ class RunEnding:
         return result
 
     def judge(
-        self, result: RunResult, tree: Tree, manager: Any, ground_truth: Callable[[], Any]
+        self,
+        result: RunResult,
+        tree: Tree,
+        manager: PluginManager | None,
+        ground_truth: Callable[[], Any],
     ) -> None:
         """Judge ``result`` against ``tree``'s ``expect:`` (:func:`judge_result`), with the
         predicates of ``manager``'s plugins and the world ``ground_truth()`` gives."""
@@ -249,7 +254,7 @@ def judge_result(
     *,
     expect: Sequence[Any],
     ground_truth: Callable[[], Any],
-    manager: Any,
+    manager: PluginManager | None,
     failures: FailureLog,
     root_path: str,
     events: Sequence[dict[str, Any]],
@@ -265,7 +270,7 @@ def judge_result(
     result.events = list(events)
     world = ground_truth() if expect else None
     try:
-        predicates = predicates_for(manager)
+        predicates = predicates_for(manager.registry if manager is not None else None)
     except Exception:  # noqa: BLE001 - a clash was reported when the tree loaded
         predicates = {}
     result.expectations = judge(list(expect), world, predicates)

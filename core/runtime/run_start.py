@@ -5,17 +5,19 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
 
 from armtree.api.clock import Clock, VirtualClock, WallClock
 from armtree.api.views import ProfileView
+from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 from armtree.loader.tree import Tree
 
 from .rig_builder import uses_real_hardware
 from .runlog import RunLog, default_run_dir
 
 
-def choose_clock(profile: ProfileView | None, realtime: bool, manager: Any) -> Clock:
+def choose_clock(
+    profile: ProfileView | None, realtime: bool, manager: PluginManager | None
+) -> Clock:
     """A wall clock when asked (``realtime``) or when the profile names real hardware,
     else a virtual one."""
     if realtime or (
@@ -31,7 +33,9 @@ def choose_clock(profile: ProfileView | None, realtime: bool, manager: Any) -> C
 DEFAULT_SIM_TIMEOUT_S = 600.0
 
 
-def default_timeout(profile: ProfileView | None, realtime: bool, manager: Any) -> float | None:
+def default_timeout(
+    profile: ProfileView | None, realtime: bool, manager: PluginManager | None
+) -> float | None:
     """:data:`DEFAULT_SIM_TIMEOUT_S` for a run on the virtual clock; None (no limit) on
     the wall clock (``realtime``, or a profile naming real hardware)."""
     if not choose_clock(profile, realtime, manager).virtual:
@@ -39,15 +43,12 @@ def default_timeout(profile: ProfileView | None, realtime: bool, manager: Any) -
     return DEFAULT_SIM_TIMEOUT_S
 
 
-def plugin_manager(tree: Tree) -> Any:
+def plugin_manager(tree: Tree) -> PluginManager:
     """The plugin manager of ``tree``'s profile, else one for the tree's ``plugins:``."""
-    manager = getattr(getattr(tree, "profile", None), "manager", None)
-    if manager is None:
-        from armtree.hooks import plugin_manager as plugins
-
-        factory = getattr(plugins, "get_plugin_manager", plugins.make_plugin_manager)
-        manager = factory(getattr(tree, "plugins", ()) or ())
-    return manager
+    manager = getattr(tree.profile, "manager", None)
+    if isinstance(manager, PluginManager):
+        return manager
+    return get_plugin_manager(tree.plugins or ())
 
 
 def choose_record_dir(

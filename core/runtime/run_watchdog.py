@@ -50,7 +50,7 @@ class RunWatchdog:
     #: Set when the run has finished stopping (a forced exit waits for it).
     stopped: threading.Event = field(default_factory=threading.Event, init=False)
     _closed: bool = field(default=False, init=False)
-    _rig: Any = field(default=None, init=False)
+    _rig: Rig | None = field(default=None, init=False)
     _log: RunLog | None = field(default=None, init=False)
     _owns_process: bool = field(default=False, init=False)
 

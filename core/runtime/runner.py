@@ -57,6 +57,7 @@ from armtree.api.outcomes.failures import FailureLog
 from armtree.api.rig import Rig
 from armtree.api.views import ProfileView
 from armtree.errors import HardwareFault
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.tree import Tree
 
 from .blackboard_log import BlackboardLog
@@ -113,7 +114,7 @@ class Run:
         timeout: float | None = None,
         max_ticks: int | None = None,
         quiet: bool = True,
-        manager: Any = None,
+        manager: PluginManager | None = None,
         stop_timeout: float = 2.0,
         runs_dir: Path | str = "runs",
         handle_signals: bool = True,
@@ -376,7 +377,7 @@ class Run:
         result.record_errors = list(self.record_errors)
         return result
 
-    def _manager(self) -> Any:
+    def _manager(self) -> PluginManager:
         if self.manager is None:
             self.manager = plugin_manager(self.tree)
         return self.manager
@@ -624,7 +625,7 @@ def run(
     timeout: float | None = None,
     max_ticks: int | None = None,
     quiet: bool = True,
-    manager: Any = None,
+    manager: PluginManager | None = None,
     **options: Any,
 ) -> RunResult:
     """Run a loaded :class:`~armtree.loader.tree.Tree` to its end and return a :class:`RunResult`.

@@ -19,11 +19,11 @@ import contextlib
 import json
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
 
 from armtree.api.clock import WallClock
 from armtree.api.rig import RigContext
 from armtree.errors import ConfigError, HardwareFault
+from armtree.hooks.plugin_manager import PluginManager
 
 #: Shipped real-hardware profiles probed in this order (the first only listens).
 PROBES: tuple[str, ...] = (
@@ -89,7 +89,7 @@ def list_serial_ports() -> list[PortInfo]:
 
 
 def probe_port(
-    port: str, manager: Any, timeout: float, profiles: Sequence[str] = PROBES
+    port: str, manager: PluginManager, timeout: float, profiles: Sequence[str] = PROBES
 ) -> tuple[list[str], dict[str, str]]:
     """The profiles whose arm answers on ``port``, and what each attempt said.
 

@@ -32,7 +32,7 @@ def swapped_arm(profile: Profile) -> tuple[Swap, KinematicModel] | None:
     if swap is None:
         return None
     config = profile.component("arm") or {}
-    factory = profile.manager.registry.get("arm", config["type"]).factory
+    factory = profile.registry.get("arm", config["type"]).factory
     make = getattr(factory, "model", None)
     if make is None:
         return None
@@ -99,7 +99,7 @@ def _places(profile: Profile, swap: Swap, model: KinematicModel) -> list[ConfigE
 def _tool(profile: Profile, swap: Swap) -> list[ConfigError]:
     """The tool the file declares (``arm.tool``, kept or dropped) against the new arm's."""
     config = profile.component("arm") or {}
-    factory = profile.manager.registry.get("arm", config["type"]).factory
+    factory = profile.registry.get("arm", config["type"]).factory
     grips = getattr(factory, "grips_with", None)
     if grips is None:
         return []
@@ -124,7 +124,7 @@ def _camera(profile: Profile, swap: Swap, model: KinematicModel) -> list[ConfigE
     camera = profile.data.get("camera") or {}
     if camera.get("mount") != EYE_IN_HAND:
         return []
-    registry = profile.manager.registry
+    registry = profile.registry
     old = registry.get("arm", swap.previous).factory if registry.has("arm", swap.previous) else None
     make = getattr(old, "model", None)
     if make is None:

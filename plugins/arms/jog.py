@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from armtree.api.rig import MotionHandle, Rig
-from armtree.cli.commandline import seed_value
+from armtree.cli.options import seed_value
 from armtree.errors import ConfigError, HardwareFault
 from armtree.loader.profile import Profile
 
@@ -354,7 +354,7 @@ class JogCommand:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add --rig, --set, --save and --seed."""
-        from armtree.cli.commandline import add_set_option
+        from armtree.cli.options import add_set_option
 
         parser.add_argument("--rig", metavar="PROFILE", required=True, help="hardware profile")
         add_set_option(parser, "override a profile key, e.g. arm.port=/dev/ttyUSB0")

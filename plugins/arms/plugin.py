@@ -23,9 +23,10 @@ import yaml
 
 import armtree
 from armtree.api.clock import WallClock
-from armtree.cli.commandline import seed_value
+from armtree.cli.options import add_set_option, seed_value
 from armtree.config.params import check_value
 from armtree.errors import ConfigError
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 from armtree.runtime.run_end import RunResult
@@ -52,13 +53,8 @@ class EmulateCommand:
             "--profile", metavar="P", help="hardware profile whose arm section configures it"
         )
         parser.add_argument("--seed", type=seed_value, default=0, help="seed of injected faults")
-        parser.add_argument(
-            "--set",
-            dest="overrides",
-            action="append",
-            default=[],
-            metavar="KEY=VALUE",
-            help="arm option, e.g. --set firmware=open-dobot (YAML value; repeatable)",
+        add_set_option(
+            parser, "arm option, e.g. --set firmware=open-dobot (YAML value; repeatable)"
         )
 
     def run(self, args: argparse.Namespace) -> int:
@@ -93,7 +89,7 @@ class EmulateCommand:
             emulator.close()
         return EXIT_INTERRUPTED if self.signalled is not None else 0
 
-    def _config(self, args: argparse.Namespace, manager: Any) -> dict[str, Any]:
+    def _config(self, args: argparse.Namespace, manager: PluginManager) -> dict[str, Any]:
         config: dict[str, Any] = {"type": args.arm}
         if args.profile:
             from armtree.loader.profile import load_profile

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from armtree import ConfigError
-from armtree.cli.commandline import add_set_option
+from armtree.cli.options import add_set_option
 from armtree.hooks.plugin_manager import PluginManager, get_plugin_manager
 
 from .writer import export_tree, palette

@@ -24,7 +24,7 @@ from armtree.config.params import Param
 from armtree.config.resolve import resolve
 from armtree.config.yamlio import load_yaml_file
 from armtree.errors import ConfigError
-from armtree.hooks.plugin_manager import Component, Registry
+from armtree.hooks.plugin_manager import Component, PluginManager, Registry
 
 from .mapping import BTCPP_NODE_IDS, CONDITIONS, MODEL_KINDS, exported
 from .reader import TREE_KEYS, read_tree
@@ -36,7 +36,7 @@ PORT_ELEMENTS = {"in": "input_port", "out": "output_port", "inout": "inout_port"
 
 def export_tree(
     path_or_name: str | Path,
-    manager: Any,
+    manager: PluginManager,
     rig: str | None = None,
     overrides: Iterable[str] = (),
 ) -> str:
@@ -47,7 +47,7 @@ def export_tree(
     nothing is written; the XML is written from the files as they are.
     """
     tree = load_tree(path_or_name, rig=rig, overrides=overrides, manager=manager)
-    writer = TreeWriter(tree.manager.registry)
+    writer = TreeWriter(tree.registry)
     assert tree.source is not None
     main = writer.add_file(Path(tree.source))
     # BT.CPP's createTreeFromText and Groot2 open this tree; armtree reads it too

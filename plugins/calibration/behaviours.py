@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param, PlanningError, Unreachable
-from armtree.api.rig import Rig
+from armtree.api.rig import Rig, needed
 from armtree.api.skill.actions import Action, Look, Move, SkillFailure, State, fmt
 from armtree.api.skill.arm import ArmSkill, camera_over
 from armtree.api.skill.base import Procedure, Skill
@@ -158,7 +158,7 @@ class PlanPoses(ArmSkill):
 
     def _usable(self) -> Any:
         rig = self.rig
-        model = rig.arm.model
+        model = needed(rig.arm, "arm").model
         marker = self.workcell.tool_marker
         lift = np.array([0.0, 0.0, marker.offset_mm[2] if marker is not None else 0.0])
         fixed = rig.camera is not None and rig.camera.mount != EYE_IN_HAND
@@ -168,13 +168,13 @@ class PlanPoses(ArmSkill):
         def usable(points: np.ndarray) -> np.ndarray:
             ok = reachable_mask(model, points)
             if fixed:
-                ok &= in_view(rig.camera.extrinsics, half, points + lift)
+                ok &= in_view(needed(rig.camera, "camera").extrinsics, half, points + lift)
             return ok
 
         return usable
 
     def _plan(self, plan: str, rng: np.random.Generator) -> list[np.ndarray]:
-        model = self.rig.arm.model
+        model = needed(self.rig.arm, "arm").model
         usable = self._usable()
         height = self._height()
         if plan == "grid":
@@ -199,7 +199,7 @@ class PlanPoses(ArmSkill):
         arm collides with nothing the planner knows (the profile's obstacles) and, with a
         fixed camera, the tool stays :data:`POSE_CLEARANCE_MM` above what it sees on the table."""
         rig = self.rig
-        model = rig.arm.model
+        model = needed(rig.arm, "arm").model
         q = rng.uniform(model.lower, model.upper, (6000, model.dof))
         q = q[model.within_limits(q)]
         checker = getattr(rig.planner, "checker", None)
@@ -230,7 +230,7 @@ class PlanPoses(ArmSkill):
         planner = self.rig.planner
         if planner is None:
             return list(points[:count])
-        start = np.asarray(self.rig.arm.joints(), dtype=float)
+        start = np.asarray(needed(self.rig.arm, "arm").joints(), dtype=float)
         out: list[np.ndarray] = []
         for point in points:
             try:
@@ -281,7 +281,7 @@ class PlanPoses(ArmSkill):
         if obs is None:
             raise SkillFailure(
                 f"{self.name}: the {tag!r} marker is not in view from the tool at "
-                f"{fmt(rig.arm.pose()[:3, 3])}: bring the camera over it first"
+                f"{fmt(needed(rig.arm, 'arm').pose()[:3, 3])}: bring the camera over it first"
             )
         tvec, _, camera = obs
         centre = (camera @ np.append(tvec, 1.0))[:3]
@@ -389,12 +389,14 @@ class VisitPoses(ArmSkill):
             raise SkillFailure(f"{self.name}: this rig has no camera to look for {role!r} with")
         if slip and not role:
             raise SkillFailure(f"{self.name}: slip_mm needs a marker to look at (look_for)")
-        fixed_marker = self.param("tool_marker") and rig.camera.mount != EYE_IN_HAND
+        fixed_marker = (
+            self.param("tool_marker") and needed(rig.camera, "camera").mount != EYE_IN_HAND
+        )
         if slip and check == "joints" and not fixed_marker:
             raise SkillFailure(
                 f"{self.name}: check joints needs tool_marker and a fixed camera; use reference"
             )
-        if slip and not (fixed_marker or rig.camera.mount == EYE_IN_HAND):
+        if slip and not (fixed_marker or needed(rig.camera, "camera").mount == EYE_IN_HAND):
             raise SkillFailure(
                 f"{self.name}: a fixed camera looking at a still marker cannot see the arm slip: "
                 "look at the tool's marker (tool_marker) or set slip_mm 0"
@@ -424,9 +426,9 @@ class VisitPoses(ArmSkill):
         except SkillFailure as exc:
             record["reached"], record["why"] = False, str(exc)
             return record
-        q = np.asarray(rig.arm.joints(), dtype=float)
+        q = np.asarray(needed(rig.arm, "arm").joints(), dtype=float)
         record["joints"] = _list(q)
-        record["tool_pose"] = _list(rig.arm.model.fk(q))
+        record["tool_pose"] = _list(needed(rig.arm, "arm").model.fk(q))
         if role:
             obs = yield Observe(rig, self.clock, role, self.param("frames"), self.settle())
             if obs is not None:

@@ -35,7 +35,7 @@ import yaml
 
 from armtree.api.clock import WallClock
 from armtree.api.rig import Frame, RigContext
-from armtree.cli.commandline import seed_value
+from armtree.cli.options import seed_value
 from armtree.errors import ConfigError
 from armtree.plugins.trackers.calibration import BOARDS, Board, calibrate, plot_calibration
 from armtree.plugins.trackers.commands import registry_of
@@ -327,7 +327,7 @@ def _tree_options(
     parser: argparse.ArgumentParser, rig: bool = True, output: bool = True, seed: bool = True
 ) -> None:
     """The options of a calibration that runs its tree."""
-    from armtree.cli.commandline import add_set_option
+    from armtree.cli.options import add_set_option
 
     if rig:
         parser.add_argument(

@@ -29,7 +29,7 @@ import numpy as np
 import py_trees
 
 from armtree.api.rig import Rig
-from armtree.cli.commandline import seed_value
+from armtree.cli.options import seed_value
 from armtree.errors import ConfigError
 from armtree.maths.motion.kinematic_calibration import CalibrationPoints
 from armtree.maths.perception.frames import LinearCorrection
@@ -104,7 +104,7 @@ class ExperimentCommand:
 
     def configure(self, parser: argparse.ArgumentParser) -> None:
         """Add the ``accuracy`` experiment and its options."""
-        from armtree.cli.commandline import add_set_option
+        from armtree.cli.options import add_set_option
 
         which = parser.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
         acc = which.add_parser(

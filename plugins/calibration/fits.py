@@ -327,7 +327,7 @@ def arm_model_builder(rig: Rig) -> tuple[Any, dict[str, Any], Any]:
     if config is None:
         raise Refused("the profile has no arm: there is no kinematic model to calibrate")
     arm = dict(config)
-    component = profile.manager.registry.get("arm", arm["type"])
+    component = profile.registry.get("arm", arm["type"])
     make = getattr(component.factory, "model", None)
     if make is None:
         raise Refused(f"the {arm['type']} arm offers no kinematic model to calibrate")

@@ -29,7 +29,7 @@ import yaml
 from armtree.api.clock import VirtualClock
 from armtree.api.emulation import FirmwareEmulator
 from armtree.api.rig import Rig
-from armtree.cli.commandline import seed_value
+from armtree.cli.options import seed_value
 from armtree.errors import ConfigError
 from armtree.loader.profile import Profile
 from armtree.maths.motion.kinematic_calibration import (

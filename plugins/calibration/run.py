@@ -17,6 +17,7 @@ import py_trees
 
 import armtree
 from armtree.api.rig import Rig
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.runtime.display import NullView
 from armtree.runtime.display import Run as RunView
 from armtree.runtime.runner import Run
@@ -82,7 +83,12 @@ def profile_overrides(out: str | None, overrides: list[str]) -> list[str]:
 
 
 def run_tree(
-    tree: str, rig: str, overrides: list[str], seed: int, title: str, manager: Any = None
+    tree: str,
+    rig: str,
+    overrides: list[str],
+    seed: int,
+    title: str,
+    manager: PluginManager | None = None,
 ) -> Any:
     """Run ``tree`` on profile ``rig`` with a progress bar; the RunResult and the Run."""
     from armtree.loader.tree_loader import load_tree

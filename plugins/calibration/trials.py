@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.base import Procedure, Skill
@@ -103,7 +104,7 @@ class PlanTargets(TargetSkill):
         """Table points the tool reaches ``hover_mm`` over (with room around) and, with a
         fixed camera, where the target and the tool's marker over it are well in view."""
         rig = self.rig
-        model = rig.arm.model
+        model = needed(rig.arm, "arm").model
         table = self.workcell.need("table_z_mm", self.name)
         hover, margin = float(self.param("hover_mm")), float(self.param("margin_mm"))
         marker = self.workcell.tool_marker

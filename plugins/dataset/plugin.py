@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 import armtree
+from armtree.api.sweep import Sweep
 from armtree.runtime.runner import Run
 
 from .session import KEEP_CHOICES, KEY, RunDataset, SweepDataset
@@ -95,11 +96,11 @@ def armtree_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 @armtree.hookimpl
-def armtree_sweep_started(sweep: Any) -> None:
+def armtree_sweep_started(sweep: Sweep) -> None:
     """Open the dataset (checked and locked) before the first run; its runs stage episodes."""
     if not sweep.settings.get("dataset"):
         return
-    session = SweepDataset(sweep, getattr(sweep.tree, "manager", None))
+    session = SweepDataset(sweep)
     sweep.plugin_state[KEY] = session
     # Every run encodes its camera video: PyAV loaded once, not once a run.
     sweep.preload.append("av")
@@ -107,7 +108,7 @@ def armtree_sweep_started(sweep: Any) -> None:
 
 
 @armtree.hookimpl
-def armtree_sweep_run_finished(sweep: Any, outcome: dict[str, Any]) -> None:
+def armtree_sweep_run_finished(sweep: Sweep, outcome: dict[str, Any]) -> None:
     """Hand the run's staged episode to the appender."""
     session = sweep.plugin_state.get(KEY)
     if session is not None:
@@ -115,7 +116,7 @@ def armtree_sweep_run_finished(sweep: Any, outcome: dict[str, Any]) -> None:
 
 
 @armtree.hookimpl
-def armtree_sweep_finished(sweep: Any, outcomes: list[dict[str, Any]], interrupted: bool) -> None:
+def armtree_sweep_finished(sweep: Sweep, outcomes: list[dict[str, Any]], interrupted: bool) -> None:
     """Append the rest in seed order and say what the dataset got."""
     session = sweep.plugin_state.get(KEY)
     if session is not None:

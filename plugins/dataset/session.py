@@ -20,8 +20,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from armtree.api.sweep import Sweep
+from armtree.api.views import TreeView
 from armtree.errors import ConfigError
-from armtree.loader.tree import Tree
 from armtree.runtime.runner import Run
 
 from . import deps, layout
@@ -66,25 +67,25 @@ def check_fps(fps: int | None, tick_hz: float, at: str) -> None:
         )
 
 
-def arm_facts(tree: Tree, manager: Any) -> tuple[str | None, list[str] | None]:
+def arm_facts(tree: TreeView) -> tuple[str | None, list[str] | None]:
     """The robot type (the profile's arm type) and joint names of the tree's rig, as far
     as they are known without opening a device."""
     profile = getattr(tree, "profile", None)
     arm = (profile.component("arm") if profile is not None else None) or {}
     kind = arm.get("type")
     try:
-        factory = manager.registry.get("arm", kind).factory
+        factory = tree.registry.get("arm", str(kind)).factory
         model = factory.model(dict(arm))
         return kind, [j.name for j in model.joints]
     except Exception:  # noqa: BLE001 - checked again when the episode is appended
         return kind, None
 
 
-def check_fits(info: dict[str, Any] | None, tree: Tree, manager: Any, at: str) -> None:
+def check_fits(info: dict[str, Any] | None, tree: TreeView, at: str) -> None:
     """Refuse, before anything moves, a rig whose arm the dataset does not record."""
     if not info or not info.get("total_episodes"):
         return
-    kind, joints = arm_facts(tree, manager)
+    kind, joints = arm_facts(tree)
     if kind is not None and info.get("robot_type") not in (None, kind):
         raise ConfigError(
             f"the dataset records a {info['robot_type']} arm, this rig has a {kind}: one "
@@ -144,7 +145,7 @@ class RunDataset:
             self.writer = DatasetWriter(Path(settings["dataset"]), fps, at)
             try:
                 check_fps(self.writer.fps, run.tick_hz, at)
-                check_fits(self.writer.info, run.tree, run.manager, at)
+                check_fits(self.writer.info, run.tree, at)
             except BaseException:
                 self.writer.close()
                 raise
@@ -249,7 +250,7 @@ class SweepDataset:
     in seed order once every earlier seed has ended, :data:`APPEND_EVERY` at a time (or
     what is ready after :data:`APPEND_AFTER_S`, and all the rest at the sweep's end)."""
 
-    def __init__(self, sweep: Any, manager: Any) -> None:
+    def __init__(self, sweep: Sweep) -> None:
         settings = sweep.settings
         at = where(settings)
         deps.require(at)
@@ -259,7 +260,7 @@ class SweepDataset:
         self.writer = DatasetWriter(Path(settings["dataset"]), fps, at)
         try:
             check_fps(self.writer.fps, tick_hz, at)
-            check_fits(self.writer.info, sweep.tree, manager, at)
+            check_fits(self.writer.info, sweep.tree, at)
         except BaseException:
             self.writer.close()
             raise

@@ -18,12 +18,13 @@ import numpy as np
 
 from armtree.config.profile_access import profile_source
 from armtree.errors import ConfigError
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.profile import Profile
 from armtree.maths.motion.scene import Scene
 from armtree.maths.motion.workspace import ArmWorkspace, Covering
 
 
-def arm_model(profile: Profile | dict[str, Any], manager: Any = None) -> Any:
+def arm_model(profile: Profile | dict[str, Any], manager: PluginManager | None = None) -> Any:
     """The profile's arm model, built without opening a port (the arm factory's ``model``)."""
     from armtree.hooks.plugin_manager import get_plugin_manager
 

@@ -35,8 +35,9 @@ import numpy as np
 from armtree.api.clock import WallClock
 from armtree.api.emulation import SHARED_KEY as EMULATOR_KEY
 from armtree.api.rig import Rig, RigContext
-from armtree.cli.commandline import add_set_option, seed_value
+from armtree.cli.options import add_set_option, seed_value
 from armtree.errors import ConfigError
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.loader.profile import Profile
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
@@ -83,7 +84,7 @@ class SimBench:
     def __init__(
         self,
         profile: Profile,
-        manager: Any,
+        manager: PluginManager,
         *,
         seed: int = 0,
         host: str = "127.0.0.1",
@@ -343,7 +344,9 @@ class ServeSimCommand:
         return EXIT_INTERRUPTED
 
 
-def _declared_outcomes(tree: str | None, profile: Profile, manager: Any) -> list[Any] | None:
+def _declared_outcomes(
+    tree: str | None, profile: Profile, manager: PluginManager
+) -> list[Any] | None:
     """The ``expect:`` list of ``tree`` loaded against the served profile (None: no tree).
 
     Loaded before serving starts, so a bad tree is exit 2 with its position.
@@ -356,7 +359,7 @@ def _declared_outcomes(tree: str | None, profile: Profile, manager: Any) -> list
 
 
 def _judged_outcomes(
-    expectations: list[Any], bench: SimBench, profile: Profile, manager: Any
+    expectations: list[Any], bench: SimBench, profile: Profile, manager: PluginManager
 ) -> str:
     """One ``expect:`` line per declared outcome, judged on the served world now."""
     from armtree.api.outcomes.expect import judge, predicates_for
@@ -367,7 +370,7 @@ def _judged_outcomes(
     world = bench.world
     truth = None if world is None else world_truth(world, profile)
     lines = []
-    for r in judge(expectations, truth, predicates_for(manager)):
+    for r in judge(expectations, truth, predicates_for(manager.registry)):
         status = "not checked: " if r.status == "not checked" else ""
         lines.append(f"expect: {EXPECT_MARKS.get(r.status, '?')} {r.expect} ({status}{r.detail})")
     return "\n".join(lines)

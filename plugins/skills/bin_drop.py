@@ -7,6 +7,7 @@ import contextlib
 
 import numpy as np
 
+from armtree.api.rig import needed
 from armtree.api.skill.actions import SkillFailure
 from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.base import as_list
@@ -46,7 +47,13 @@ def bin_drop(
         with contextlib.suppress(ValueError):  # the place's IK (Unreachable)
             offset = (tool_pose_at(rig, place) @ held)[:2] - place[:2]
     drop = plan_drop(
-        rig.arm.model, place, spec, contents, hang, tag.size_mm if tag is not None else 0.0, offset
+        needed(rig.arm, "arm").model,
+        place,
+        spec,
+        contents,
+        hang,
+        tag.size_mm if tag is not None else 0.0,
+        offset,
     )
     if drop is None:
         raise SkillFailure(

@@ -23,6 +23,7 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import SkillFailure, fmt
 from armtree.api.skill.base import Skill, as_list
 from armtree.api.skill.eye import Sighting, eye_of
@@ -257,7 +258,7 @@ class Holding(Condition):
         if not tag or camera is None or self.rig.tracker is None or camera.mount == EYE_IN_HAND:
             return True, "the tool reports gripping (not seen: the camera cannot look under it)"
         view = eye_of(self.rig).recent(float(self.param("max_age_s")))
-        tool = self.rig.arm.pose()[:3, 3]
+        tool = needed(self.rig.arm, "arm").pose()[:3, 3]
         for s in [] if view is None else view.of(tag):
             away = float(np.linalg.norm(s.position - tool))
             if away > float(self.param("tolerance_mm")):
@@ -285,7 +286,7 @@ class AtPlace(Condition):
 
     def check(self) -> tuple[bool, str]:
         place = self.point(self.param("place"), f"{self.name}: place")
-        tool = self.rig.arm.pose()[:3, 3]
+        tool = needed(self.rig.arm, "arm").pose()[:3, 3]
         away = float(np.linalg.norm(tool - place))
         holds = away <= float(self.param("tolerance_mm"))
         return holds, f"the tool is {away:.1f} mm from {fmt(place)}"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
-from armtree.api.rig import Rig
+from armtree.api.rig import Rig, needed
 from armtree.api.skill.arm import UP, ArmSkill
 from armtree.api.skill.reach import lowest_reachable, reachable
 
@@ -43,7 +43,7 @@ def grip_point(
     up to ``inward`` mm nearer the arm's base on the same face (a cup holds anywhere on
     an object's top, not only at its marker's centre)."""
     want = target + UP * grasp_offset
-    model = skill.rig.arm.model
+    model = needed(skill.rig.arm, "arm").model
     if reachable(model, want):
         return want
     slack = float(skill.param("reach_slack_mm"))

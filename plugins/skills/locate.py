@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from armtree.api.rig import Rig
+from armtree.api.rig import Rig, needed
 from armtree.api.skill.actions import Look, Move
 from armtree.api.skill.arm import ArmSkill, camera_over
 from armtree.api.skill.base import ActionFailed, Procedure
@@ -76,7 +76,7 @@ def look_over(
     frames are added to ``tally`` when given.
     """
     rig = skill.rig
-    if point is not None and rig.camera.mount == EYE_IN_HAND:
+    if point is not None and needed(rig.camera, "camera").mount == EYE_IN_HAND:
         tool = camera_over(skill, point, height)
         yield Move(rig, tool, speed=skill.speed(), label="look over")
     look = Look(
@@ -153,7 +153,7 @@ def locate(
     rig, cell = skill.rig, skill.workcell
     height = cell.look_height_mm
     skip = tuple(skip)
-    in_hand = rig.camera.mount == EYE_IN_HAND
+    in_hand = needed(rig.camera, "camera").mount == EYE_IN_HAND
     tries: list[np.ndarray | None] = [hint]
     if not in_hand:
         far = out_of_view(skill, hint) if hint is not None else None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import ArmHome, Move
 from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.base import Procedure, as_list
@@ -66,7 +67,7 @@ class Home(ArmSkill):
     RESOURCES = ("arm",)
 
     def procedure(self) -> Procedure:
-        home = np.asarray(self.rig.arm.model.home, dtype=float)
+        home = np.asarray(needed(self.rig.arm, "arm").model.home, dtype=float)
         if self.param("reference"):
             yield ArmHome(self.rig)
             return home

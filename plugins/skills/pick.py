@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import ArmHome, Grip, Move, Pause, SkillFailure, fmt
 from armtree.api.skill.arm import UP, ArmSkill, above
 from armtree.api.skill.base import Procedure, as_list
@@ -183,13 +184,13 @@ class Gripping(PickCheck):
         """``grip`` (mm), or a grip up to ``hold`` mm beside it whose tool boxes clear the
         objects the camera saw near ``target``; raises SkillFailure naming the object hit
         when none does. Logged as a ``footprint`` event when it had to act."""
-        model = self.rig.arm.model
+        model = needed(self.rig.arm, "arm").model
         objects = neighbours(self, target, marker)
         if not objects:
             return grip
         over = above(self, grip - UP * grasp_offset, approach + grasp_offset)
         try:
-            near = model.ik(over, near=self.rig.arm.joints())
+            near = model.ik(over, near=needed(self.rig.arm, "arm").joints())
         except ValueError:  # the approach point is out of reach: the move will say so
             return grip
         found = clear_grip(model, grip, near, objects, hold)

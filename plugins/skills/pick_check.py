@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.base import Procedure, as_list
@@ -41,7 +42,7 @@ class PickCheck(ArmSkill):
         returns a one-line description of what was checked.
         """
         rig = self.rig
-        in_hand = rig.camera.mount == EYE_IN_HAND
+        in_hand = needed(rig.camera, "camera").mount == EYE_IN_HAND
         if in_hand:
             after = yield from look_over(self, spot, self.workcell.look_height_mm, None, 2)
         else:
@@ -60,7 +61,7 @@ class PickCheck(ArmSkill):
                     f"{flat:.1f} mm from where it was gripped: the grip failed"
                 )
             if not in_hand:
-                tool = rig.arm.pose()[:3, 3]
+                tool = needed(rig.arm, "arm").pose()[:3, 3]
                 to_tool = float(np.linalg.norm(mine.position[:2] - tool[:2]))
                 if rise < RISEN_MM or to_tool > 2.0 * tolerance:
                     self.note("check", check="pick", ok=False, tag=tag, offset_mm=as_list(off))

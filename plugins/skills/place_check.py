@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, SkillFailure, fmt
 from armtree.api.skill.arm import UP, ArmSkill
 from armtree.api.skill.base import Procedure, as_list
@@ -57,7 +58,7 @@ class PlaceCheck(ArmSkill):
         """
         rig = self.rig
         cell = self.workcell
-        in_hand = rig.camera.mount == EYE_IN_HAND
+        in_hand = needed(rig.camera, "camera").mount == EYE_IN_HAND
         limit = tolerance if on_marker else max(tolerance, cell.search_radius_mm)
         if in_hand:
             # over the target, then around it: a marker turned near the image's corner
@@ -119,7 +120,7 @@ class PlaceCheck(ArmSkill):
         if held is None or not obj:
             return point
         view = yield Look(rig, self.clock, want=obj, frames=3, settle=self.settle(), average=True)
-        expected = (rig.arm.pose() @ held)[:3]
+        expected = (needed(rig.arm, "arm").pose() @ held)[:3]
         mine = [s for s in view if marker is None or s.id == int(marker)]
         seen = nearest(mine, obj, expected, HELD_LIMIT_MM)
         if seen is None:
@@ -132,7 +133,7 @@ class PlaceCheck(ArmSkill):
         if ok:
             return point
         corrected = point - np.array([off[0], off[1], 0.0]) + UP * max(0.0, low)
-        if not reachable(rig.arm.model, corrected):
+        if not reachable(needed(rig.arm, "arm").model, corrected):
             raise SkillFailure(
                 f"{self.name}: the held {obj!r} tag is at {fmt(seen.position)}, {flat:.1f} mm "
                 f"beside and {low:.1f} mm below where the arm's joints put it, and the "

@@ -10,6 +10,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Grip, Move, Pause
 from armtree.api.skill.arm import UP, ArmSkill, above
 from armtree.api.skill.base import Procedure
@@ -36,7 +37,7 @@ def release_steps(
     :data:`RELEASE_SLACK_MM`, no lower than :data:`RELEASE_DROP_MM` under it.
     """
     point = target + UP * release
-    model = skill.rig.arm.model
+    model = needed(skill.rig.arm, "arm").model
     if not reachable(model, point):
         near = nearest_reachable(
             model, point, span=2 * RELEASE_SLACK_MM, min_z=point[2] - RELEASE_DROP_MM

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Grip, Look, Move, Pause, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill, above, camera_over
 from armtree.api.skill.base import ActionFailed, Procedure, as_list
@@ -184,7 +185,7 @@ def scan_poses(skill: ArmSkill) -> Iterator[np.ndarray]:
     cell = skill.workcell
     survey = cell.need("survey", skill.name)
     table_z = cell.need("table_z_mm", skill.name)
-    here = skill.rig.arm.pose()[:3, 3]
+    here = needed(skill.rig.arm, "arm").pose()[:3, 3]
     try:
         points = survey_points(survey, float(table_z), here, int(skill.param("sweeps")))
     except ValueError as exc:
@@ -277,7 +278,11 @@ class CleanUp(ClearsTrash):
         return ("survey", "table_z_mm") if params.get("sweep") else ()
 
     def procedure(self) -> Procedure:
-        poses = scan_poses(self) if self.param("sweep") else iter([self.rig.arm.pose()[:3, 3]])
+        poses = (
+            scan_poses(self)
+            if self.param("sweep")
+            else iter([needed(self.rig.arm, "arm").pose()[:3, 3]])
+        )
         log = TrashLog()
         for n, pose in enumerate(poses):
             if self.param("sweep") or n > 0:

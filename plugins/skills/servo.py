@@ -26,6 +26,7 @@ import numpy as np
 from py_trees.common import Status
 
 from armtree import Param, Unreachable
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill
 from armtree.api.skill.base import Procedure
@@ -137,7 +138,7 @@ class VisualServo(ArmSkill):
         return status
 
     def procedure(self) -> Procedure:
-        if self.rig.camera.mount == EYE_IN_HAND:
+        if needed(self.rig.camera, "camera").mount == EYE_IN_HAND:
             return (yield from self._eye_in_hand())
         return (yield from self._eye_to_hand())
 
@@ -152,16 +153,16 @@ class VisualServo(ArmSkill):
         # joints to the values computed by inverse kinematics"
         yield Move(rig, reference, speed=self.speed(), label="direct move")
         for iteration in range(self.param("max_iterations") + 1):
-            q = np.asarray(rig.arm.joints(), dtype=float)
+            q = np.asarray(needed(rig.arm, "arm").joints(), dtype=float)
             if tool_tag:
                 mark = yield from self._tool_mark(tool_tag)  # step 1
                 # step 2 (the Eye put it in the base frame); the tool centre under the marker
-                pose = rig.arm.model.fk(q)
+                pose = needed(rig.arm, "arm").model.fk(q)
                 lift = pose[:3, :3] @ marker_offset
                 seen = along_ray_to_height(self._camera_at(), mark.position, pose[2, 3] + lift[2])
                 measured = seen - lift
             else:
-                measured = rig.arm.model.position(q)
+                measured = needed(rig.arm, "arm").model.position(q)
             done = yield from self._close(q, measured, reference, iteration)
             if done is not None:
                 return done
@@ -188,7 +189,9 @@ class VisualServo(ArmSkill):
         sighting = yield from self._look_for(tag)
         if sighting is None:
             hidden = shadow(self)
-            away = joints_out_of_view(self, hidden if len(hidden) else rig.arm.pose()[:3, 3])
+            away = joints_out_of_view(
+                self, hidden if len(hidden) else needed(rig.arm, "arm").pose()[:3, 3]
+            )
             if away is not None:
                 yield Move(rig, joints=away, speed=self.speed(), label="out of the camera's way")
                 sighting = yield from self._look_for(tag)
@@ -201,7 +204,7 @@ class VisualServo(ArmSkill):
 
     def _camera_at(self) -> np.ndarray:
         """The fixed camera's position in the base frame (mm), as the profile gives it."""
-        return np.asarray(self.rig.camera.extrinsics, dtype=float)[:3, 3]
+        return np.asarray(needed(self.rig.camera, "camera").extrinsics, dtype=float)[:3, 3]
 
     def _look_for(self, role: str) -> Procedure:
         sightings = yield Look(
@@ -215,7 +218,7 @@ class VisualServo(ArmSkill):
             mark = yield from self._look_for(role)
             if mark is not None:
                 return mark
-        where = fmt(self.rig.arm.pose()[:3, 3])
+        where = fmt(needed(self.rig.arm, "arm").pose()[:3, 3])
         raise SkillFailure(
             f"{self.name}: the tool's {role!r} marker is not in view with the tool at {where} "
             "(the arm hides it or it is outside the image there)"
@@ -239,8 +242,8 @@ class VisualServo(ArmSkill):
             # the camera cannot see under the tool: a target that left the view after a
             # correction keeps its last measured (fixed) position
             reference = last.position + offset
-            q = np.asarray(rig.arm.joints(), dtype=float)
-            measured = rig.arm.model.position(q)
+            q = np.asarray(needed(rig.arm, "arm").joints(), dtype=float)
+            measured = needed(rig.arm, "arm").model.position(q)
             done = yield from self._close(q, measured, reference, iteration)
             if done is not None:
                 return done
@@ -276,7 +279,7 @@ class VisualServo(ArmSkill):
 
     def _correction(self, q: np.ndarray, measured: np.ndarray, reference: np.ndarray) -> Move:
         """Steps 3-7: joints of the measured and the wanted positions, their difference sent."""
-        model = self.rig.arm.model
+        model = needed(self.rig.arm, "arm").model
         try:
             q_meas = model.ik(measured, near=q)  # step 3
             q_ref = model.ik(reference, near=q)  # steps 4-5

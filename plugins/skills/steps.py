@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, Move, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill, above, camera_over
 from armtree.api.skill.base import Procedure, as_list
@@ -150,7 +151,7 @@ class Sweep(ArmSkill):
         its start."""
         super().setup(**kwargs)
         self.restart()
-        if self.rig is not None and self.rig.arm is not None and self.workcell.survey is not None:
+        if self.has_rig and self.rig.arm is not None and self.workcell.survey is not None:
             with contextlib.suppress(KeyError):  # a {sweeps} not on the blackboard yet
                 self.plan()
 
@@ -163,7 +164,7 @@ class Sweep(ArmSkill):
     def plan(self) -> None:
         """The table points of the whole sweep, from where the tool is now."""
         cell = self.workcell
-        here = self.rig.arm.pose()[:3, 3]
+        here = needed(self.rig.arm, "arm").pose()[:3, 3]
         survey = cell.need("survey", self.name)
         table_z = float(cell.need("table_z_mm", self.name))
         self._points = survey_points(survey, table_z, here, int(self.param("sweeps")))

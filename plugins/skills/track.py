@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from armtree import Param
+from armtree.api.rig import needed
 from armtree.api.skill.actions import Look, Move, Pause, SkillFailure, fmt
 from armtree.api.skill.arm import ArmSkill, camera_over
 from armtree.api.skill.base import Procedure, as_list
@@ -130,13 +131,13 @@ class Track(ArmSkill):
         # which it was not (the tool or the view's edge hid it): go back, don't retry
         seen_from: np.ndarray | None = None
         blind: np.ndarray | None = None
-        follow = self.rig.camera.mount == EYE_IN_HAND
+        follow = needed(self.rig.camera, "camera").mount == EYE_IN_HAND
         while not self.param("until"):
             if anchor is not None:
                 yield Pause(self.clock, float(self.param("period_s")))
             sightings = yield Look(self.rig, self.clock, want=tag, frames=1, settle=self.settle())
             seen = [s for s in sightings if s.role == tag]
-            here = self.rig.arm.pose()[:3, 3]
+            here = needed(self.rig.arm, "arm").pose()[:3, 3]
             if not seen:
                 missed += 1
                 if missed >= self.param("lost_frames"):

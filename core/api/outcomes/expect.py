@@ -27,6 +27,7 @@ from typing import Any
 from armtree.config.yamlio import MarkedDict, MarkedList, error_at
 from armtree.errors import ConfigError, Mark, did_you_mean
 
+from ..views import ComponentLookup
 from .predicates import BUILTIN_PREDICATES, Expectation, Predicate
 from .truth import WorldObject, WorldTruth
 
@@ -63,13 +64,13 @@ class ExpectationResult:
         }
 
 
-def predicates_for(manager: Any) -> dict[str, Predicate]:
-    """The built-in predicates and those plugins register (``armtree_predicates``).
+def predicates_for(registry: ComponentLookup | None) -> dict[str, Predicate]:
+    """The built-in predicates and those the plugins of ``registry`` register
+    (``armtree_predicates``); only the built-in ones without it.
 
     A plugin may not take a built-in predicate's name.
     """
     found: dict[str, Predicate] = dict(BUILTIN_PREDICATES)
-    registry = getattr(manager, "registry", None) if manager is not None else None
     if registry is not None:
         found.update(registry.instances("predicate", (*BUILTIN_PREDICATES, *SUBJECT_KEYS)))
     return found

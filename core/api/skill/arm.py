@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armtree.api.rig import Camera
+from armtree.api.rig import Camera, needed
 from armtree.config.params import Param
 from armtree.maths.motion.kinematics import KinematicModel
 from armtree.maths.perception.frames import EYE_IN_HAND, tool_for_camera_over
@@ -72,12 +72,12 @@ def camera_over(
     Raises :class:`SkillFailure` when nothing near is reachable.
     """
     rig = skill.rig
-    if rig.camera.mount != EYE_IN_HAND:
+    if needed(rig.camera, "camera").mount != EYE_IN_HAND:
         return point + UP * height
     return tool_under_camera(
-        rig.arm.model,
-        rig.camera,
-        np.asarray(rig.arm.joints(), dtype=float),
+        needed(rig.arm, "arm").model,
+        needed(rig.camera, "camera"),
+        np.asarray(needed(rig.arm, "arm").joints(), dtype=float),
         skill.clearance(),
         point,
         height,
@@ -134,7 +134,7 @@ def tool_under_camera(
 def above(skill: Skill, target: np.ndarray, height: float) -> np.ndarray:
     """``target`` raised by ``height`` mm, or by as much of it as the arm can reach."""
     want = target + UP * height
-    model = skill.rig.arm.model
+    model = needed(skill.rig.arm, "arm").model
     if height <= 0 or reachable(model, want):
         return want
     best = highest_reachable(model, target, target[2], target[2] + height)

@@ -125,7 +125,7 @@ class Skill(Behaviour):
                 self.place_name_check(param.name)
             elif param.kind == "tag_role":
                 self.role_check(param.name)
-        if self.rig is not None:
+        if self.has_rig:
             for key in self.workcell_needs():
                 try:
                     self.workcell.need(key, self.name)
@@ -160,7 +160,7 @@ class Skill(Behaviour):
 
     def _checked(self) -> Procedure:
         for part in self.NEEDS:
-            if self.rig is None or getattr(self.rig, part, None) is None:
+            if not self.has_rig or getattr(self.rig, part, None) is None:
                 raise SkillFailure(f"{self.name}: this rig has no {part}")
             if part == "camera" and self.rig.tracker is None:
                 raise SkillFailure(f"{self.name}: this rig has no tracker")
@@ -180,7 +180,7 @@ class Skill(Behaviour):
             if new_status is Status.INVALID:
                 action = self._process.action
                 self._halted = self._process.stop()
-                if self.rig is not None and self.rig.arm is not None:
+                if self.has_rig and self.rig.arm is not None:
                     self.rig.arm.stop()
                     if "tool" in self.RESOURCES:
                         # the tool is left as it is on purpose: what it holds stays held
@@ -215,7 +215,7 @@ class Skill(Behaviour):
     def place_name_check(self, pname: str) -> None:
         """Raise :class:`ConfigError` if literal parameter ``pname`` names no place."""
         value = self.params.get(pname)
-        if isinstance(value, str) and self.rig is not None and value not in self.rig.places:
+        if isinstance(value, str) and self.has_rig and value not in self.rig.places:
             known = ", ".join(sorted(self.rig.places)) or "none"
             raise self._profile_error(
                 "places", f"{self.name}: {pname}: unknown place {value!r} (places: {known})"
@@ -224,7 +224,7 @@ class Skill(Behaviour):
     def role_check(self, pname: str) -> None:
         """Raise :class:`ConfigError` if literal parameter ``pname`` names no tag role."""
         value = self.params.get(pname)
-        if isinstance(value, str) and value and self.rig is not None and value not in self.rig.tags:
+        if isinstance(value, str) and value and self.has_rig and value not in self.rig.tags:
             known = ", ".join(sorted(self.rig.tags)) or "none"
             raise self._profile_error(
                 "tags", f"{self.name}: {pname}: unknown tag role {value!r} (tags: {known})"

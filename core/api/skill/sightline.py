@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from armtree.api.rig import needed
 from armtree.errors import PlanningError, Unreachable
 from armtree.maths.motion.kinematics import KinematicModel
 
@@ -111,9 +112,9 @@ def _out_of_view(
     cell = skill.workcell
     if cell.survey is None or cell.table_z_mm is None:
         return None
-    model = skill.rig.arm.model
-    here = skill.rig.arm.pose()[:3, 3]
-    near = np.asarray(skill.rig.arm.joints(), dtype=float)
+    model = needed(skill.rig.arm, "arm").model
+    here = needed(skill.rig.arm, "arm").pose()[:3, 3]
+    near = np.asarray(needed(skill.rig.arm, "arm").joints(), dtype=float)
     poses, joints = [], []
     # two legs: a ring sweep from here runs to one end of its range first, then to the other
     legs = 2 if every_solution else 1
@@ -162,8 +163,8 @@ VIEW_SPACING_MM = 40.0
 
 def _hidden(skill: ArmSkill, joints: np.ndarray, points: np.ndarray) -> np.ndarray:
     """How many of ``points`` (mm) the links hide from the camera at each of ``joints``."""
-    model = skill.rig.arm.model
-    camera = np.asarray(skill.rig.camera.extrinsics, dtype=float)[:3, 3]
+    model = needed(skill.rig.arm, "arm").model
+    camera = np.asarray(needed(skill.rig.camera, "camera").extrinsics, dtype=float)[:3, 3]
     hidden = np.zeros(len(joints), dtype=int)
     for k in range(0, len(points), 64):
         hidden += np.sum(hides(model, joints, camera, points[k : k + 64, None, None, :]), axis=0)
@@ -177,7 +178,7 @@ def view_grid(skill: ArmSkill, spacing: float) -> np.ndarray:
     if cell.table_z_mm is None:
         return np.zeros((0, 3))
     table = float(cell.table_z_mm)
-    camera = np.asarray(rig.camera.extrinsics, dtype=float)
+    camera = np.asarray(needed(rig.camera, "camera").extrinsics, dtype=float)
     view = eye_of(rig).last
     hx, hy = view.half_view if view is not None else (0.6, 0.45)
     corners = []
@@ -198,11 +199,15 @@ def shadow(skill: ArmSkill, spacing: float = 10.0) -> np.ndarray:
     view that the arm's links hide from it where the arm is now; empty without a table."""
     rig = skill.rig
     grid = view_grid(skill, spacing)
-    model = rig.arm.model
+    model = needed(rig.arm, "arm").model
     if not len(grid) or not model.boxes:
         return np.zeros((0, 3))
-    q = np.asarray(rig.arm.joints(), dtype=float)
-    return grid[hides(model, q, np.asarray(rig.camera.extrinsics)[:3, 3], grid[:, None, :])]
+    q = np.asarray(needed(rig.arm, "arm").joints(), dtype=float)
+    return grid[
+        hides(
+            model, q, np.asarray(needed(rig.camera, "camera").extrinsics)[:3, 3], grid[:, None, :]
+        )
+    ]
 
 
 __all__ = [

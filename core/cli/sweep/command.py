@@ -34,8 +34,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from armtree.api.output_paths import output_folder
 from armtree.api.sweep import Sweep
-from armtree.cli.commandline import add_tree_arguments
+from armtree.cli.options import add_tree_arguments
 from armtree.errors import ConfigError
+from armtree.hooks.plugin_manager import PluginManager
 from armtree.runtime.interrupts import EXIT_INTERRUPTED
 
 from .hooks import SweepHooks, add_plugin_options, plugin_settings
@@ -50,7 +51,7 @@ SWEEP_FILES = ("sweep.json", "report.md", "runs")
 CHECKPOINT_S = 300.0
 
 
-def configure(parser: argparse.ArgumentParser, manager: Any = None) -> None:
+def configure(parser: argparse.ArgumentParser, manager: PluginManager | None = None) -> None:
     """The sweep's options: TREE, --rig and --set as ``armtree check`` takes them, its own,
     and those the plugins of ``manager`` add (``armtree_sweep_options``)."""
     add_tree_arguments(parser)
@@ -164,7 +165,9 @@ class SweepCommand:
 
     help = "run a tree over many seeds in parallel (local processes or a Dask cluster) and report"
 
-    def configure(self, parser: argparse.ArgumentParser, manager: Any = None) -> None:
+    def configure(
+        self, parser: argparse.ArgumentParser, manager: PluginManager | None = None
+    ) -> None:
         """Add the sweep's options, and those of ``manager``'s plugins."""
         configure(parser, manager)
 
@@ -212,7 +215,7 @@ def _run(
     argv: Sequence[str],
     plugged: Sweep,
     hooks: SweepHooks,
-    manager: Any,
+    manager: PluginManager,
 ) -> int:
     tree, seeds, out = plugged.tree, plugged.seeds, plugged.out
     profile = getattr(tree, "profile", None)

@@ -14,12 +14,13 @@ from typing import Any
 
 from armtree.api.sweep import Sweep
 from armtree.hooks.hook_calls import call_isolated
+from armtree.hooks.plugin_manager import PluginManager
 
 #: The parser default naming the options the plugins added (their ``dest``).
 PLUGIN_DESTS = "sweep_plugin_options"
 
 
-def add_plugin_options(parser: argparse.ArgumentParser, manager: Any) -> None:
+def add_plugin_options(parser: argparse.ArgumentParser, manager: PluginManager | None) -> None:
     """The options the plugins of ``manager`` add to the sweep (``armtree_sweep_options``),
     their ``dest`` noted in the parser's default :data:`PLUGIN_DESTS`."""
     if manager is None:
@@ -38,7 +39,7 @@ def plugin_settings(args: argparse.Namespace) -> dict[str, Any]:
 class SweepHooks:
     """Calls the sweep hooks of one sweep's plugin manager."""
 
-    def __init__(self, manager: Any) -> None:
+    def __init__(self, manager: PluginManager) -> None:
         self.pm = getattr(manager, "pm", None)
         self._told: set[tuple[str, str]] = set()
 

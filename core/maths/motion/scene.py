@@ -34,7 +34,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -104,6 +104,26 @@ class MeshObstacle:
         return (hits.sum(axis=1) % 2) == 1
 
 
+class SceneSource(Protocol):
+    """A loaded profile as a scene is read from it: its parsed YAML, its file and errors
+    positioned at a dotted key (:class:`armtree.Profile` satisfies it; the maths layer
+    sits below the loader, so it names only what it reads)."""
+
+    @property
+    def source(self) -> Path | None:
+        """The profile's file."""
+        ...
+
+    @property
+    def data(self) -> dict[str, Any]:
+        """The profile's YAML as parsed (lengths in mm)."""
+        ...
+
+    def error(self, path: str, message: str) -> ConfigError:
+        """A configuration error at the place ``path`` (``"obstacles.0.size"``) was written."""
+        ...
+
+
 @dataclass
 class Scene:
     """Everything an arm must not touch, and the places that must stay reachable.
@@ -119,7 +139,9 @@ class Scene:
     source: str | None = None
 
     @classmethod
-    def from_profile(cls, profile: Any, base_dir: str | Path | None = None) -> Scene:
+    def from_profile(
+        cls, profile: SceneSource | Mapping[str, Any], base_dir: str | Path | None = None
+    ) -> Scene:
         """The scene of a profile (a :class:`Profile` object or its plain mapping).
 
         Reads the ``table``, ``obstacles`` and ``places`` keys. Raises
@@ -210,32 +232,25 @@ def _place_blocked(name: str, point: np.ndarray, blocker: str) -> str:
     )
 
 
-def _profile_mapping(profile: Any) -> tuple[Mapping[str, Any], str | None]:
-    # duck-typed: the maths reads a Profile (or a mapping) without importing config
-    source = getattr(profile, "source", None)
-    source = str(source) if source else None
+def _profile_mapping(
+    profile: SceneSource | Mapping[str, Any],
+) -> tuple[Mapping[str, Any], str | None]:
     if isinstance(profile, Mapping):
-        return profile, source
-    data = getattr(profile, "data", None)
-    if isinstance(data, Mapping):
-        return data, source
-    keys = ("table", "obstacles", "places")
-    return {key: getattr(profile, key) for key in keys if hasattr(profile, key)}, source
+        return profile, None
+    return profile.data, str(profile.source) if profile.source else None
 
 
 class _Fail:
     """Makes ConfigErrors at the position of a dotted profile path when the profile knows it."""
 
-    def __init__(self, profile: Any) -> None:
+    def __init__(self, profile: SceneSource | Mapping[str, Any]) -> None:
         self.profile = profile
 
     def __call__(self, path: str, message: str) -> ConfigError:
-        error = getattr(self.profile, "error", None)
-        if callable(error) and not isinstance(self.profile, Mapping):
-            err = error(path, message)  # a Profile knows where the value was written
+        if isinstance(self.profile, Mapping):
+            err = ConfigError(f"{path}: {message}")
         else:
-            source = getattr(self.profile, "source", None)
-            err = ConfigError(f"{path}: {message}", file=str(source) if source else None)
+            err = self.profile.error(path, message)  # it knows where the value was written
         # positioned by the dotted path; shown with list items as [i]
         err.message = re.sub(r"\.(\d+)(?=\.|$)", r"[\1]", path) + f": {message}"
         return err
