@@ -23,14 +23,34 @@ A behaviour that commands the arm, the tool or a pan-tilt head lists them in
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Iterable
+from typing import Any, Protocol
 
 import py_trees
 from py_trees.common import Access
 
 from armtree.config.params import Binding, Param
 
+from .clock import Clock
 from .rig import Rig
+
+
+class BehaviourRuntime(Protocol):
+    """What a behaviour may ask of the run that ticks it (:class:`armtree.Run`
+    satisfies it; the runtime is a layer above this one)."""
+
+    @property
+    def tick_count(self) -> int:
+        """Ticks of the tree so far."""
+        ...
+
+    def claim(self, behaviour: py_trees.behaviour.Behaviour, names: Iterable[str]) -> None:
+        """Give ``behaviour`` the resources ``names``, halting their running owner first."""
+        ...
+
+    def report_event(self, event: str, message: str | None = None, **data: Any) -> None:
+        """Write an event to the run log at the current tick (a ``message`` is shown too)."""
+        ...
 
 
 class Behaviour(py_trees.behaviour.Behaviour):
@@ -48,8 +68,9 @@ class Behaviour(py_trees.behaviour.Behaviour):
         super().__init__(name)
         self.params = params
         self._rig: Rig | None = None
-        self.clock: Any = None
-        self.runtime: Any = None
+        self._clock: Clock | None = None
+        #: The run ticking this behaviour, once :meth:`setup` has been handed it.
+        self.runtime: BehaviourRuntime | None = None
         self.bb = self.attach_blackboard_client(name=name)
         declared = {p.name: p for p in self.PARAMS}
         for pname, value in params.items():
@@ -63,7 +84,7 @@ class Behaviour(py_trees.behaviour.Behaviour):
     def setup(self, **kwargs: Any) -> None:
         """Take the rig, clock and runtime the runtime hands every behaviour."""
         self._rig = kwargs.get("rig", self._rig)
-        self.clock = kwargs.get("clock", self.clock)
+        self._clock = kwargs.get("clock", self._clock)
         self.runtime = kwargs.get("runtime", self.runtime)
 
     @property
@@ -79,6 +100,20 @@ class Behaviour(py_trees.behaviour.Behaviour):
     @rig.setter
     def rig(self, rig: Rig | None) -> None:
         self._rig = rig
+
+    @property
+    def clock(self) -> Clock:
+        """The run's clock :meth:`setup` was handed; a RuntimeError before it has."""
+        if self._clock is None:
+            raise RuntimeError(
+                f"{self.name}: no clock yet: the runtime hands it to setup(clock=...) "
+                "before the first tick"
+            )
+        return self._clock
+
+    @clock.setter
+    def clock(self, clock: Clock | None) -> None:
+        self._clock = clock
 
     @property
     def has_rig(self) -> bool:

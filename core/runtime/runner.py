@@ -46,12 +46,14 @@ import functools
 import sys
 import time
 import traceback as tb_module
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
+from armtree.api.behaviour import BehaviourRuntime
 from armtree.api.clock import Clock
 from armtree.api.outcomes.failures import FailureLog
 from armtree.api.rig import Rig
@@ -239,7 +241,7 @@ class Run:
     # For behaviours and components
     # ------------------------------------------------------------------
 
-    def claim(self, behaviour: py_trees.behaviour.Behaviour, names: Any) -> None:
+    def claim(self, behaviour: py_trees.behaviour.Behaviour, names: Iterable[str]) -> None:
         """Give ``behaviour`` the resources ``names``, halting their running owner first."""
         for preemption in self.resources.claim(behaviour, names):
             self.log.event(
@@ -395,8 +397,9 @@ class Run:
     def _setup(self, bt: py_trees.trees.BehaviourTree) -> None:
         # An update() that returns no status ends the run at that tick (not a spin).
         guard_statuses(bt.root)
+        runtime: BehaviourRuntime = self  # mypy checks the Run offers what behaviours ask
         try:
-            bt.setup(rig=self.rig, clock=self.clock, runtime=self)
+            bt.setup(rig=self.rig, clock=self.clock, runtime=runtime)
         except Exception as exc:  # noqa: BLE001 - reported with the node it came from
             raise self.report.behaviour_exception(self.tick_count, exc, "setup") from exc
 
